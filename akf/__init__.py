@@ -1,0 +1,1 @@
+"""HDR reconstruction: frame augmentation, the Asynchronous Kalman Filter, baselines and metrics."""

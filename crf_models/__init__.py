@@ -1,0 +1,1 @@
+"""Camera response functions: forward, inverse, derivative, certainty/weighting and frame variance."""

@@ -1,0 +1,1 @@
+"""Scenes and HDR sources, dataset generators, file formats and the evsim command line."""

@@ -1,0 +1,84 @@
+"""The event container: a structured numpy array with fields t (int64 us), x, y (uint16), p (int8, -1/+1)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from .errors import EvsimInputError, UnsortedEventsError
+
+EVENT_DTYPE = np.dtype([("t", np.int64), ("x", np.uint16), ("y", np.uint16), ("p", np.int8)])
+
+
+def empty_events(n: int = 0) -> np.ndarray:
+    """A zero-filled event array of length n."""
+    return np.zeros(n, dtype=EVENT_DTYPE)
+
+
+def make_events(t, x, y, p) -> np.ndarray:
+    """Build an event array from column arrays (t in microseconds, p in {-1, +1})."""
+    t = np.asarray(t)
+    n = t.shape[0]
+    ev = empty_events(n)
+    for name, col in (("t", t), ("x", x), ("y", y), ("p", p)):
+        col = np.asarray(col)
+        if col.shape != (n,):
+            raise EvsimInputError(f"event column {name!r} has shape {col.shape}, expected ({n},)")
+        ev[name] = col
+    validate_events(ev, require_sorted=False)
+    return ev
+
+
+def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: str = "events") -> np.ndarray:
+    """Check an event array at an API boundary and return it unchanged.
+
+    Raises EvsimInputError when the dtype is not EVENT_DTYPE or a polarity is not -1/+1, and
+    UnsortedEventsError (naming the first offending index) when require_sorted and t decreases.
+    """
+    if not isinstance(events, np.ndarray) or events.dtype != EVENT_DTYPE:
+        got = getattr(events, "dtype", type(events).__name__)
+        raise EvsimInputError(f"{name} must be a numpy array of sim.EVENT_DTYPE, got {got}")
+    if events.ndim != 1:
+        raise EvsimInputError(f"{name} must be one-dimensional, got shape {events.shape}")
+    if events.size and not np.all(np.abs(events["p"]) == 1):
+        bad = int(np.flatnonzero(np.abs(events["p"]) != 1)[0])
+        raise EvsimInputError(f"{name}: polarity must be -1 or +1, got {events['p'][bad]} at index {bad}")
+    if require_sorted:
+        i = first_unsorted_index(events)
+        if i >= 0:
+            raise UnsortedEventsError(
+                f"{name} are not sorted by time: t[{i}]={events['t'][i]} < t[{i - 1}]={events['t'][i - 1]} us"
+            )
+    return events
+
+
+def first_unsorted_index(events: np.ndarray) -> int:
+    """Index of the first event whose time is earlier than its predecessor's, or -1 when sorted."""
+    if events.size < 2:
+        return -1
+    bad = np.flatnonzero(np.diff(events["t"]) < 0)
+    return int(bad[0] + 1) if bad.size else -1
+
+
+def is_sorted(events: np.ndarray) -> bool:
+    """True when event times never decrease."""
+    return first_unsorted_index(events) < 0
+
+
+def concatenate(chunks: Iterable[np.ndarray], *, sort: bool = False) -> np.ndarray:
+    """Join event arrays. With sort=True the result is stably sorted by time (ties keep input order)."""
+    chunks = [validate_events(c, require_sorted=False) for c in chunks]
+    ev = np.concatenate(chunks) if chunks else empty_events()
+    if sort:
+        ev = ev[np.argsort(ev["t"], kind="stable")]
+    return ev
+
+
+def slice_time(events: np.ndarray, t_start_us: int, t_end_us: int) -> np.ndarray:
+    """The events with t_start_us <= t < t_end_us of a time-sorted array (a view, found by binary search)."""
+    if t_end_us < t_start_us:
+        raise EvsimInputError(f"slice_time: t_end_us={t_end_us} is before t_start_us={t_start_us}")
+    t = events["t"]
+    i0, i1 = np.searchsorted(t, [t_start_us, t_end_us], side="left")
+    return events[i0:i1]
