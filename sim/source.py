@@ -1,0 +1,30 @@
+"""The radiance-source protocol: what both sensor models sample.
+
+Scenes in generators/ implement it; the sensors depend only on this protocol, never on generators.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class RadianceSource(Protocol):
+    """A linear-radiance video defined at every integer microsecond in [0, duration_us].
+
+    height, width: image size in pixels.
+    duration_us: length of the source in microseconds.
+    radiance(t_us): float32 (height, width) array, linear radiance (any scale), finite and >= 0.
+    max_speed_px_per_s(): an upper bound of image-plane motion in pixels per second over the whole source
+        (0 for static or flicker-only sources); used to choose how many sub-frames a blurred exposure needs.
+    """
+
+    height: int
+    width: int
+    duration_us: int
+
+    def radiance(self, t_us: int) -> np.ndarray: ...
+
+    def max_speed_px_per_s(self) -> float: ...
