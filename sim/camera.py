@@ -1,0 +1,350 @@
+"""The LDR (frame) camera: exposure integral with motion blur and rolling shutter, EMVA 1288 sensor noise, CRF.
+
+Image formation per frame (units in brackets):
+1. irradiance E [radiance units] = mean linear radiance over the exposure window of each row, sampled as
+   sub-frames (box integral of the sample-and-hold signal; exact midpoint rule for a global shutter);
+2. mean electrons = E * electrons_per_radiance_us * exposure_us * PRNU + dark_current * exposure + DSNU [e-];
+3. with noise: electrons = Poisson(mean) + Normal(0, read_noise_e^2), clipped to [0, full_well_e];
+4. x = electrons / full_well_e (so x = 1 is full well), y = crf.forward(x), DN = round(y * (2**bit_depth - 1)).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera_kernels import accumulate_rows, sense
+from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
+from .source import RadianceSource
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    """Configuration of the LDR camera (frozen; use dataclasses.replace or CameraParams.preset to vary it).
+
+    Timing (microseconds):
+        fps: frame rate used when frame_times_us is None; frame k has mid-exposure first_frame_us + round(k 1e6/fps).
+        first_frame_us: mid-exposure time of frame 0 (default: half the first exposure, so it starts at t = 0).
+        frame_times_us: explicit mid-exposure times, strictly increasing (overrides fps).
+        exposure_us: one exposure time, or a sequence used cyclically over the frames (e.g. (1000, 8000)
+            alternates a short and a long exposure).
+        rolling_shutter_line_us: row r is exposed rolling_shutter_line_us * r later than row 0 (0: global shutter).
+    Exposure scaling: radiance reference_radiance exposed for reference_exposure_us (default: the first exposure)
+        fills reference_fill of the full well (before PRNU).
+    Sensor (EMVA 1288): full_well_e, read_noise_e (std, e-), dark_current_e_per_s, prnu_sigma (relative std of
+        the per-pixel gain), dsnu_e (std of the per-pixel dark offset, e-), bit_depth 8..16.
+        noise=False switches off the temporal noise (shot and read noise); fixed patterns follow prnu_sigma/dsnu_e.
+    Sub-frames: n_subframes per exposure, or None to choose from the source's max_speed_px_per_s so that the
+        image moves at most max_px_per_subframe between sub-frames, within [1, max_subframes].
+    """
+
+    fps: float = 30.0
+    first_frame_us: int | None = None
+    frame_times_us: tuple[int, ...] | None = None
+    exposure_us: int | tuple[int, ...] = 10_000
+    rolling_shutter_line_us: float = 0.0
+    reference_radiance: float = 1.0
+    reference_fill: float = 0.5
+    reference_exposure_us: int | None = None
+    full_well_e: float = 10_000.0
+    read_noise_e: float = 3.0
+    dark_current_e_per_s: float = 0.0
+    prnu_sigma: float = 0.0
+    dsnu_e: float = 0.0
+    bit_depth: int = 8
+    noise: bool = True
+    n_subframes: int | None = None
+    max_px_per_subframe: float = 1.0
+    max_subframes: int = 64
+
+    def __post_init__(self):
+        for name in ("exposure_us", "frame_times_us"):
+            value = getattr(self, name)
+            if isinstance(value, (list, tuple, np.ndarray)):
+                object.__setattr__(self, name, tuple(int(v) for v in value))
+        exposures = self.exposures
+        if len(exposures) == 0 or min(exposures) <= 0:
+            raise InvalidParameterError(f"exposure_us must be > 0 (one value or a non-empty sequence), got {self.exposure_us}")
+        if self.frame_times_us is not None:
+            t = np.asarray(self.frame_times_us, dtype=np.int64)
+            if t.size == 0:
+                raise InvalidParameterError("frame_times_us is empty")
+            if np.any(np.diff(t) <= 0):
+                i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+                raise TimeOrderError(f"frame_times_us must increase strictly: [{i}]={t[i]} after {t[i - 1]} us")
+        elif not (math.isfinite(self.fps) and self.fps > 0):
+            raise InvalidParameterError(f"fps must be > 0, got {self.fps}")
+        _positive(self, "full_well_e", "reference_radiance")
+        if not 0 < self.reference_fill <= 1:
+            raise InvalidParameterError(f"reference_fill must lie in (0, 1], got {self.reference_fill}")
+        if self.reference_exposure_us is not None and self.reference_exposure_us <= 0:
+            raise InvalidParameterError(f"reference_exposure_us must be > 0, got {self.reference_exposure_us}")
+        _non_negative(self, "read_noise_e", "dark_current_e_per_s", "prnu_sigma", "dsnu_e", "rolling_shutter_line_us")
+        if not (isinstance(self.bit_depth, (int, np.integer)) and 8 <= self.bit_depth <= 16):
+            raise InvalidParameterError(f"bit_depth must be an integer in 8..16, got {self.bit_depth}")
+        if self.n_subframes is not None and not (isinstance(self.n_subframes, (int, np.integer)) and self.n_subframes >= 1):
+            raise InvalidParameterError(f"n_subframes must be None or an integer >= 1, got {self.n_subframes}")
+        _positive(self, "max_px_per_subframe")
+        if not (isinstance(self.max_subframes, (int, np.integer)) and self.max_subframes >= 1):
+            raise InvalidParameterError(f"max_subframes must be an integer >= 1, got {self.max_subframes}")
+
+    @property
+    def exposures(self) -> tuple[int, ...]:
+        """The exposure times (us), used cyclically over the frames."""
+        e = self.exposure_us
+        return e if isinstance(e, tuple) else (int(e),)
+
+    @property
+    def max_dn(self) -> int:
+        """Largest digital number, 2**bit_depth - 1."""
+        return (1 << self.bit_depth) - 1
+
+    @property
+    def electrons_per_radiance_us(self) -> float:
+        """Mean electrons collected per unit radiance per microsecond of exposure."""
+        t_ref = self.reference_exposure_us or self.exposures[0]
+        return self.reference_fill * self.full_well_e / (self.reference_radiance * t_ref)
+
+    def schedule(self, height: int, duration_us: int | None = None) -> np.ndarray:
+        """Frame timing as an int64 array of shape (F, 3): t_start_us, t_mid_us, t_end_us of row 0.
+
+        With fps, frames continue while the last row's exposure ends by duration_us. Raises
+        InvalidParameterError when a frame starts before t = 0 or two exposures of a row overlap.
+        """
+        line = self.rolling_shutter_line_us * (height - 1)
+        exposures = self.exposures
+        if self.frame_times_us is not None:
+            mids = np.asarray(self.frame_times_us, dtype=np.int64)
+        else:
+            if duration_us is None:
+                raise InvalidParameterError("a duration is needed to schedule frames from fps")
+            first = exposures[0] // 2 if self.first_frame_us is None else int(self.first_frame_us)
+            n = max(0, int((duration_us - first) * self.fps / 1e6) + 2)
+            mids = first + np.rint(np.arange(n) * (1e6 / self.fps)).astype(np.int64)
+        exp = np.asarray([exposures[k % len(exposures)] for k in range(mids.size)], dtype=np.int64)
+        start = mids - exp // 2
+        end = start + exp
+        if self.frame_times_us is None:
+            keep = end + line <= duration_us
+            start, mids, end = start[keep], mids[keep], end[keep]
+        if start.size and start[0] < 0:
+            raise InvalidParameterError(f"frame 0 would start at {start[0]} us, before t = 0")
+        overlap = np.flatnonzero(end[:-1] > start[1:])
+        if overlap.size:
+            k = int(overlap[0])
+            raise InvalidParameterError(
+                f"exposures overlap: frame {k} ends at {end[k]} us after frame {k + 1} starts at {start[k + 1]} us"
+            )
+        return np.stack([start, mids, end], axis=1)
+
+    @classmethod
+    def preset(cls, name: str, **overrides) -> CameraParams:
+        """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
+        if name not in PRESETS:
+            raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
+        return dataclasses.replace(PRESETS[name], **overrides)
+
+
+def _positive(obj, *names):
+    for name in names:
+        v = getattr(obj, name)
+        if not (math.isfinite(v) and v > 0):
+            raise InvalidParameterError(f"{name} must be a positive finite number, got {v}")
+
+
+def _non_negative(obj, *names):
+    for name in names:
+        v = getattr(obj, name)
+        if not (math.isfinite(v) and v >= 0):
+            raise InvalidParameterError(f"{name} must be a finite number >= 0, got {v}")
+
+
+# Typical values, not datasheet figures: DAVIS346 APS frames as distributed (8-bit, noticeable read noise and
+# fixed pattern); a global-shutter machine-vision CMOS (IMX-class: ~10 ke- full well, ~2.5 e- read noise, 12-bit).
+PRESETS = {
+    "ideal": CameraParams(read_noise_e=0.0, noise=False),
+    "davis346_aps": CameraParams(
+        fps=25.0, exposure_us=10_000, full_well_e=20_000.0, read_noise_e=10.0, dark_current_e_per_s=50.0,
+        prnu_sigma=0.01, dsnu_e=5.0, bit_depth=8, rolling_shutter_line_us=0.0,
+    ),
+    "machine_vision": CameraParams(
+        fps=60.0, exposure_us=5_000, full_well_e=10_500.0, read_noise_e=2.5, dark_current_e_per_s=2.0,
+        prnu_sigma=0.005, dsnu_e=1.0, bit_depth=12,
+    ),
+}
+
+
+@dataclass
+class LDRFrame:
+    """One captured frame.
+
+    image: (H, W) uint8 (bit_depth 8) or uint16 digital numbers in [0, 2**bit_depth - 1].
+    t_start_us, t_mid_us, t_end_us: exposure window of row 0 (row r is shifted by r * line_us).
+    exposure_us: exposure time; n_subframes: radiance samples per row window.
+    clean_response: float32 (H, W) noise-free response crf(x) of the scene without sensor noise, fixed pattern,
+        dark signal or quantisation (x = E * electrons_per_radiance_us * exposure_us / full_well_e), or None.
+    irradiance: float32 (H, W) mean linear radiance over each row's exposure (the motion-blurred truth), or None.
+    """
+
+    index: int
+    image: np.ndarray
+    t_start_us: np.int64
+    t_mid_us: np.int64
+    t_end_us: np.int64
+    exposure_us: int
+    line_us: float
+    n_subframes: int
+    clean_response: np.ndarray | None = None
+    irradiance: np.ndarray | None = None
+
+
+class LDRCamera:
+    """A frame camera of size (height, width) with parameters `params` and response `crf` (a crf_models CRF).
+
+    seed: int or numpy SeedSequence; the fixed patterns come from child (0,) of it and the temporal noise of
+    frame k from child (1, k), so any frame can be regenerated on its own. seed_entropy records the entropy.
+    """
+
+    def __init__(self, height: int, width: int, params: CameraParams, crf, seed=0):
+        if not (isinstance(height, (int, np.integer)) and isinstance(width, (int, np.integer)) and height > 0 and width > 0):
+            raise InvalidParameterError(f"height and width must be positive integers, got {height} x {width}")
+        if not isinstance(params, CameraParams):
+            raise InvalidParameterError(f"params must be a CameraParams, got {type(params).__name__}")
+        for attr in ("forward", "inverse", "weight", "variance", "name", "params"):
+            if not hasattr(crf, attr):
+                raise InvalidParameterError(f"crf must be a crf_models CRF (missing {attr!r})")
+        self.height, self.width, self.params, self.crf = int(height), int(width), params, crf
+        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self.seed_entropy = ss.entropy
+        self._spawn_key = tuple(ss.spawn_key)
+        rng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=(*self._spawn_key, 0)))
+        # Fixed patterns: relative gain (PRNU) and dark offset in e- (DSNU); (1, 1) placeholders when unused.
+        self._use_maps = bool(params.prnu_sigma or params.dsnu_e)
+        shape = (self.height, self.width) if self._use_maps else (1, 1)
+        self._prnu_map = 1.0 + params.prnu_sigma * rng.standard_normal(shape)
+        self._dsnu_map = params.dsnu_e * rng.standard_normal(shape)
+        self._quant = None
+
+    # --- public API ---------------------------------------------------------------------------------------
+    def capture(self, source: RadianceSource, *, irradiance: bool = True, clean_response: bool = True) -> Iterator[LDRFrame]:
+        """A generator of the frames of `source`, one at a time (memory independent of the sequence length).
+
+        The configuration is checked here, before the first frame. Frames follow params.schedule(height, source.duration_us); with explicit frame_times_us every exposure
+        must lie within [0, duration_us].
+        """
+        if not isinstance(source, RadianceSource):
+            raise EvsimInputError(f"source must implement sim.source.RadianceSource, got {type(source).__name__}")
+        if (source.height, source.width) != (self.height, self.width):
+            raise EvsimInputError(
+                f"source is {source.height} x {source.width}, camera is {self.height} x {self.width}"
+            )
+        p = self.params
+        schedule = p.schedule(self.height, int(source.duration_us))
+        line_span = p.rolling_shutter_line_us * (self.height - 1)
+        if schedule.size and schedule[-1, 2] + line_span > source.duration_us:
+            raise InvalidParameterError(f"the last exposure ends after the source's duration {source.duration_us} us")
+        speed = float(source.max_speed_px_per_s())
+        if not (math.isfinite(speed) and speed >= 0):
+            raise EvsimInputError(f"source.max_speed_px_per_s() must be finite and >= 0, got {speed}")
+        return self._frames(source, schedule, speed, irradiance, clean_response)
+
+    def _frames(self, source, schedule, speed, keep_irradiance, keep_clean) -> Iterator[LDRFrame]:
+        for k, (t_start, t_mid, t_end) in enumerate(schedule):
+            exposure = int(t_end - t_start)
+            n_sub = self.subframes_for(exposure, speed)
+            irr = self._integrate(source, int(t_start), exposure, n_sub)
+            yield self._sense(irr, k, t_start, t_mid, t_end, n_sub, keep_irradiance, keep_clean)
+
+    def expose(self, radiance, exposure_us: int, *, frame_index: int = 0, t_start_us: int = 0) -> LDRFrame:
+        """Sensor model without a source: `radiance` is either the mean radiance over the exposure (H, W) or
+        equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`."""
+        if not (isinstance(exposure_us, (int, np.integer)) and exposure_us > 0):
+            raise InvalidParameterError(f"exposure_us must be a positive integer, got {exposure_us}")
+        rad = np.asarray(radiance)
+        if rad.ndim == 3:
+            subframes = rad.shape[0]
+            rad = rad.mean(axis=0, dtype=np.float64) if subframes else rad
+        elif rad.ndim == 2:
+            subframes = 1
+        else:
+            raise EvsimInputError(f"radiance must be (H, W) or (S, H, W), got shape {rad.shape}")
+        if rad.shape != (self.height, self.width) or subframes == 0:
+            raise EvsimInputError(f"radiance frames must be {self.height} x {self.width}, got shape {np.shape(radiance)}")
+        rad = rad.astype(np.float32, copy=False)
+        if not np.all((rad >= 0) & (rad < np.inf)):
+            raise EvsimInputError("radiance contains NaN, infinite or negative values")
+        t_start = np.int64(t_start_us)
+        return self._sense(rad, frame_index, t_start, t_start + exposure_us // 2, t_start + exposure_us, subframes)
+
+    def subframes_for(self, exposure_us: int, speed_px_per_s: float) -> int:
+        """Sub-frames per exposure: params.n_subframes, or enough that motion between them is at most
+        max_px_per_subframe, within [1, max_subframes] and at most one per microsecond."""
+        p = self.params
+        if p.n_subframes is not None:
+            n = p.n_subframes
+        else:
+            n = math.ceil(speed_px_per_s * exposure_us * 1e-6 / p.max_px_per_subframe)
+            n = min(max(n, 1), p.max_subframes)
+        return max(1, min(n, exposure_us))
+
+    # --- internals ----------------------------------------------------------------------------------------
+    def _integrate(self, source, t_start: int, exposure: int, n_sub: int) -> np.ndarray:
+        """Mean radiance over each row's window [t_start + r line, + exposure), from samples of the source held
+        over intervals of length exposure / n_sub (midpoint samples, times rounded to the microsecond)."""
+        line = self.params.rolling_shutter_line_us
+        dt = exposure / n_sub
+        n_samples = n_sub if line == 0 else math.ceil((exposure + line * (self.height - 1)) / dt - 1e-9)
+        row_start = t_start + line * np.arange(self.height)
+        acc = np.zeros((self.height, self.width), dtype=np.float32)
+        for j in range(n_samples):
+            a, b = t_start + j * dt, t_start + (j + 1) * dt
+            w = np.clip(np.minimum(b, row_start + exposure) - np.maximum(a, row_start), 0.0, None) / exposure
+            t = int(round(t_start + (j + 0.5) * dt))
+            rad = np.asarray(source.radiance(t), dtype=np.float32)
+            if rad.shape != (self.height, self.width):
+                raise EvsimInputError(f"source.radiance({t}) has shape {rad.shape}, expected {(self.height, self.width)}")
+            if not accumulate_rows(acc, rad, w):
+                raise EvsimInputError(f"source.radiance({t}) contains NaN, infinite or negative values")
+        return acc
+
+    def _quantiser(self) -> tuple[np.ndarray, np.ndarray]:
+        """Decision thresholds t_d (d = 1..max_dn): the x at which the digital number steps from d - 1 to d, so
+        that DN(x) = #{t_d <= x} equals round(crf.forward(x) * max_dn) up to exact ties; t_d =
+        crf.inverse((d - 0.5) / max_dn), 0 below the lowest response and +inf above the highest. Also the
+        count of thresholds below each of 4 (max_dn + 1) equal bins of x in [0, 1], to start the search."""
+        if self._quant is None:
+            crf, m = self.crf, self.params.max_dn
+            levels = (np.arange(1, m + 1) - 0.5) / m
+            y0, y1 = float(crf.forward(0.0)), float(crf.forward(1.0))
+            thr = crf.inverse(np.clip(levels, y0, y1))
+            thr = np.where(levels <= y0, 0.0, np.where(levels > y1, np.inf, thr))
+            n_bins = 4 * (m + 1)
+            bin_start = np.searchsorted(thr, np.arange(n_bins + 1) / n_bins, side="left").astype(np.int64)
+            self._quant = (thr, bin_start)
+        return self._quant
+
+    def _sense(self, irr, k, t_start, t_mid, t_end, n_sub, keep_irradiance=True, keep_clean=True) -> LDRFrame:
+        """Electrons, noise, clipping, CRF and quantisation of the mean radiance irr ((H, W) float)."""
+        p = self.params
+        exposure = int(t_end - t_start)
+        gain = p.electrons_per_radiance_us * exposure
+        dark = p.dark_current_e_per_s * exposure * 1e-6
+        key = np.random.SeedSequence(self.seed_entropy, spawn_key=(*self._spawn_key, 1, int(k))).generate_state(
+            1, np.uint64
+        )[0]
+        image = np.empty((self.height, self.width), dtype=np.uint8 if p.bit_depth == 8 else np.uint16)
+        sense(irr, gain, dark, self._prnu_map, self._dsnu_map, self._use_maps, p.noise, float(p.read_noise_e), float(p.full_well_e), key,
+              *self._quantiser(), image)
+        clean = None
+        if keep_clean:
+            x_clean = np.clip(irr * (p.electrons_per_radiance_us * exposure / p.full_well_e), 0.0, 1.0)
+            clean = self.crf.forward(x_clean).astype(np.float32)
+        return LDRFrame(
+            index=int(k), image=image, t_start_us=np.int64(t_start), t_mid_us=np.int64(t_mid), t_end_us=np.int64(t_end),
+            exposure_us=exposure, line_us=float(p.rolling_shutter_line_us), n_subframes=int(n_sub),
+            clean_response=clean, irradiance=irr.astype(np.float32, copy=False) if keep_irradiance else None,
+        )

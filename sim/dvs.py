@@ -1,0 +1,361 @@
+"""The DVS (event camera) emulator: linear-radiance frames in, time-sorted events out.
+
+Pixel model (every pixel independent; log is the natural logarithm; times in microseconds):
+
+- Log response. The photocurrent is I + I_d, with I the input radiance and I_d = dark_fraction *
+  full_illumination the dark current expressed as radiance; the pixel responds to L = log(I + I_d), which is
+  logarithmic above I_d and linear below it (black stays finite).
+- Input between samples. L is interpolated linearly in time between two consecutive frames of a pixel. The first
+  frame only initialises the pixels: photoreceptor settled, reference = L, no event.
+- Photoreceptor. A first-order low-pass on L with time constant tau = 1 / (2 pi f_c),
+  f_c = cutoff_hz * J / full_illumination, where J = sqrt((I0 + I_d)(I1 + I_d)) is the interval's geometric-mean
+  photocurrent (constant over the interval; dim pixels are slow). For the linear input the ODE is solved exactly
+  over the interval, however long: with x = h / tau and s = L1 - L0,
+  Lf1 = L1 - s (1 - e^-x) / x + (Lf0 - L0) e^-x. cutoff_hz = 0 makes Lf = L. Between samples the filtered level
+  Lf is again interpolated linearly, which gives the crossing times.
+- Events. A pixel compares Lf with its reference level R and fires ON when Lf - R reaches +C_on and OFF when it
+  reaches -C_off (per-pixel thresholds, see DVSParams). Every crossing gets its own time, so an interval with several
+  crossings gives several events spread over it (not clumped at frame times); an event is stamped at the first integer microsecond at or
+  after its crossing (ceil), so stamps are never early and lie within 1 us of the exact crossing. Without
+  refractory the reference moves by exactly +C_on / -C_off per event.
+- Refractory (IEBCS-style physical reset). After an event stamped t_e the pixel is blind until t_e + refractory_us;
+  crossings in that time are lost (not deferred as in v2e), and at t_e + refractory_us the reference is reset to
+  the (interpolated) Lf of that moment, as the pixel's reset switch opens then. A fast ramp therefore gives events
+  about every refractory_us + C / slope, and no two events of a pixel are closer than refractory_us. This is what
+  the circuit does; deferring blocked crossings (v2e) fires bursts when the pixel wakes, and advancing the
+  reference by C per blocked crossing (ESIM) reports contrast the pixel never saw.
+- Leak. The reference drifts down at drift = leak_rate * C_on log units per second, so a static pixel fires ON leak
+  events at its leak_rate (log-normal over pixels with mean leak_hz; with refractory the period is
+  1 / leak_rate + refractory_us); the initial drift phase is uniform random.
+  An ON crossing is labelled leak when the drift since the last reset supplied at least half of C_on.
+- Shot noise: a Poisson process per pixel of rate shot_noise_hz + dark_shot_noise_hz * I_d / J (J as above),
+  polarity +-1 with equal odds. Hot pixels (a fixed random set) add a Poisson process of rate hot_pixel_hz, also
+  with random polarity. Both have continuous arrival times (stamped by ceil like crossings).
+- Noise events act on the pixel like real ones: an arrival while the pixel is blind is lost; otherwise the pixel
+  fires, goes blind for refractory_us and its reference is reset to the current Lf (at the end of the refractory
+  time, or at once when refractory_us = 0), which also restarts its leak drift.
+
+Determinism: fixed patterns (thresholds, leak rates, hot pixels, initial phases) come from the seed's
+SeedSequence; every later draw comes from a per-pixel counter-based stream kept in the state. The events are
+bit-identical for the same seed, whatever the chunking of the frames into calls and the numba thread count.
+
+Speed: rows run in parallel (numba); feed stacks of frames where possible, since every call has a fixed cost.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+from . import dvs_kernels as K
+from .dvs_params import DVSParams
+from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
+from .events import EVENT_DTYPE, empty_events
+from .source import RadianceSource
+
+EVENT_LABELS = ("signal", "shot", "leak", "hot")  # per-event label code -> name (labels are uint8 indices)
+LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = K.LABEL_SIGNAL, K.LABEL_SHOT, K.LABEL_LEAK, K.LABEL_HOT
+NO_EVENT_US = K.NO_EVENT_US
+
+_BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
+
+
+def as_seed_sequence(seed) -> np.random.SeedSequence:
+    """An int (>= 0) or a SeedSequence as a SeedSequence."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
+        return np.random.SeedSequence(int(seed))
+    raise InvalidParameterError(f"seed must be a non-negative int or a numpy SeedSequence, got {seed!r}")
+
+
+class DVSEmulator:
+    """A streaming DVS emulator of height x width pixels (see the module docstring for the model).
+
+    params: DVSParams (default: the "davis346" preset). seed: int or numpy SeedSequence; its entropy is in
+    seed_entropy. return_labels: feed() then returns (events, labels) with labels a uint8 array of indices into
+    EVENT_LABELS (0 signal, 1 shot, 2 leak, 3 hot).
+    """
+
+    def __init__(self, height: int, width: int, params: DVSParams | None = None, seed=0, *,
+                 return_labels: bool = False):
+        for name, n in (("height", height), ("width", width)):
+            if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 65535:
+                raise InvalidParameterError(f"{name} must be an int in [1, 65535], got {n!r}")
+        if params is None:
+            params = DVSParams.preset("davis346")
+        if not isinstance(params, DVSParams):
+            raise InvalidParameterError(f"params must be a sim.DVSParams, got {type(params).__name__}")
+        self.height, self.width, self.params = int(height), int(width), params
+        self.return_labels = bool(return_labels)
+        ss = as_seed_sequence(seed)
+        self.seed_sequence = ss
+        self.seed_entropy = ss.entropy
+        fixed_ss, stream_ss = (np.random.SeedSequence(ss.entropy, spawn_key=ss.spawn_key + (i,)) for i in (0, 1))
+        rng = np.random.default_rng(fixed_ss)
+        shape = (self.height, self.width)
+        p = params
+
+        def threshold(mean):
+            c = np.maximum(mean + p.threshold_sigma * rng.standard_normal(shape), p.min_threshold)
+            return c.astype(np.float32).astype(np.float64)  # exactly what threshold_map reports
+
+        c_on, c_off = threshold(p.pos_threshold), threshold(p.neg_threshold)
+        s = p.leak_spread
+        leak_hz = p.leak_hz * np.exp(s * rng.standard_normal(shape) - 0.5 * s * s)
+        hot = np.zeros(self.height * self.width, dtype=bool)
+        hot[rng.choice(hot.size, int(round(p.hot_pixel_fraction * hot.size)), replace=False)] = True
+        hot = hot.reshape(shape)
+        self._leak_phase = rng.random(shape)
+        self._init_budgets = rng.standard_exponential((2, *shape))
+        self._fixed = (c_on, c_off, leak_hz * 1e-6 * c_on, np.where(hot, p.hot_pixel_hz * 1e-6, 0.0))
+        self._leak_hz, self._hot = leak_hz, hot
+        self._scal = (
+            np.int64(p.refractory_us),
+            2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
+            p.dark_fraction * p.full_illumination,
+            p.shot_noise_hz * 1e-6,
+            p.dark_shot_noise_hz * 1e-6,
+            stream_ss.generate_state(1, dtype=np.uint64)[0],
+        )
+        self._state = None
+        self._t: int | None = None
+        self._row_rate: float | None = None  # events per frame of the busiest row in the last block
+        self._bufs = None
+
+    # ----- inspectable state -----
+    @property
+    def time_us(self) -> int | None:
+        """Time of the last frame fed (None before the first)."""
+        return self._t
+
+    @property
+    def threshold_map(self) -> np.ndarray:
+        """(2, H, W) float32 per-pixel contrast thresholds [C_on, C_off] (positive, log units)."""
+        return np.stack(self._fixed[:2]).astype(np.float32)
+
+    @property
+    def leak_rate_map(self) -> np.ndarray:
+        """(H, W) float64 per-pixel leak rate in Hz (static-pixel leak event rate without refractory)."""
+        return self._leak_hz.copy()
+
+    @property
+    def hot_pixel_mask(self) -> np.ndarray:
+        """(H, W) bool, True at hot pixels."""
+        return self._hot.copy()
+
+    @property
+    def log_intensity(self) -> np.ndarray:
+        """(H, W) float64 photoreceptor output Lf (filtered log of radiance + dark level) at time_us."""
+        return self._require_state()[2].copy()
+
+    @property
+    def reference_log(self) -> np.ndarray:
+        """(H, W) float64 reference level at time_us, leak drift included (stale while a pixel is blind)."""
+        st = self._require_state()
+        return st[3] - self._fixed[2] * (self._t - st[4])
+
+    @property
+    def last_event_us(self) -> np.ndarray:
+        """(H, W) int64 time of each pixel's last event (NO_EVENT_US when it has not fired)."""
+        return self._require_state()[7].copy()
+
+    def _require_state(self):
+        if self._state is None:
+            raise EvsimInputError("the emulator has no state yet: feed() a first frame")
+        return self._state
+
+    # ----- input -----
+    def feed(self, radiance, t_us):
+        """Feed one frame (H, W) at integer time t_us, or a stack (N, H, W) at times (N,); return the new events.
+
+        Radiance is linear, >= 0 and finite, float (integer arrays are accepted and converted). Times are integer
+        microseconds, strictly increasing across calls. The very first frame only initialises the pixels. Returns
+        the EVENT_DTYPE events in (t_prev, t_last] sorted by (t, y, x), or (events, labels) with return_labels.
+        """
+        frames, times = self._check_input(radiance, t_us)
+        if self._t is None:
+            self._initialise(frames[0], int(times[0]))
+            frames, times = frames[1:], times[1:]
+        per_block = max(1, _BLOCK_PIXEL_FRAMES // (self.height * self.width))
+        outs, i = [], 0
+        while i < len(times):
+            # until the event rate is known, a short block measures it (it sizes the event buffers)
+            m = per_block if self._row_rate is not None else min(per_block, 4)
+            outs.append(self._run(frames[i:i + m], times[i:i + m]))
+            i += m
+        events, labels = _join(outs)
+        return (events, labels) if self.return_labels else events
+
+    def _check_input(self, radiance, t_us):
+        frames = np.asarray(radiance)
+        if frames.dtype.kind not in "fiu":
+            raise EvsimInputError(f"radiance must be a real float (or integer) array, got dtype {frames.dtype}")
+        if frames.dtype not in (np.float32, np.float64):  # integers, float16, other byte orders
+            frames = frames.astype(np.float32 if frames.dtype.itemsize <= 2 else np.float64)
+        times = np.asarray(t_us)
+        if times.dtype.kind not in "iu":
+            raise EvsimInputError(f"t_us must be integer microseconds, got dtype {times.dtype}")
+        hw = (self.height, self.width)
+        if frames.ndim == 2 and times.ndim == 0:
+            frames, times = frames[None], times[None]
+        elif not (frames.ndim == 3 and times.ndim == 1 and len(times) == len(frames)):
+            raise EvsimInputError(
+                f"expected a frame {hw} with a scalar time or a stack (N, *{hw}) with times (N,), got radiance "
+                f"shape {frames.shape} and t_us shape {times.shape}"
+            )
+        if len(frames) == 0:
+            raise EvsimInputError("no frames given")
+        if frames.shape[1:] != hw:
+            raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
+        times = times.astype(np.int64)
+        if len(times) and np.any(np.diff(times) <= 0):
+            i = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
+            raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
+        if len(times) and self._t is not None and times[0] <= self._t:
+            raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
+        frames = np.ascontiguousarray(frames)
+        if frames.size and not K.frames_valid(frames):
+            for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
+                idx = np.argwhere(bad(frames))
+                if idx.size:
+                    k, y, x = idx[0]
+                    raise EvsimInputError(f"radiance has {what} values, first in frame {k} at (y={y}, x={x})")
+        return frames, times
+
+    def _initialise(self, frame: np.ndarray, t: int) -> None:
+        shape = (self.height, self.width)
+        cur = frame.astype(np.float64) + self._scal[2]
+        logi = np.log(cur)
+        # random leak phase: as if the reference had been reset a uniform fraction of a leak period ago
+        drift = self._fixed[2]
+        since = np.divide(self._leak_phase * self._fixed[0], drift, out=np.zeros(shape), where=drift > 0)
+        self._state = (
+            cur, logi, logi.copy(), logi.copy(), t - since,
+            self._init_budgets[0].copy(), self._init_budgets[1].copy(),
+            np.full(shape, NO_EVENT_US, dtype=np.int64), np.zeros(shape, dtype=np.uint64),
+        )
+        self._t = t
+
+    def _run(self, frames: np.ndarray, times: np.ndarray):
+        """Advance all rows through a block of frames; return its sorted events and labels."""
+        h, n = self.height, len(times)
+        rows = np.arange(h, dtype=np.int64)
+        cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
+        bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
+        t_prev = np.int64(self._t)
+        K.emulate_rows(frames, times, t_prev, rows, cap, self._state, self._fixed, self._scal, *bufs_a, ends)
+        over = np.flatnonzero(ends[:, -1] > cap)
+        offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
+        if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
+            cap_b = int(ends[over, -1].max())
+            bufs_b, ends_b = _new_buffers(over.size * cap_b), np.zeros((over.size, n), dtype=np.int64)
+            K.emulate_rows(frames, times, t_prev, over, cap_b, self._state, self._fixed, self._scal, *bufs_b, ends_b)
+            ends[over] = ends_b
+            src_b[over] = True
+            offsets[over] = np.arange(over.size) * cap_b
+        total = int(ends[:, -1].sum())
+        events, labels = empty_events(total), np.empty(total, dtype=np.uint8)
+        gather = K.gather_sorted if n >= 4 else K.gather_sorted_serial
+        gather(rows, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels)
+        self._t = int(times[-1])
+        self._row_rate = float(ends[:, -1].max()) / n
+        return events, labels
+
+    def _buffers(self, n: int):
+        """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
+        if self._bufs is None or self._bufs[0].size < n:
+            self._bufs = _new_buffers(n)
+        return self._bufs
+
+
+def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenate (events, labels) pairs; events are joined as raw bytes (numpy copies packed records slowly)."""
+    if len(outs) == 1:
+        return outs[0]
+    if not outs:
+        return empty_events(), np.empty(0, dtype=np.uint8)
+    events = np.concatenate([o[0].view(np.uint8) for o in outs]).view(EVENT_DTYPE)
+    return events, np.concatenate([o[1] for o in outs])
+
+
+def _new_buffers(n: int):
+    return (np.empty(n, np.int64), np.empty(n, np.uint16), np.empty(n, np.int8), np.empty(n, np.uint8))
+
+
+def _blocks(pairs: Iterable) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Stack an iterable of (frame, t_us) pairs into blocks of about _BLOCK_PIXEL_FRAMES pixel-frames."""
+    block_f, block_t = [], []
+    for item in pairs:
+        try:
+            frame, t = item
+        except (TypeError, ValueError):
+            raise EvsimInputError("without times_us, frames must yield (frame, t_us) pairs") from None
+        frame = np.asarray(frame)
+        if block_f and frame.shape != block_f[0].shape:
+            raise EvsimInputError(f"frame shape changed from {block_f[0].shape} to {frame.shape}")
+        block_f.append(frame)
+        block_t.append(t)
+        if len(block_f) * frame.size >= _BLOCK_PIXEL_FRAMES:
+            yield np.stack(block_f), np.asarray(block_t)
+            block_f, block_t = [], []
+    if block_f:
+        yield np.stack(block_f), np.asarray(block_t)
+
+
+def _emulate_pairs(pairs: Iterable, params, seed, return_labels: bool):
+    emu, out = None, []
+    for frames, times in _blocks(pairs):
+        if emu is None:
+            if frames.ndim != 3:
+                raise EvsimInputError(f"each frame must be (H, W), got shape {frames.shape[1:]}")
+            emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
+        out.append(emu.feed(frames, times))
+    if emu is None:
+        raise EvsimInputError("no frames to emulate")
+    events, labels = _join(out)
+    return (events, labels) if return_labels else events
+
+
+def emulate(frames, times_us=None, params: DVSParams | None = None, seed=0, *, return_labels: bool = False):
+    """Emulate a whole sequence; return its events (and labels with return_labels), sorted by (t, y, x).
+
+    frames: an (N, H, W) array with times_us (N,) integer microseconds, or an iterable of (H, W) frames with
+    times_us, or an iterable of (frame, t_us) pairs with times_us=None (consumed in bounded blocks).
+    params: DVSParams (default "davis346"); seed: int or SeedSequence.
+    """
+    if isinstance(frames, np.ndarray):
+        if times_us is None:
+            raise EvsimInputError("an array of frames needs times_us")
+        if frames.ndim != 3:
+            raise EvsimInputError(f"frames must be (N, H, W), got shape {frames.shape}")
+        emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
+        events, labels = emu.feed(frames, times_us)
+        return (events, labels) if return_labels else events
+    return _emulate_pairs(frames if times_us is None else _with_times(frames, times_us), params, seed, return_labels)
+
+
+def _with_times(frames: Iterable, times_us) -> Iterator[tuple]:
+    times = np.asarray(times_us)
+    k = 0
+    for k, frame in enumerate(frames):
+        if k >= len(times):
+            raise EvsimInputError(f"more frames than times_us ({len(times)})")
+        yield frame, times[k]
+    if len(times) > k + 1:
+        raise EvsimInputError(f"fewer frames than times_us ({len(times)})")
+
+
+def emulate_source(source: RadianceSource, times_us, params: DVSParams | None = None, seed=0, *,
+                   return_labels: bool = False):
+    """Emulate a RadianceSource sampled at times_us (integer microseconds, within [0, source.duration_us])."""
+    times = np.asarray(times_us)
+    if times.ndim != 1 or times.dtype.kind not in "iu":
+        raise EvsimInputError(f"times_us must be a 1-D integer array, got {times.dtype} shape {times.shape}")
+    if times.size and (times.min() < 0 or times.max() > source.duration_us):
+        raise EvsimInputError(f"times_us must lie in [0, {source.duration_us}] us")
+    return _emulate_pairs(((source.radiance(int(t)), t) for t in times), params, seed, return_labels)
+
+
+__all__ = ["DVSEmulator", "DVSParams", "EVENT_LABELS", "EVENT_DTYPE", "NO_EVENT_US", "emulate", "emulate_source"]

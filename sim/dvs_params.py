@@ -1,0 +1,101 @@
+"""DVS pixel parameters (`DVSParams`) and named sensor presets.
+
+Log units are natural logarithms of radiance; rates are per pixel; times are microseconds unless the name says Hz.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from .errors import InvalidParameterError
+
+
+@dataclass(frozen=True)
+class DVSParams:
+    """Configuration of the DVS emulator. Every field is validated on construction.
+
+    pos_threshold, neg_threshold: mean ON / OFF contrast thresholds C_on, C_off (natural-log units, > 0).
+    threshold_sigma: standard deviation of the per-pixel Gaussian threshold mismatch (log units, >= 0); ON and OFF
+        thresholds are drawn independently and fixed for the sensor (seeded).
+    min_threshold: positive floor the per-pixel thresholds are clamped to (log units, > 0).
+    refractory_us: dead time after each event (integer microseconds, >= 0). See sim.dvs for the reset semantics.
+    cutoff_hz: photoreceptor bandwidth (first-order low-pass, Hz) when the photocurrent equals full_illumination;
+        it scales in proportion to radiance + dark level. 0 disables the filter (ideal, infinitely fast pixel).
+    full_illumination: the radiance (in the caller's units) that counts as full illumination (> 0).
+    dark_fraction: the dark current expressed as radiance, relative to full_illumination (> 0). The pixel responds
+        to log(radiance + dark_fraction * full_illumination): logarithmic above that level, linear below it.
+    shot_noise_hz: rate of shot-noise events (ON and OFF together, Hz per pixel) at any illumination (>= 0).
+    dark_shot_noise_hz: additional shot-noise rate in complete darkness (Hz per pixel, >= 0); it falls off as
+        dark / (radiance + dark), so noise rises in the dark as in real sensors.
+    leak_hz: mean rate of leak (reference drift) ON events of a static pixel (Hz per pixel, >= 0).
+    leak_spread: standard deviation of the natural log of the per-pixel leak rate (log-normal spread, >= 0);
+        the per-pixel rates average to leak_hz.
+    hot_pixel_fraction: fraction of pixels that are hot, in [0, 1] (rounded to a whole number of pixels).
+    hot_pixel_hz: Poisson rate of the extra events of each hot pixel (ON and OFF together, Hz, >= 0).
+    """
+
+    pos_threshold: float = 0.2
+    neg_threshold: float = 0.2
+    threshold_sigma: float = 0.03
+    min_threshold: float = 0.01
+    refractory_us: int = 100
+    cutoff_hz: float = 300.0
+    full_illumination: float = 1.0
+    dark_fraction: float = 1e-4
+    shot_noise_hz: float = 0.1
+    dark_shot_noise_hz: float = 1.0
+    leak_hz: float = 0.1
+    leak_spread: float = 0.5
+    hot_pixel_fraction: float = 5e-4
+    hot_pixel_hz: float = 50.0
+
+    def __post_init__(self) -> None:
+        for name in ("pos_threshold", "neg_threshold", "min_threshold", "full_illumination", "dark_fraction"):
+            _check(name, getattr(self, name), positive=True)
+        for name in ("threshold_sigma", "cutoff_hz", "shot_noise_hz", "dark_shot_noise_hz", "leak_hz",
+                     "leak_spread", "hot_pixel_fraction", "hot_pixel_hz"):
+            _check(name, getattr(self, name), positive=False)
+        if self.hot_pixel_fraction > 1:
+            raise InvalidParameterError(f"hot_pixel_fraction must be in [0, 1], got {self.hot_pixel_fraction}")
+        r = self.refractory_us
+        if isinstance(r, bool) or not isinstance(r, int) or r < 0:
+            raise InvalidParameterError(f"refractory_us must be a non-negative integer (microseconds), got {r!r}")
+
+    @classmethod
+    def preset(cls, name: str, **overrides) -> DVSParams:
+        """The named preset (see PRESETS), with any field replaced by a keyword override."""
+        try:
+            base = PRESETS[name]
+        except KeyError:
+            raise InvalidParameterError(f"unknown DVS preset {name!r}; known: {sorted(PRESETS)}") from None
+        return dataclasses.replace(base, **overrides)
+
+    def replace(self, **changes) -> DVSParams:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+
+def _check(name: str, value, *, positive: bool) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InvalidParameterError(f"{name} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise InvalidParameterError(f"{name} must be > 0, got {value}")
+    if value < 0:
+        raise InvalidParameterError(f"{name} must be >= 0, got {value}")
+
+
+PRESETS: dict[str, DVSParams] = {
+    # A perfect log-contrast detector: no mismatch, no refractory, no bandwidth limit, no noise.
+    "ideal": DVSParams(
+        threshold_sigma=0.0, refractory_us=0, cutoff_hz=0.0, shot_noise_hz=0.0, dark_shot_noise_hz=0.0,
+        leak_hz=0.0, hot_pixel_fraction=0.0, hot_pixel_hz=0.0,
+    ),
+    # A DAVIS346-like sensor under indoor light (the DVSParams defaults): 0.2 log thresholds with 0.03 mismatch,
+    # 100 us refractory, 300 Hz photoreceptor at full illumination, 0.1 Hz background activity rising to 1.1 Hz in
+    # darkness, 0.1 Hz leak, 0.05 % hot pixels at 50 Hz.
+    "davis346": DVSParams(),
+    # The same sensor with the noise of v2e's "noisy" setting (5 Hz shot noise) and more leak and hot pixels.
+    "noisy": DVSParams(shot_noise_hz=5.0, dark_shot_noise_hz=10.0, leak_hz=0.5, hot_pixel_fraction=1e-3),
+}

@@ -1,0 +1,250 @@
+"""DVS emulator API: determinism and chunking invariance, threshold maps, entry points, and input errors."""
+
+import numba
+import numpy as np
+import pytest
+
+import sim
+
+H, W = 18, 22
+
+
+def moving_scene(n=60, seed=0):
+    """An HDR blob pattern drifting across the sensor, 1 ms frames, and its times."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:H, 0:W]
+    t = np.arange(n)
+    cx, cy = rng.uniform(0, W, 5), rng.uniform(0, H, 5)
+    log_i = sum(3 * np.exp(-((xx - cx[i] - 0.3 * t[:, None, None]) ** 2 + (yy - cy[i]) ** 2) / 8) for i in range(5))
+    return np.exp(log_i - 4).astype(np.float32), (t * 1000 + 5000).astype(np.int64)
+
+
+NOISY = sim.DVSParams.preset("noisy", shot_noise_hz=50.0, hot_pixel_fraction=0.02)
+
+
+def as_bytes(result):
+    events, labels = result
+    return events.tobytes() + labels.tobytes()
+
+
+def test_same_seed_bit_identical_and_chunking_invariant():
+    frames, times = moving_scene()
+    whole = sim.emulate(frames, times, NOISY, seed=7, return_labels=True)
+    assert whole[0].size > 500 and set(np.unique(whole[1])) == {0, 1, 2, 3}
+    assert as_bytes(whole) == as_bytes(sim.emulate(frames, times, NOISY, seed=7, return_labels=True))
+    emu = sim.DVSEmulator(H, W, NOISY, seed=7, return_labels=True)
+    per_frame = [emu.feed(f, t) for f, t in zip(frames, times)]
+    joined = (np.concatenate([p[0] for p in per_frame]), np.concatenate([p[1] for p in per_frame]))
+    assert as_bytes(joined) == as_bytes(whole)
+    emu = sim.DVSEmulator(H, W, NOISY, seed=np.random.SeedSequence(7), return_labels=True)
+    cuts = [0, 1, 2, 17, 18, 45, 60]
+    chunks = [emu.feed(frames[a:b], times[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    joined = (np.concatenate([c[0] for c in chunks]), np.concatenate([c[1] for c in chunks]))
+    assert as_bytes(joined) == as_bytes(whole)
+    assert as_bytes(sim.emulate(frames, times, NOISY, seed=8, return_labels=True)) != as_bytes(whole)
+
+
+def test_iterator_inputs_match_array_input():
+    frames, times = moving_scene()
+    whole = sim.emulate(frames, times, NOISY, seed=1)
+    assert sim.emulate(iter(frames), times, NOISY, seed=1).tobytes() == whole.tobytes()
+    pairs = ((f, t) for f, t in zip(frames, times))
+    assert sim.emulate(pairs, None, NOISY, seed=1).tobytes() == whole.tobytes()
+
+
+def test_thread_count_does_not_change_events():
+    frames, times = moving_scene()
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = sim.emulate(frames, times, NOISY, seed=2, return_labels=True)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = sim.emulate(frames, times, NOISY, seed=2, return_labels=True)
+    finally:
+        numba.set_num_threads(before)
+    assert as_bytes(one) == as_bytes(many)
+
+
+def test_events_sorted_by_time_then_row_then_column_within_frame_interval():
+    frames, times = moving_scene()
+    events = sim.emulate(frames, times, NOISY, seed=3)
+    order = np.lexsort((events["x"], events["y"], events["t"]))
+    np.testing.assert_array_equal(order, np.arange(events.size))
+    assert events["t"].min() > times[0] and events["t"].max() <= times[-1]
+
+
+def test_small_buffers_rerun_rows_without_changing_events():
+    """Rows overflowing the first event buffer are rolled back and rerun: same events as a roomy run."""
+    frames, times = moving_scene()
+    a = sim.DVSEmulator(H, W, NOISY, seed=4)
+    a.feed(frames[:5], times[:5])
+    a._row_rate = 0.0  # force overflow and reruns of busy rows
+    b = sim.DVSEmulator(H, W, NOISY, seed=4)
+    b.feed(frames[:5], times[:5])
+    b._row_rate = 100.0
+    assert a.feed(frames[5:], times[5:]).tobytes() == b.feed(frames[5:], times[5:]).tobytes()
+
+
+def test_threshold_map_spread_and_separate_on_off():
+    params = sim.DVSParams(pos_threshold=0.25, neg_threshold=0.15, threshold_sigma=0.03)
+    emu = sim.DVSEmulator(100, 120, params, seed=0)
+    c_on, c_off = emu.threshold_map.astype(np.float64)
+    n = c_on.size
+    assert emu.threshold_map.shape == (2, 100, 120) and emu.threshold_map.dtype == np.float32
+    assert abs(c_on.mean() - 0.25) < 5 * 0.03 / np.sqrt(n)
+    assert abs(c_off.mean() - 0.15) < 5 * 0.03 / np.sqrt(n)
+    for c in (c_on, c_off):
+        assert c.std() == pytest.approx(0.03, abs=5 * 0.03 / np.sqrt(2 * n))
+    assert abs(np.corrcoef(c_on.ravel(), c_off.ravel())[0, 1]) < 5 / np.sqrt(n)
+    wide = sim.DVSEmulator(50, 50, params.replace(threshold_sigma=0.2, min_threshold=0.05), seed=0).threshold_map
+    assert wide.min() == np.float32(0.05) and np.mean(wide == np.float32(0.05)) > 0.05
+
+
+def test_state_is_inspectable():
+    frames, times = moving_scene(5)
+    params = sim.DVSParams.preset("ideal")
+    emu = sim.DVSEmulator(H, W, params, seed=0)
+    assert emu.time_us is None
+    assert emu.feed(frames[0], times[0]).size == 0  # the first frame only initialises
+    np.testing.assert_allclose(emu.reference_log, np.log(frames[0].astype(np.float64) + 1e-4))
+    events = emu.feed(frames[1:], times[1:])
+    assert emu.time_us == times[-1]
+    last = emu.last_event_us
+    fired = np.zeros((H, W), bool)
+    fired[events["y"], events["x"]] = True
+    assert np.all(last[~fired] == sim.NO_EVENT_US)
+    latest = np.full((H, W), sim.NO_EVENT_US)
+    np.maximum.at(latest, (events["y"], events["x"]), events["t"])
+    np.testing.assert_array_equal(last, latest)
+    assert np.all(np.abs(emu.log_intensity - emu.reference_log) < 0.2 + 1e-6)
+
+
+def test_integer_radiance_accepted_as_float():
+    frames, times = moving_scene(10)
+    ints = np.round(frames * 1000).astype(np.uint16)
+    a = sim.emulate(ints, times, NOISY, seed=0)
+    b = sim.emulate(ints.astype(np.float64), times, NOISY, seed=0)
+    assert a.tobytes() == b.tobytes()
+
+
+def test_cli_demo_call_works():
+    frames, times = moving_scene(20)
+    events = sim.emulate(np.broadcast_to(frames[:1], frames.shape), times, sim.DVSParams.preset("davis346"), seed=0)
+    assert events.dtype == sim.EVENT_DTYPE
+
+
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        (np.nan, "NaN"),
+        (np.inf, "infinite"),
+        (-1.0, "negative"),
+    ],
+)
+def test_bad_radiance_values(bad, message):
+    emu = sim.DVSEmulator(4, 5, seed=0)
+    frame = np.ones((4, 5))
+    emu.feed(frame, 0)
+    frame[2, 3] = bad
+    with pytest.raises(sim.EvsimInputError, match=message):
+        emu.feed(frame, 10)
+    assert emu.time_us == 0
+    emu.feed(np.ones((4, 5)), 10)  # the emulator is still usable after a rejected frame
+
+
+@pytest.mark.parametrize(
+    "radiance, t",
+    [
+        (np.ones((5, 4)), 0),  # transposed
+        (np.ones((2, 4, 5)), 0),  # stack with a scalar time
+        (np.ones((2, 4, 5)), np.array([0, 1, 2])),  # times do not match frames
+        (np.ones((4, 5), dtype=complex), 0),
+        (np.ones((4, 5), dtype=object), 0),
+        (np.ones((4, 5), dtype=bool), 0),
+        (np.ones((4, 5)), 1.5),  # time not integer microseconds
+    ],
+)
+def test_bad_shape_dtype_or_time_type(radiance, t):
+    with pytest.raises(sim.EvsimInputError):
+        sim.DVSEmulator(4, 5, seed=0).feed(radiance, t)
+
+
+def test_time_not_strictly_increasing():
+    emu = sim.DVSEmulator(4, 5, seed=0)
+    with pytest.raises(sim.TimeOrderError, match="strictly increasing"):
+        emu.feed(np.ones((3, 4, 5)), np.array([0, 10, 10]))
+    emu.feed(np.ones((4, 5)), 100)
+    with pytest.raises(sim.TimeOrderError, match="previous frame time"):
+        emu.feed(np.ones((4, 5)), 100)
+    with pytest.raises(sim.TimeOrderError):
+        emu.feed(np.ones((2, 4, 5)), np.array([50, 200]))
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("pos_threshold", 0.0),
+        ("neg_threshold", -0.1),
+        ("threshold_sigma", -0.01),
+        ("min_threshold", 0.0),
+        ("refractory_us", -1),
+        ("refractory_us", 2.5),
+        ("cutoff_hz", -1.0),
+        ("full_illumination", 0.0),
+        ("dark_fraction", 0.0),
+        ("shot_noise_hz", -1.0),
+        ("dark_shot_noise_hz", -1.0),
+        ("leak_hz", float("nan")),
+        ("leak_spread", -0.5),
+        ("hot_pixel_fraction", 1.5),
+        ("hot_pixel_hz", float("inf")),
+    ],
+)
+def test_invalid_parameters(field, value):
+    with pytest.raises(sim.InvalidParameterError, match=field):
+        sim.DVSParams(**{field: value})
+
+
+def test_invalid_preset_size_and_seed():
+    with pytest.raises(sim.InvalidParameterError, match="unknown DVS preset"):
+        sim.DVSParams.preset("davis999")
+    with pytest.raises(sim.InvalidParameterError, match="width"):
+        sim.DVSEmulator(4, 0)
+    with pytest.raises(sim.InvalidParameterError, match="seed"):
+        sim.DVSEmulator(4, 4, seed=-3)
+    assert set(sim.DVS_PRESETS) >= {"ideal", "davis346", "noisy"}
+    ideal = sim.DVSParams.preset("ideal")
+    assert ideal.refractory_us == 0 and ideal.threshold_sigma == 0 and ideal.shot_noise_hz == 0
+
+
+def test_iterator_and_source_inputs_checked_and_equivalent():
+    frames, times = moving_scene(12)
+    with pytest.raises(sim.EvsimInputError, match="fewer frames"):
+        sim.emulate(iter(frames), np.r_[times, times[-1] + 1], NOISY, seed=0)
+    with pytest.raises(sim.EvsimInputError, match="more frames"):
+        sim.emulate(iter(frames), times[:-1], NOISY, seed=0)
+    swapped = frames.astype(frames.dtype.newbyteorder(">"))  # other byte orders are converted
+    assert sim.emulate(swapped, times, NOISY, seed=0).tobytes() == sim.emulate(frames, times, NOISY, seed=0).tobytes()
+
+    class Source:
+        height, width, duration_us = H, W, int(times[-1])
+
+        def radiance(self, t_us):
+            return frames[int(np.flatnonzero(times == t_us)[0])]
+
+        def max_speed_px_per_s(self):
+            return 300.0
+
+    via_source = sim.emulate_source(Source(), times, NOISY, seed=0, return_labels=True)
+    assert as_bytes(via_source) == as_bytes(sim.emulate(frames, times, NOISY, seed=0, return_labels=True))
+
+
+def test_refractory_never_violated_on_moving_scene_with_all_noise():
+    frames, times = moving_scene()
+    params = NOISY.replace(refractory_us=700)
+    events, labels = sim.emulate(frames, times, params, seed=5, return_labels=True)
+    assert np.count_nonzero(labels == 0) > 200 and np.count_nonzero(labels != 0) > 50
+    ev = events[np.lexsort((events["t"], events["x"], events["y"]))]
+    same = (np.diff(ev["y"].astype(int)) == 0) & (np.diff(ev["x"].astype(int)) == 0)
+    gaps = np.diff(ev["t"])[same]
+    assert 700 <= gaps.min() < 1000  # the dead time binds but is never crossed
