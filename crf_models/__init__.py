@@ -1,1 +1,39 @@
-"""Camera response functions: forward, inverse, derivative, certainty/weighting and frame variance."""
+"""Camera response functions: forward, inverse, derivative, certainty/weighting and frame variance.
+
+crf_models.get(name, **params) builds a curve; crf_models.available() lists the names. Every curve maps
+normalised scaled irradiance x >= 0 (x = 1: top of the input range, e.g. full well) to a normalised response
+y in [0, 1] (DN / (2**bits - 1)); see base.py for the shared semantics. This package imports nothing else of
+the project.
+"""
+
+from .analytic import FilmicCRF, GammaCRF, LinearCRF, SigmoidCRF
+from .base import CRF, WEIGHTINGS, CRFError
+from .colour_curves import BT709CRF, HLGCRF, SRGBCRF, LogC3CRF, SLog3CRF
+from .recovery import recover_debevec
+from .tabulated import TabulatedCRF, break_ties, load_dorf, load_emor
+from .window import WindowCRF
+
+_REGISTRY = {
+    cls.name: cls
+    for cls in (
+        LinearCRF, GammaCRF, SRGBCRF, BT709CRF, HLGCRF, LogC3CRF, SLog3CRF,
+        SigmoidCRF, FilmicCRF, WindowCRF, TabulatedCRF,
+    )
+}
+_ALIASES = {"lut": "tabulated"}
+
+
+def available() -> list[str]:
+    """Names accepted by get() (aliases included), sorted."""
+    return sorted([*_REGISTRY, *_ALIASES])
+
+
+def get(name: str, **params) -> CRF:
+    """The curve `name` built with `params` (keyword arguments of its class); raises CRFError when unknown."""
+    key = _ALIASES.get(name, name)
+    if key not in _REGISTRY:
+        raise CRFError(f"unknown CRF {name!r}; available: {', '.join(available())}")
+    try:
+        return _REGISTRY[key](**params)
+    except TypeError as exc:  # unexpected or missing keyword
+        raise CRFError(f"bad parameters for CRF {name!r}: {exc}") from exc

@@ -1,0 +1,124 @@
+"""Standard transfer curves from colour-science, normalised to map x in [0, 1] onto y in [0, 1].
+
+y = (enc(x * in_max) - enc(0)) / (enc(in_max) - enc(0)), clipped above x = 1, where enc is the colour-science
+encoding and in_max the scene-linear value (in that curve's own units) that x = 1 stands for. For sRGB, BT.709
+and HLG in_max = 1 and the normalisation is the identity; for the camera log curves in_max defaults to the value
+encoded as code value 1.0, so the whole code range is used. Inverses are colour-science's decodings; derivatives
+are central differences of the exact curve (relative step 1e-6, one-sided at the ends).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import colour
+import numpy as np
+
+from .base import CRF, CRFError
+
+
+class _ColourCurve(CRF):
+    """Base for the colour-science curves: subclasses provide _encode/_decode on scene-linear values."""
+
+    def _init_curve(self, in_max: float) -> None:
+        if not (np.isfinite(in_max) and in_max > 0):
+            raise CRFError(f"in_max must be a positive finite number, got {in_max}")
+        self.in_max = float(in_max)
+        self._e0 = float(self._enc(0.0))
+        self._e1 = float(self._enc(self.in_max))
+        self._set_range(0.0, 1.0, clip_low=False)
+
+    @np.errstate(invalid="ignore", divide="ignore")  # colour evaluates both branches of piecewise curves
+    def _enc(self, v):
+        return np.asarray(self._encode(v), dtype=np.float64)
+
+    @np.errstate(invalid="ignore", divide="ignore")
+    def _dec(self, v):
+        return np.asarray(self._decode(v), dtype=np.float64)
+
+    def _f(self, x):
+        return (self._enc(x * self.in_max) - self._e0) / (self._e1 - self._e0)
+
+    def _finv(self, y):
+        return np.clip(self._dec(self._e0 + y * (self._e1 - self._e0)) / self.in_max, 0.0, 1.0)
+
+
+class SRGBCRF(_ColourCurve):
+    """IEC 61966-2-1 sRGB encoding (linear toe of slope 12.92, then 1.055 x^(1/2.4) - 0.055)."""
+
+    name = "srgb"
+    _encode = staticmethod(colour.models.eotf_inverse_sRGB)
+    _decode = staticmethod(colour.models.eotf_sRGB)
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self._init_curve(1.0)
+
+    def _own_params(self):
+        return {}
+
+
+class BT709CRF(_ColourCurve):
+    """ITU-R BT.709 OETF (linear toe of slope 4.5, then 1.099 x^0.45 - 0.099)."""
+
+    name = "bt709"
+    _encode = staticmethod(colour.models.oetf_BT709)
+    _decode = staticmethod(colour.models.oetf_inverse_BT709)
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self._init_curve(1.0)
+
+    def _own_params(self):
+        return {}
+
+
+class HLGCRF(_ColourCurve):
+    """ITU-R BT.2100 Hybrid Log-Gamma OETF (square root below 1/12, logarithmic above)."""
+
+    name = "hlg"
+    _encode = staticmethod(colour.models.oetf_BT2100_HLG)
+    _decode = staticmethod(colour.models.oetf_inverse_BT2100_HLG)
+
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self._init_curve(1.0)
+
+    def _own_params(self):
+        return {}
+
+
+class LogC3CRF(_ColourCurve):
+    """ARRI LogC3 (ALEXA, SUP 3.x, linear scene exposure factor) at exposure index EI.
+    in_max: scene-linear value at x = 1 (default: the value coded as 1.0, about 55.08 at EI 800)."""
+
+    name = "logc3"
+    _EIS = (160, 200, 250, 320, 400, 500, 640, 800, 1000, 1280, 1600)
+
+    def __init__(self, EI: int = 800, in_max: float | None = None, **kw):
+        super().__init__(**kw)
+        if EI not in self._EIS:
+            raise CRFError(f"EI must be one of {self._EIS}, got {EI}")
+        self.EI = int(EI)
+        self._encode = partial(colour.models.log_encoding_ARRILogC3, EI=self.EI)
+        self._decode = partial(colour.models.log_decoding_ARRILogC3, EI=self.EI)
+        self._init_curve(float(self._dec(1.0)) if in_max is None else in_max)
+
+    def _own_params(self):
+        return {"EI": self.EI, "in_max": self.in_max}
+
+
+class SLog3CRF(_ColourCurve):
+    """Sony S-Log3 (normalised code values). in_max: scene-linear reflectance at x = 1 (default: the value
+    coded as 1.0, about 38.42)."""
+
+    name = "slog3"
+    _encode = staticmethod(colour.models.log_encoding_SLog3)
+    _decode = staticmethod(colour.models.log_decoding_SLog3)
+
+    def __init__(self, in_max: float | None = None, **kw):
+        super().__init__(**kw)
+        self._init_curve(float(self._dec(1.0)) if in_max is None else in_max)
+
+    def _own_params(self):
+        return {"in_max": self.in_max}

@@ -1,0 +1,68 @@
+"""The AHDR "window" response of the AKF paper (Wang et al. 2021, Sec. 6 and supplementary Sec. 4.2).
+
+The authors made their artificial-HDR (AHDR) dataset by taking well-exposed frames of an ordinary RGB camera
+and clipping "pixel values higher than 160 or lower than 100 of an 8-bit image". The input to the window is
+therefore an already CRF-encoded 8-bit value, so the window sits on top of a base curve: by default a 2.2 gamma
+standing in for the camera's display encoding (use base="linear" to window raw linear counts).
+
+y = clip((levels * base(x) - low) / (high - low), 0, 1): the band [low, high] of the base response is stretched
+to the full range and everything else is clipped, so f^w vanishes at y = 0 and y = 1 and Rbar saturates there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import CRF, CRFError
+
+
+class WindowCRF(CRF):
+    """Band [low, high] (on a 0..levels scale of the base response) stretched to [0, 1], the rest clipped.
+
+    base / base_params: the underlying curve (any registered name except "window") and its parameters.
+    """
+
+    name = "window"
+
+    def __init__(
+        self,
+        low: float = 100.0,
+        high: float = 160.0,
+        levels: float = 255.0,
+        base: str = "gamma",
+        base_params: dict | None = None,
+        **kw,
+    ):
+        super().__init__(**kw)
+        from . import get  # the registry imports this module
+
+        if not (np.isfinite(levels) and levels > 0):
+            raise CRFError(f"levels must be a positive finite number, got {levels}")
+        if not 0.0 <= low < high <= levels:
+            raise CRFError(f"the window must satisfy 0 <= low < high <= levels, got low={low}, high={high}")
+        if base == self.name:
+            raise CRFError("a window cannot be based on another window")
+        self.low, self.high, self.levels = float(low), float(high), float(levels)
+        self.base = get(base, **(base_params or {}))
+        lo, hi = self.low / self.levels, self.high / self.levels
+        if not (self.base.y_lo <= lo and hi <= self.base.y_hi):
+            raise CRFError(f"window [{low}, {high}] lies outside the base curve's responses")
+        self._set_range(float(self.base.inverse(lo)), float(self.base.inverse(hi)), clip_low=low > 0)
+
+    def _f(self, x):
+        return np.clip((self.levels * self.base._f(x) - self.low) / (self.high - self.low), 0.0, 1.0)
+
+    def _finv(self, y):
+        return self.base._finv((self.low + y * (self.high - self.low)) / self.levels)
+
+    def _df(self, x):
+        return self.levels * self.base._df(x) / (self.high - self.low)
+
+    def _own_params(self):
+        return {
+            "low": self.low,
+            "high": self.high,
+            "levels": self.levels,
+            "base": self.base.name,
+            "base_params": self.base.params,
+        }
