@@ -1,0 +1,183 @@
+"""Baselines with the inputs and outputs of akf.reconstruct: complementary filter, events-only high-pass filter,
+frames only (nearest / linear blend) and direct event integration.
+
+A frame k is taken to describe the scene at its mid-exposure time tau_k = (start + end) / 2, and it is used from
+then on (zero-order hold, causal). Intensities are CRF^-1 scaled to frame 0's exposure time (times T_0 / T_k).
+Output images at t include the events with timestamps < t; output is float32
+(T, H, W) linear intensity in the CRF's scaled-irradiance units (exp(log) - I0 for the log-domain filters).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim.errors import InvalidParameterError
+
+from . import kernels
+from .augmentation import columns, time_slice
+from .inputs import Inputs, validate_inputs
+from .params import AKFParams
+
+_I0 = AKFParams().i0
+
+
+def _intensity(inp: Inputs, crf, k: int) -> np.ndarray:
+    """CRF^-1 of frame k in frame 0's exposure units (scaled by T_0 / T_k), float64 (H, W)."""
+    return inp.exposure_gain(k) * np.asarray(crf.inverse(inp.response(k)), np.float64)
+
+
+def _log_frame(inp: Inputs, crf, k: int, i0: float) -> np.ndarray:
+    return np.log(_intensity(inp, crf, k) + i0).ravel()
+
+
+def _run_log_filter(inp: Inputs, t0, switch_times, on_switch, run_events, publish):
+    """Drive a per-pixel log filter over the events from t0 (us) on: frame switches at switch_times (ascending, us)
+    call on_switch(k) after every pixel was brought to that time; outputs are published in order."""
+    out = np.zeros((inp.out_t.shape[0], *inp.shape), np.float32)
+    if not out.shape[0]:
+        return out
+    cursor = t0
+    marks = sorted([(int(t), 0, k) for k, t in enumerate(switch_times) if t <= inp.out_t[-1]] +
+                   [(int(t), 1, j) for j, t in enumerate(inp.out_t)])
+    for t, kind, idx in marks:
+        if t > cursor:
+            run_events(*columns(time_slice(inp.events, cursor, t)))
+            cursor = t
+        if kind == 0:
+            publish(t, np.empty(0, np.float32))
+            on_switch(idx)
+        else:
+            publish(t, out[idx].reshape(-1))
+    return out
+
+
+def _crossover_alpha(crossover_hz, alpha):
+    if (crossover_hz is None) == (alpha is None):
+        raise InvalidParameterError("give exactly one of crossover_hz (Hz) or alpha (rad/s)")
+    a = 2 * math.pi * crossover_hz if alpha is None else float(alpha)
+    if not (math.isfinite(a) and a >= 0):
+        raise InvalidParameterError(f"crossover gain must be finite and >= 0 rad/s, got {a}")
+    return a
+
+
+def complementary_filter(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
+                         crossover_hz=None, alpha=None, adaptive_gain=False, adaptive_factor=0.1,
+                         adaptive_margin=0.05, i0=_I0, bit_depth=8):
+    """Complementary filter (Scheerlinck, Barnes, Mahony, ACCV 2018) on the log image L = log(I + I0).
+
+    Per event x <- L^F + (x - L^F) exp(-alpha dt) + sigma c: events are high-passed, the latest frame's log L^F
+    low-passed, with crossover alpha (rad/s) = 2 pi crossover_hz (default 0.5 Hz, the original ROS default).
+    adaptive_gain: pixels whose frame log lies within adaptive_margin * (max - min) of that frame's min or max log
+    (near saturation) use alpha * adaptive_factor, so events dominate where the frame is clipped.
+    The filter starts at tau_0 from L^F of frame 0.
+    """
+    if crossover_hz is None and alpha is None:
+        crossover_hz = 0.5
+    a = _crossover_alpha(crossover_hz, alpha)
+    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    return _cf(inp, lambda k: _log_frame(inp, crf, k, i0), a, adaptive_gain, adaptive_factor, adaptive_margin, i0)
+
+
+def _cf(inp: Inputs, log_frame, a, adaptive_gain, adaptive_factor, adaptive_margin, i0):
+    """The complementary filter over validated inputs; log_frame(k) gives frame k's flat log image on demand."""
+
+    def gains(lf):
+        if not adaptive_gain:
+            return np.full(lf.shape[0], a)
+        lo, hi = lf.min(), lf.max()
+        m = adaptive_margin * (hi - lo)
+        return np.where((lf <= lo + m) | (lf >= hi - m), a * adaptive_factor, a)
+
+    w = inp.shape[1]
+    lf0 = log_frame(0)
+    state = {"lf": lf0, "alpha": gains(lf0)}
+    x = state["lf"].copy()
+    t0 = int(math.floor(inp.tau[0]))
+    tl = np.full(x.shape[0], t0, np.int64)
+
+    def on_switch(k):
+        lf = log_frame(k)
+        state["lf"], state["alpha"] = lf, gains(lf)
+
+    def run_events(et, ex, ey, ep):
+        kernels.cf_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x, tl, state["lf"], state["alpha"])
+
+    def publish(t, out):
+        kernels.cf_publish(np.int64(t), x, tl, state["lf"], state["alpha"], i0, out)
+
+    switches = [int(math.floor(t)) for t in inp.tau[1:]]
+    return _run_log_filter(inp, t0, switches, lambda k: on_switch(k + 1), run_events, publish)
+
+
+def high_pass_filter(events, shape, output_times_us, *, contrast=0.2, crossover_hz=None, alpha=None, t0_us=0):
+    """Events-only high-pass filter: the complementary filter with zero frame input (L^F = 0), started at t0_us with
+    a zero log image. Returns float32 (T, H, W) log intensity x (relative, log units)."""
+    if crossover_hz is None and alpha is None:
+        crossover_hz = 0.5
+    a = _crossover_alpha(crossover_hz, alpha)
+    h, w = shape
+    frames = np.zeros((1, h, w), np.uint8)
+    inp = validate_inputs(events, frames, [t0_us], [t0_us], output_times_us, contrast, 8)
+    out = _cf(inp, lambda k: np.zeros(h * w), a, False, 1.0, 0.0, 0.0)
+    return np.log(out)
+
+
+def frames_only(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
+                mode="nearest", bit_depth=8):
+    """CRF^-1 of the frame nearest in time (mode="nearest", by mid-exposure time) or the linear blend in intensity
+    of the two frames around t (mode="linear", clamped to the first / last frame). Events are ignored."""
+    if mode not in ("nearest", "linear"):
+        raise InvalidParameterError(f"frames_only mode must be 'nearest' or 'linear', got {mode!r}")
+    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    tau, nf = inp.tau, inp.frames.shape[0]
+    out = np.zeros((inp.out_t.shape[0], *inp.shape), np.float32)
+    cache = {}
+
+    def intensity(k):
+        if k not in cache:
+            if len(cache) > 2:
+                cache.clear()
+            cache[k] = _intensity(inp, crf, k)
+        return cache[k]
+
+    for j, t in enumerate(inp.out_t):
+        k1 = int(np.searchsorted(tau, t, side="right"))  # first frame with tau > t
+        k0 = max(k1 - 1, 0)
+        k1 = min(k1, nf - 1)
+        if k0 == k1:
+            out[j] = intensity(k0)
+            continue
+        u = (t - tau[k0]) / (tau[k1] - tau[k0])
+        if mode == "nearest":
+            out[j] = intensity(k1 if u > 0.5 else k0)
+        else:
+            out[j] = (1 - u) * intensity(k0) + u * intensity(k1)
+    return out
+
+
+def direct_integration(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
+                       i0=_I0, bit_depth=8):
+    """The log of the first frame at tau_0 plus the contrast times the signed event count since then."""
+    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    x = _log_frame(inp, crf, 0, i0)
+    w = inp.shape[1]
+
+    def run_events(et, ex, ey, ep):
+        kernels.integrate_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x)
+
+    def publish(t, out):
+        if out.shape[0]:
+            out[:] = np.exp(x) - i0
+
+    return _run_log_filter(inp, int(math.floor(inp.tau[0])), [], None, run_events, publish)
+
+
+BASELINES = {
+    "cf": complementary_filter,
+    "cf_adaptive": lambda *a, **k: complementary_filter(*a, adaptive_gain=True, **k),
+    "frames": frames_only,
+    "frames_linear": lambda *a, **k: frames_only(*a, mode="linear", **k),
+    "direct": direct_integration,
+}

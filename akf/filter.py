@@ -1,0 +1,155 @@
+"""akf.reconstruct: HDR video from LDR frames and events with the Asynchronous Kalman Filter (Wang et al. 2021)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim.errors import InvalidParameterError
+
+from . import kernels
+from .augmentation import calibrate_scale, columns, edi_deblur, event_change, interval_start, time_slice
+from .inputs import Inputs, validate_inputs
+from .noise import frame_measurement
+from .params import AKFParams
+
+_OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around te_pad
+
+
+def _rows(n: int, k: int) -> np.ndarray:
+    """A zeroed float64 (n, k) array whose rows start on 64-byte boundaries (one cache line per 8 values)."""
+    buf = np.zeros(n * k + 8)
+    off = (-buf.ctypes.data // 8) % 8
+    return buf[off:off + n * k].reshape(n, k)
+
+
+class _Frames:
+    """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
+
+    def __init__(self, inp: Inputs, crf, params: AKFParams):
+        self.inp, self.crf, self.params = inp, crf, params
+        self._meas, self._deb = {}, {}
+
+    def measurement(self, k):
+        if k not in self._meas:
+            self._meas = {j: m for j, m in self._meas.items() if j >= k - 1}
+            self._meas[k] = frame_measurement(self.inp.response(k), self.crf, self.params,
+                                              self.inp.exposure_gain(k))
+        return self._meas[k]
+
+    def deblurred(self, k):
+        """(L^D at exposure start, L^D at exposure end) of frame k, flat."""
+        if k not in self._deb:
+            self._deb = {j: d for j, d in self._deb.items() if j >= k - 1}
+            inp = self.inp
+            log = self.measurement(k).log.ravel()
+            if self.params.deblur:
+                ev = time_slice(inp.events, int(inp.t_start[k]), int(inp.t_end[k]))
+                self._deb[k] = edi_deblur(log, ev, inp.t_start[k], inp.t_end[k], inp.c_on, inp.c_off, inp.shape[1])
+            else:
+                self._deb[k] = (log, log)
+        return self._deb[k]
+
+    def interval(self, j):
+        """(curve value at s_j, contrast scale, clip side) of the interval from frame j to frame j + 1; the side is
+        +1 / -1 where both frames are clipped high / low. The last frame's interval is open-ended: forward
+        integration from its deblurred start with the nominal contrast, side of that frame."""
+        inp = self.inp
+        d_start = self.deblurred(j)[0]
+        if j == inp.frames.shape[0] - 1:
+            return d_start.copy(), np.ones_like(d_start), self.measurement(j).side.ravel()
+        d_end = self.deblurred(j + 1)[1]
+        ev = time_slice(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
+        change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
+        start_clipped = self.measurement(j).clipped.ravel()
+        end_clipped = self.measurement(j + 1).clipped.ravel()
+        scale = calibrate_scale(d_start, d_end, change, net, start_clipped | end_clipped, self.params)
+        side_a, side_b = self.measurement(j).side.ravel(), self.measurement(j + 1).side.ravel()
+        side = np.where(side_a == side_b, side_b, 0)
+        return interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side
+
+
+def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
+                params: AKFParams = AKFParams(), bit_depth: int = 8, return_variance: bool = False,
+                return_gain: bool = False):
+    """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
+
+    events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
+    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models object (inverse, variance).
+    output_times_us: non-decreasing int64 us, none before the first exposure starts; the image at t includes the
+    events with timestamps < t. contrast: nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W)
+    per-pixel maps (c_off as a magnitude).
+
+    Returns float32 (T, H, W) intensity I = exp(L_hat) - I0 in the CRF's scaled-irradiance units (of frame 0's
+    exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
+    requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
+
+    Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
+    window by window (events sliced by binary search), so memory does not grow with the sequence length.
+    """
+    if not isinstance(params, AKFParams):
+        raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
+    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    nf, (h, w) = inp.frames.shape[0], inp.shape
+    n, nt = h * w, inp.out_t.shape[0]
+    out_i = np.zeros((nt, h, w), np.float32)
+    out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
+    out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
+    none = np.empty(0, np.float32)
+    fr = _Frames(inp, crf, params)
+    strong = params.sigma_im2 / params.max_variance
+    noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong])
+    s0 = int(inp.t_start[0])
+
+    m0, scale0, side0 = fr.interval(0)
+    S = _rows(n, kernels.N_STATE)
+    S[:, [kernels.SL, kernels.SMP, kernels.SMC]] = m0[:, None]
+    S[:, kernels.SP] = params.p0
+    S[:, kernels.ST] = s0
+    r0 = fr.measurement(0).r.ravel()
+    S[:, kernels.SRA] = S[:, kernels.SRB] = r0
+    S[:, kernels.SRC] = fr.measurement(1).r.ravel() if nf > 1 else r0
+    C = _rows(n, kernels.N_C)
+    C[:, [kernels.CP_ON, kernels.CC_ON]] = (scale0 * inp.c_on)[:, None]
+    C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (scale0 * inp.c_off)[:, None]
+    C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
+    te_pad = np.full((h + 2, w + 2), _OLD, np.int64)
+    te_pad[1:-1, 1:-1] = s0
+    te_pad = te_pad.ravel()
+    tau = inp.tau
+    j = 0  # next output index
+    for k in range(nf):
+        if j == nt:
+            break
+        win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
+                       np.float64)
+        if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
+            kernels.akf_publish(float(inp.t_start[k]), S, C, prev_win, strong, params.i0, none, none, none)
+            m_new, scale, side = fr.interval(k)
+            S[:, kernels.SMP] = S[:, kernels.SMC]
+            S[:, kernels.SMC] = m_new
+            C[:, [kernels.CP_ON, kernels.CP_OFF, kernels.CP_SIDE]] = \
+                C[:, [kernels.CC_ON, kernels.CC_OFF, kernels.CC_SIDE]]
+            C[:, kernels.CC_ON] = scale * inp.c_on
+            C[:, kernels.CC_OFF] = scale * inp.c_off
+            C[:, kernels.CC_SIDE] = side
+            S[:, kernels.SRA] = S[:, kernels.SRB]
+            S[:, kernels.SRB] = S[:, kernels.SRC]
+            if k + 1 < nf:
+                S[:, kernels.SRC] = fr.measurement(k + 1).r.ravel()
+        prev_win = win
+        t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
+        cols = columns(time_slice(inp.events, int(inp.t_start[k]), t_hi))
+        i0 = 0
+        while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
+            t_out = int(inp.out_t[j])
+            i1 = int(np.searchsorted(cols[0], t_out, side="left"))
+            kernels.akf_events(*(c[i0:i1] for c in cols), w, S, C, te_pad, win, noise)
+            kernels.akf_publish(float(t_out), S, C, win, strong, params.i0, out_i[j].reshape(-1),
+                                none if out_p is None else out_p[j].reshape(-1),
+                                none if out_k is None else out_k[j].reshape(-1))
+            i0 = i1
+            j += 1
+        if j < nt:
+            kernels.akf_events(*(c[i0:] for c in cols), w, S, C, te_pad, win, noise)
+    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
+    return result[0] if len(result) == 1 else tuple(result)

@@ -1,0 +1,112 @@
+"""Validation and normalisation of the inputs shared by the AKF and the baselines (the API boundary)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
+from sim.events import validate_events
+
+from .kernels import first_decrease
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """Validated inputs. Contrast maps are flat float64 (H*W,), log units, both > 0 (c_off is the OFF magnitude)."""
+
+    events: np.ndarray
+    frames: np.ndarray
+    t_start: np.ndarray
+    t_end: np.ndarray
+    tau: np.ndarray
+    out_t: np.ndarray
+    c_on: np.ndarray
+    c_off: np.ndarray
+    full_scale: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.frames.shape[1], self.frames.shape[2]
+
+    def exposure_gain(self, k: int) -> float:
+        """T_0 / T_k: multiplies frame k's scaled irradiance so that all frames share frame 0's exposure units
+        (1 when the exposure times are equal or zero)."""
+        t0, tk = self.t_end[0] - self.t_start[0], self.t_end[k] - self.t_start[k]
+        return float(t0) / float(tk) if t0 > 0 and tk > 0 else 1.0
+
+    def response(self, k: int) -> np.ndarray:
+        """Frame k as normalised response y = DN / (2^bit_depth - 1), float64 (H, W)."""
+        return self.frames[k].astype(np.float64) / self.full_scale
+
+
+def _times(a, name: str, n: int | None = None) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim != 1 or (n is not None and a.shape[0] != n):
+        length = "" if n is None else f" of length {n}"
+        raise EvsimInputError(f"{name} must be one-dimensional{length}, got shape {a.shape}")
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        raise EvsimInputError(f"{name} must be integer microseconds, got dtype {a.dtype}")
+    return a.astype(np.int64)
+
+
+def contrast_maps(contrast, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Nominal contrast thresholds as flat (c_on, c_off) maps from a scalar, an (on, off) pair or a (2, H, W) array."""
+    c = np.asarray(contrast, dtype=np.float64)
+    n = shape[0] * shape[1]
+    if c.ndim == 0:
+        c_on = c_off = np.full(n, float(c))
+    elif c.shape == (2,):
+        c_on, c_off = np.full(n, c[0]), np.full(n, c[1])
+    elif c.shape == (2, *shape):
+        c_on, c_off = c[0].ravel().copy(), c[1].ravel().copy()
+    else:
+        raise InvalidParameterError(f"contrast must be a scalar, an (on, off) pair or a (2, {shape[0]}, {shape[1]}) "
+                                    f"array, got shape {c.shape}")
+    if not (np.all(np.isfinite(c_on)) and np.all(np.isfinite(c_off)) and c_on.min() > 0 and c_off.min() > 0):
+        raise InvalidParameterError("contrast thresholds must be finite and > 0 (log units; give the OFF threshold "
+                                    "as a magnitude)")
+    return c_on, c_off
+
+
+def validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth) -> Inputs:
+    """Check everything at the boundary and return normalised arrays (raises sim.errors subclasses naming the
+    problem)."""
+    events = validate_events(events, require_sorted=False)
+    i = first_decrease(events["t"])  # sim's sortedness check copies the t column; this one allocates nothing
+    if i >= 0:
+        raise UnsortedEventsError(f"events are not sorted by time: t[{i}]={events['t'][i]} < t[{i - 1}]="
+                                  f"{events['t'][i - 1]} us")
+    frames = np.asarray(frames)
+    if frames.ndim != 3 or frames.shape[0] < 1:
+        raise EvsimInputError(f"frames must be an (N, H, W) array with N >= 1, got shape {frames.shape}")
+    if not np.issubdtype(frames.dtype, np.unsignedinteger):
+        raise EvsimInputError(f"frames must be unsigned integer raw responses, got dtype {frames.dtype}")
+    if not (isinstance(bit_depth, (int, np.integer)) and 1 <= bit_depth <= 16):
+        raise InvalidParameterError(f"bit_depth must be an integer in 1..16, got {bit_depth!r}")
+    full_scale = (1 << int(bit_depth)) - 1
+    if frames.size and int(frames.max()) > full_scale:
+        raise EvsimInputError(f"frames contain {int(frames.max())} > {full_scale}, the maximum of "
+                              f"bit_depth={bit_depth}")
+    nf, h, w = frames.shape
+    ts = _times(frame_t_start_us, "frame_t_start_us", nf)
+    te = _times(frame_t_end_us, "frame_t_end_us", nf)
+    if np.any(te < ts):
+        k = int(np.flatnonzero(te < ts)[0])
+        raise TimeOrderError(f"frame {k}: exposure end {te[k]} us is before its start {ts[k]} us")
+    if nf > 1 and np.any(ts[1:] < te[:-1]):
+        k = int(np.flatnonzero(ts[1:] < te[:-1])[0])
+        raise TimeOrderError(f"frame {k + 1} starts at {ts[k + 1]} us, before frame {k} ends at {te[k]} us")
+    tau = (ts + te) / 2.0
+    if nf > 1 and np.any(np.diff(tau) <= 0):
+        raise TimeOrderError("frame mid-exposure times must be strictly increasing")
+    out_t = _times(output_times_us, "output_times_us")
+    if out_t.size and np.any(np.diff(out_t) < 0):
+        raise TimeOrderError("output_times_us must be non-decreasing")
+    if out_t.size and out_t[0] < ts[0]:
+        raise TimeOrderError(f"output time {out_t[0]} us is before the first exposure starts ({ts[0]} us)")
+    if events.size and (int(events["x"].max()) >= w or int(events["y"].max()) >= h):
+        raise EvsimInputError(f"event coordinates exceed the frame size {w}x{h} (W x H)")
+    c_on, c_off = contrast_maps(contrast, (h, w))
+    return Inputs(events, frames, ts, te, tau, out_t, c_on, c_off, full_scale)

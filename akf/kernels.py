@@ -1,0 +1,331 @@
+"""Numba kernels: the AKF's exact between-event propagation, per-event updates and publishing; the EDI exposure
+integral; the baselines' per-event loops.
+
+Per-pixel state lives in rows indexed by y * width + x (see the S and C column constants). Times are microseconds;
+differences are converted to seconds inside the equations. The filter runs window by window: frame window k spans
+[s_k, s_{k+1}) (s_k: exposure start of frame k). Inside it the augmented measurement of a pixel is
+    L^A(t) = Mprev + w(t) * (Mcur - Mprev),  w(t) = clip((t - s_k) / (e_k - s_k), 0, 1)          (eq. 13)
+where Mprev / Mcur are the current values of the interval curves that end / start at frame k (piecewise constant
+between the pixel's events), and the log-space frame variance R(t) is piecewise linear with knots at the
+mid-exposure times tau_{k-1}, tau_k, tau_{k+1} (eq. 7 applied to R of eq. 9). Between a pixel's updates both are
+linear in time on the sub-segments split at tau_k and e_k, where `propagate` is the exact solution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, prange
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+
+US = 1e-6  # seconds per microsecond
+# fast math without reassociation (the series branches of the closed forms keep their precision); every value is
+# finite by construction (R >= sigma_im2 / (I + I0)^2 > 0, P > 0).
+FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "afn"}
+
+
+@intrinsic
+def _prefetch(typingctx, arr, idx):
+    """Hint the CPU to fetch arr.flat[idx] into cache for writing (LLVM prefetch; no effect on results)."""
+
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                                            "llvm.prefetch.p0i8")
+        ptr = builder.bitcast(builder.gep(ary.data, [args[1]]), i8p)
+        builder.call(fn, [ptr, ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return types.void(arr, idx), codegen
+
+
+PREFETCH_AHEAD = 16  # events: random pixel access is memory-latency bound, so fetch the state of later events
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def _log1p_over_x(x):
+    """log(1 + x) / x; its Taylor series (error < 3e-9) where |x| < 0.05, which also spares the log."""
+    if abs(x) < 0.05:
+        return 1.0 + x * (-1 / 2 + x * (1 / 3 + x * (-1 / 4 + x * (1 / 5 + x * (-1 / 6)))))
+    return math.log1p(x) / x
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def _h_coef(x):
+    """((1 + x) log(1 + x) - x) / x^2; its Taylor series (error < 3e-10) where |x| < 0.05 (no cancellation)."""
+    if abs(x) < 0.05:
+        return 1 / 2 + x * (-1 / 6 + x * (1 / 12 + x * (-1 / 20 + x * (1 / 30 + x * (-1 / 42)))))
+    return ((1.0 + x) * math.log1p(x) - x) / (x * x)
+
+
+@njit(cache=True, fastmath=FAST)
+def propagate(L, P, dt, R0, R1, A0, A1):
+    """Exact solution over dt seconds of the between-event ODEs (16), (19):
+        dP/dt = -P^2 / R(t),   dL/dt = -(P / R(t)) (L - A(t)),
+    with R and the measurement A linear in time from (R0, A0) to (R1, A1). Returns (L, P) at the end.
+
+    1/P grows by the integral of 1/R (eq. 20; for constant R exactly the paper's dt / R). Since
+    d/dt[(L - A) / P] = -A' / P, the error (L - A) decays like P (eq. 17) minus the lag of a moving A.
+    """
+    if dt <= 0.0:
+        return L, P
+    x = (R1 - R0) / R0
+    P1 = 1.0 / (1.0 / P + dt / R0 * _log1p_over_x(x))
+    e0 = L - A0
+    dA = A1 - A0
+    if dA == 0.0:
+        return A1 + e0 * (P1 / P), P1
+    # integral of 1/P(u) du over the segment is dt / P + H, H = integral of (1/P(u) - 1/P)
+    H = dt * dt / R0 * _h_coef(x)
+    return A1 + P1 * ((e0 - dA) / P - dA / dt * H), P1
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def _lerp_time(t, ta, tb, va, vb):
+    if tb <= ta:
+        return vb
+    u = (t - ta) / (tb - ta)
+    return va + u * (vb - va)
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def r_at(t, Ra, Rb, Rc, tau_a, tau_b, tau_c):
+    """Log-space frame variance at time t (eq. 7): piecewise linear through (tau_a, Ra), (tau_b, Rb), (tau_c, Rc)."""
+    if t < tau_b:
+        return _lerp_time(t, tau_a, tau_b, Ra, Rb)
+    return _lerp_time(t, tau_b, tau_c, Rb, Rc)
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def blend_weight(t, s, e):
+    """Weight of the new interval's curve during the exposure [s, e] of a frame (eq. 13)."""
+    if t >= e:
+        return 1.0
+    if t <= s:
+        return 0.0
+    return (t - s) / (e - s)
+
+
+@njit(cache=True, fastmath=FAST)
+def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a, tau_b, tau_c):
+    """(L, P) of a pixel last updated at a (us) brought to t (us) with no events, exact on each sub-segment
+    split at tau_b and e. mp, dm: Mprev and Mcur - Mprev; Ra, Rb, Rc: its frame variances at the three taus.
+
+    Clipped frames are one-sided (censored) measurements: where both frames of the interval curve in force are
+    clipped (side_p / side_c = +1 high, -1 low, 0 otherwise; the curve with the larger blend weight counts), a state
+    on the consistent side of the measurement (above it for +1) keeps the weak saturated-variance pull, while a state
+    on the impossible side is pulled with R * strong (strong = sigma_im2 / max_variance: the variance of a well-exposed
+    pixel at the clip level). The side is decided at each sub-segment start.
+
+    Scalars only: numba helpers taking arrays pay reference counting per call, which dominated the per-event cost.
+    """
+    for k in range(3):
+        b = tau_b if k == 0 else (e if k == 1 else t)
+        if b > t:
+            b = t
+        if b <= a:
+            continue
+        R0 = r_at(a, Ra, Rb, Rc, tau_a, tau_b, tau_c)
+        R1 = r_at(b, Ra, Rb, Rc, tau_a, tau_b, tau_c)
+        wa = blend_weight(a, s, e)
+        A0 = mp + wa * dm
+        side = side_c if wa >= 0.5 else side_p
+        if side * (L - A0) < 0.0:
+            R0 *= strong
+            R1 *= strong
+        L, P = propagate(L, P, (b - a) * US, R0, R1, A0, mp + blend_weight(b, s, e) * dm)
+        a = b
+    return L, P
+
+
+# Columns of the per-pixel state S (one 64-byte row per pixel, so an event touches one cache line):
+# log estimate, variance, last update time (us, exact in float64), the previous / current interval curves and the
+# log-space frame variances at tau_a, tau_b, tau_c.
+SL, SP, ST, SMP, SMC, SRA, SRB, SRC = 0, 1, 2, 3, 4, 5, 6, 7
+N_STATE = 8
+# Columns of C: calibrated ON / OFF contrasts of the previous and of the current interval (log units, both > 0),
+# and the clip side of each interval curve (+1 / -1 where both of its frames are clipped high / low, else 0).
+CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE = 0, 1, 2, 3, 4, 5
+N_C = 8
+
+
+@njit(cache=True, fastmath=FAST, error_model="numpy")
+def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
+    """Process time-sorted events inside one frame window (O(1) each).
+
+    S, C: per-pixel state and contrasts (columns above). te_pad: (H+2)*(W+2) last event time per pixel with a
+    one-pixel border of very old times (for Q_iso). w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
+    noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance].
+    """
+    s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
+    sp2, si2, sr2, rho, strong = noise[0], noise[1], noise[2], noise[3], noise[4]
+    wp = width + 2
+    m = et.shape[0]
+    for n in range(m):
+        if n + PREFETCH_AHEAD < m:
+            xa = np.int64(ex[n + PREFETCH_AHEAD])
+            ya = np.int64(ey[n + PREFETCH_AHEAD])
+            ia = ya * width + xa
+            ja = (ya + 1) * wp + xa + 1
+            _prefetch(S, ia * N_STATE)
+            _prefetch(C, ia * N_C)
+            _prefetch(te_pad, ja - wp)
+            _prefetch(te_pad, ja)
+            _prefetch(te_pad, ja + wp)
+        t = et[n]
+        x = np.int64(ex[n])
+        y = np.int64(ey[n])
+        i = y * width + x
+        mp = S[i, SMP]
+        mc = S[i, SMC]
+        Li, Pi = advance(S[i, ST], float(t), S[i, SL], S[i, SP], mp, mc - mp, S[i, SRA], S[i, SRB], S[i, SRC],
+                         C[i, CP_SIDE], C[i, CC_SIDE], strong, s, e, tau_a, tau_b, tau_c)
+        S[i, ST] = t
+        j = (y + 1) * wp + x + 1
+        t_self = te_pad[j]
+        t_nbr = max(
+            max(max(te_pad[j - wp - 1], te_pad[j - wp]), max(te_pad[j - wp + 1], te_pad[j - 1])),
+            max(max(te_pad[j + 1], te_pad[j + wp - 1]), max(te_pad[j + wp], te_pad[j + wp + 1])),
+        )
+        te_pad[j] = t
+        dts = t - t_self
+        q = sp2 * dts * US + si2 * (t - t_nbr) * US  # eq. 2: process + isolated-pixel noise
+        if dts <= rho:
+            q += sr2  # refractory noise
+        if ep[n] > 0:
+            dp, dc = C[i, CP_ON], C[i, CC_ON]
+        else:
+            dp, dc = -C[i, CP_OFF], -C[i, CC_OFF]
+        S[i, SL] = Li + dp + blend_weight(t, s, e) * (dc - dp)  # eq. 15 with the (blended) calibrated contrast
+        S[i, SMP] = mp + dp
+        S[i, SMC] = mc + dc
+        S[i, SP] = Pi + q  # eq. 21
+
+
+@njit(cache=True, parallel=True, fastmath=FAST)
+def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
+    """Bring every pixel to t (us) and write I = exp(L) - I0, P and K = P / R (when out_p / out_k are non-empty;
+    R without the one-sided factor of advance)."""
+    for i in prange(S.shape[0]):
+        if t > S[i, ST]:
+            mp = S[i, SMP]
+            S[i, SL], S[i, SP] = advance(S[i, ST], t, S[i, SL], S[i, SP], mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB],
+                                         S[i, SRC], C[i, CP_SIDE], C[i, CC_SIDE], strong,
+                                         w[0], w[1], w[2], w[3], w[4])
+            S[i, ST] = t
+        if out_i.shape[0]:
+            out_i[i] = math.exp(S[i, SL]) - i0
+        if out_p.shape[0]:
+            out_p[i] = S[i, SP]
+        if out_k.shape[0]:
+            out_k[i] = S[i, SP] / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
+
+
+@njit(cache=True)
+def first_at_or_after(t, value):
+    """Index of the first element >= value of the sorted array t (np.searchsorted side="left"), without the
+    contiguous copy numpy makes of a strided field view such as events["t"]."""
+    lo, hi = 0, t.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def first_decrease(t):
+    """Index of the first element smaller than its predecessor, or -1 (sortedness check without temporaries)."""
+    for n in range(1, t.shape[0]):
+        if t[n] < t[n - 1]:
+            return n
+    return -1
+
+
+@njit(cache=True)
+def event_change(ex, ey, ep, width, c_on, c_off):
+    """Per-pixel nominal event log change (sum of +c_on / -c_off) and net signed event count."""
+    change = np.zeros(c_on.shape[0])
+    net = np.zeros(c_on.shape[0], np.int64)
+    m = ex.shape[0]
+    for n in range(m):
+        if n + PREFETCH_AHEAD < m:
+            ia = np.int64(ey[n + PREFETCH_AHEAD]) * width + np.int64(ex[n + PREFETCH_AHEAD])
+            _prefetch(change, ia)
+            _prefetch(net, ia)
+        i = np.int64(ey[n]) * width + np.int64(ex[n])
+        if ep[n] > 0:
+            change[i] += c_on[i]
+            net[i] += 1
+        else:
+            change[i] -= c_off[i]
+            net[i] -= 1
+    return change, net
+
+
+@njit(cache=True, fastmath=FAST)
+def exposure_integral(et, ex, ey, ep, width, c_on, c_off, t_start, t_end, n_pix):
+    """EDI integral over the exposure [t_start, t_end): per pixel (1/T) * integral of exp(c E(t)) dt, where E(t) is
+    the signed event log change since t_start, and the total change c E(t_end). Exact for piecewise-constant E."""
+    acc = np.zeros(n_pix)
+    lvl = np.zeros(n_pix)
+    last = np.full(n_pix, t_start)
+    m = et.shape[0]
+    for n in range(m):
+        if n + PREFETCH_AHEAD < m:
+            ia = np.int64(ey[n + PREFETCH_AHEAD]) * width + np.int64(ex[n + PREFETCH_AHEAD])
+            _prefetch(acc, ia)
+            _prefetch(lvl, ia)
+            _prefetch(last, ia)
+        i = np.int64(ey[n]) * width + np.int64(ex[n])
+        acc[i] += math.exp(lvl[i]) * (et[n] - last[i])
+        last[i] = et[n]
+        lvl[i] += c_on[i] if ep[n] > 0 else -c_off[i]
+    T = t_end - t_start
+    for i in range(n_pix):
+        acc[i] = (acc[i] + math.exp(lvl[i]) * (t_end - last[i])) / T
+    return acc, lvl
+
+
+@njit(cache=True, fastmath=FAST)
+def _decay(x, lf, alpha, a, t):
+    """Complementary-filter state x brought from a to t (us) without events: exponential decay toward lf."""
+    if t > a:
+        return lf + (x - lf) * math.exp(-alpha * (t - a) * US)
+    return x
+
+
+@njit(cache=True, fastmath=FAST)
+def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha):
+    """Complementary filter (Scheerlinck et al. 2018): decay toward the frame log LF at rate alpha (rad/s), then add
+    the event's contrast. With LF = 0 this is the events-only high-pass filter."""
+    for n in range(et.shape[0]):
+        i = np.int64(ey[n]) * width + np.int64(ex[n])
+        t = et[n]
+        X[i] = _decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if ep[n] > 0 else -c_off[i])
+        tl[i] = t
+
+
+@njit(cache=True, parallel=True, fastmath=FAST)
+def cf_publish(t, X, tl, LF, alpha, i0, out_i):
+    """Bring every pixel to t (us); write I = exp(X) - I0 when out_i is non-empty."""
+    for i in prange(X.shape[0]):
+        if t > tl[i]:
+            X[i] = _decay(X[i], LF[i], alpha[i], tl[i], t)
+            tl[i] = t
+        if out_i.shape[0]:
+            out_i[i] = math.exp(X[i]) - i0
+
+
+@njit(cache=True, fastmath=FAST)
+def integrate_events(et, ex, ey, ep, width, c_on, c_off, X):
+    """Direct integration: add each event's contrast to the log image X."""
+    for n in range(et.shape[0]):
+        i = np.int64(ey[n]) * width + np.int64(ex[n])
+        X[i] += c_on[i] if ep[n] > 0 else -c_off[i]

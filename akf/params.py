@@ -1,0 +1,83 @@
+"""AKFParams: the filter's tuning parameters, with the paper's names and units.
+
+Times enter the API as int64 microseconds; inside the equations they are seconds, so the noise densities below
+are per second. "log" means natural log of scaled irradiance plus the offset I0 (L = log(I + I0)); "x" is the
+CRF's scaled-irradiance unit (the argument of crf.forward).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from sim.errors import InvalidParameterError
+
+
+@dataclass(frozen=True)
+class AKFParams:
+    """Parameters of the frame augmentation and the Asynchronous Kalman Filter (Wang et al., ICCV 2021).
+
+    Event noise (eq. 2), realised at each event, in log^2 units:
+        sigma_proc2: process noise density (log^2 / s); Q_proc = sigma_proc2 * (time since the pixel's last event).
+        sigma_iso2: isolated-pixel noise density (log^2 / s); Q_iso = sigma_iso2 * (time since the latest event of
+            the 8 neighbouring pixels; the pixel itself is excluded, its own history is Q_proc's job).
+        sigma_ref2: refractory noise (log^2), added when the pixel's previous event is at most rho_bar_us earlier.
+        rho_bar_us: upper bound of the refractory period (microseconds).
+    Frame noise (eqs. 6-9):
+        sigma_im2: base variance of a frame pixel (x^2); Rbar = sigma_im2 / f^w(response), saturated at
+            max_variance (x^2) where f^w ~ 0 (clipped responses).
+            Clipped frames are also treated as one-sided (censored) measurements, which the paper does not do:
+            where both frames around an interval are clipped on the same side, a state on the impossible side of
+            the measurement (below it for a pixel clipped high) is pulled with R * sigma_im2 / max_variance, a
+            state on the possible side with the saturated R (see akf.kernels.advance).
+        i0: offset I0 (x units) in L = log(I + I0); keeps the log finite at I = 0.
+        bias_max_variance: the bias correction of eq. 8 subtracts R/2 (log^2 -> log), capped at
+            bias_max_variance / 2: the second-order expansion is meaningless for the huge R of clipped pixels.
+    Filter:
+        p0: initial state variance P (log^2) at the start of the first exposure.
+    Frame augmentation (section 4.1):
+        deblur: EDI-deblur each frame to the start and end of its exposure (else the blurred frame is used as is).
+        calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
+        calib_min_events: calibrate only where the net signed event count over the interval is at least this.
+        calib_scale_range: accepted (min, max) of the calibrated/nominal contrast ratio; outside it, or where either
+            deblurred frame is clipped (Rbar at max_variance), the nominal contrast is kept.
+
+    The defaults suit x in about [0, 1] with 8-bit frames: sigma_im2 = 1e-6 is about one quantisation step of the
+    AHDR window CRF squared, and max_variance = 100 sigma_im2 keeps a weak pull of clipped frames that bounds the
+    drift of event noise in saturated regions (tuned on synthetic AHDR sequences with the window CRF).
+    """
+
+    sigma_proc2: float = 5e-4
+    sigma_iso2: float = 0.03
+    sigma_ref2: float = 0.05
+    rho_bar_us: int = 1000
+    sigma_im2: float = 1e-6
+    max_variance: float = 1e-4
+    i0: float = 1e-3
+    bias_max_variance: float = 0.1
+    p0: float = 0.09
+    deblur: bool = True
+    calibrate: bool = True
+    calib_min_events: int = 2
+    calib_scale_range: tuple[float, float] = (0.5, 2.0)
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("deblur", "calibrate"):
+                if not isinstance(v, bool):
+                    raise InvalidParameterError(f"AKFParams.{f.name} must be a bool, got {v!r}")
+            elif f.name == "calib_scale_range":
+                lo, hi = v
+                if not (0 < lo <= 1 <= hi < math.inf):
+                    raise InvalidParameterError(
+                        f"AKFParams.calib_scale_range must satisfy 0 < min <= 1 <= max, got {v}")
+            elif not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise InvalidParameterError(f"AKFParams.{f.name} must be a finite number >= 0, got {v!r}")
+        for name in ("sigma_im2", "max_variance", "i0", "p0"):
+            if getattr(self, name) <= 0:
+                raise InvalidParameterError(f"AKFParams.{name} must be > 0, got {getattr(self, name)}")
+        if self.max_variance < self.sigma_im2:
+            raise InvalidParameterError(
+                f"AKFParams.max_variance={self.max_variance} must be >= sigma_im2={self.sigma_im2}"
+            )

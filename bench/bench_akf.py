@@ -1,0 +1,86 @@
+"""Benchmark: events per second of the AKF and the complementary filter at DAVIS346 resolution (346 x 260),
+with 30 fps frames and images published at 30 Hz, on one numba thread by default; and the peak memory.
+
+Synthetic input: spatially coherent random-walk events (walkers stepping one pixel per event, random polarity)
+at the requested rate, and 8-bit frames of a smooth pattern through the AHDR window CRF.
+
+    python bench/bench_akf.py [--rate 10e6] [--seconds 1.0] [--threads 1]
+
+Prints throughput (events/s, excluding the one-off numba compilation) against wall-clock and against the process's
+CPU time (the fairer figure on a shared machine), and peak memory; it is not a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+import tracemalloc
+
+import numpy as np
+
+H, W = 260, 346
+
+
+def random_walk_events(rate: float, seconds: float, walkers: int = 2000, seed: int = 0) -> np.ndarray:
+    import sim
+
+    rng = np.random.default_rng(seed)
+    n = int(rate * seconds)
+    per = -(-n // walkers)
+    steps = rng.integers(-1, 2, (walkers, per, 2))
+    start = rng.integers(0, [W, H], (walkers, 1, 2))
+    pos = (start + np.cumsum(steps, axis=1)).reshape(-1, 2)[:n]
+    ev = sim.empty_events(n)
+    ev["t"] = np.sort(rng.integers(0, int(seconds * 1e6), n))
+    ev["x"] = pos[:, 0] % W
+    ev["y"] = pos[:, 1] % H
+    ev["p"] = rng.choice(np.array([-1, 1], np.int8), n)
+    return ev
+
+
+def frames_and_times(seconds: float, crf):
+    ts = np.arange(0, int(seconds * 1e6) - 10_000, 33_333)
+    te = ts + 10_000
+    yy, xx = np.mgrid[0:H, 0:W]
+    frames = np.stack([np.round(crf.forward(0.25 * np.exp(np.sin(0.05 * (xx - 0.02 * t)) * np.cos(0.03 * yy))) * 255)
+                       .astype(np.uint8) for t in ts])
+    return frames, ts, te
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rate", type=float, default=10e6, help="event rate of the synthetic sensor (events/s)")
+    ap.add_argument("--seconds", type=float, default=1.0, help="sensor time (s)")
+    ap.add_argument("--threads", type=int, default=1, help="numba threads (publishing is parallel)")
+    args = ap.parse_args()
+
+    import numba
+
+    import akf
+    import crf_models
+
+    numba.set_num_threads(args.threads)
+    crf = crf_models.get("window")
+    events = random_walk_events(args.rate, args.seconds)
+    frames, ts, te = frames_and_times(args.seconds, crf)
+    out_t = np.arange(int(ts[0]) + 1, int(args.seconds * 1e6), 33_333)  # 30 Hz publishing
+    print(f"{events.size:,} events over {args.seconds:g} s at {W}x{H}, {len(frames)} frames, "
+          f"{len(out_t)} published images, {args.threads} thread(s)")
+    for name, fn in (("AKF", akf.reconstruct), ("CF", akf.complementary_filter)):
+        fn(events[:1000], frames[:2], ts[:2], te[:2], crf, out_t[:1])  # compile (or load the numba cache)
+        tracemalloc.start()
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn(events, frames, ts, te, crf, out_t)
+        dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        print(f"{name:4s} {events.size / dt / 1e6:7.2f} M events/s wall ({dt:.3f} s), "
+              f"{events.size / cpu / 1e6:7.2f} M events/s of CPU time ({cpu:.3f} s)  "
+              f"peak traced memory {peak / 2**20:.1f} MiB (output {len(out_t) * H * W * 4 / 2**20:.1f} MiB)")
+    print(f"process max RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB "
+          "(includes the input events and frames)")
+
+
+if __name__ == "__main__":
+    main()

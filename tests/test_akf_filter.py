@@ -1,0 +1,182 @@
+"""akf.reconstruct end to end on small inputs: closed-form variance and gain without events, exactness of
+publishing, convergence to the true log intensity with an ideal sensor, and input validation."""
+
+import numpy as np
+import pytest
+
+import akf
+import crf_models
+import sim
+from akf.noise import frame_measurement
+from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
+
+LINEAR = crf_models.get("linear")
+
+
+def _static(h=3, w=4, n=4, value=100, period=40_000, exposure=8_000):
+    frames = np.full((n, h, w), value, np.uint8)
+    frames[:, 0, 0] = 255  # one clipped pixel
+    ts = np.arange(n) * period
+    return frames, ts, ts + exposure
+
+
+def test_static_scene_without_events_has_closed_form_variance_and_gain():
+    params = akf.AKFParams()
+    frames, ts, te = _static()
+    times = np.array([0, 5_000, 30_000, 71_000, 200_000])
+    img, P, K = akf.reconstruct(sim.empty_events(), frames, ts, te, LINEAR, times, params=params,
+                                return_variance=True, return_gain=True)
+    meas = frame_measurement(frames[0] / 255.0, LINEAR, params)
+    R = meas.r
+    expected_p = 1 / (1 / params.p0 + (times[:, None, None] - ts[0]) * 1e-6 / R[None])  # eq. 20, constant R
+    np.testing.assert_allclose(P, expected_p, rtol=1e-5)
+    np.testing.assert_allclose(K, expected_p / R[None], rtol=1e-5)  # eq. 18
+    # the state stays at the (bias-corrected) frame log: I = exp(L^F) - I0
+    np.testing.assert_allclose(img, np.broadcast_to(np.exp(meas.log) - params.i0, img.shape), rtol=1e-6)
+    assert img[0, 1, 1] == pytest.approx(100 / 255, rel=1e-5)
+    # the clipped pixel has the saturated variance: its gain is max_variance / sigma_im2 times smaller
+    assert meas.rbar[0, 0] == params.max_variance and meas.rbar[1, 1] == params.sigma_im2
+
+
+def test_frames_of_different_exposure_share_frame_0_units():
+    """A static scene seen with alternating 2 ms / 8 ms exposures: CRF^-1 is scaled by T_0 / T_k, so every method
+    reports the same intensity throughout (the long frames' DN are four times larger)."""
+    frames = np.array([np.full((2, 3), 40), np.full((2, 3), 160)] * 2, np.uint8)
+    ts = np.arange(4) * 30_000
+    te = ts + np.array([2_000, 8_000, 2_000, 8_000])
+    times = np.array([1_000, 20_000, 34_000, 61_000, 99_000])
+    for method, fn in akf.METHODS.items():
+        out = fn(sim.empty_events(), frames, ts, te, LINEAR, times)
+        np.testing.assert_allclose(out, 40 / 255, rtol=2e-4, err_msg=method)
+
+
+def _moving_scene(h=12, w=16, dur=400_000, c=0.2, threshold_sigma=0.0):
+    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+
+    def radiance(t_us):
+        t = t_us * 1e-6
+        return np.exp(-1.2 + 0.8 * np.sin(0.45 * (xx - 25 * t)) * np.cos(0.3 * (yy + 10 * t)))
+
+    times = np.arange(0, dur + 1, 250)
+    dvs = sim.DVSParams.preset("ideal", pos_threshold=c, neg_threshold=c, threshold_sigma=threshold_sigma)
+    emulator = sim.DVSEmulator(h, w, dvs, seed=0)
+    events = emulator.feed(np.stack([radiance(t) for t in times]), times)
+    ts = np.arange(0, dur - 10_000, 20_000)
+    te = ts + 4_000
+    frames = []
+    for s, e in zip(ts, te):
+        sub = np.mean([radiance(t) for t in np.linspace(s, e, 9)[:-1] + (e - s) / 16], axis=0)
+        frames.append(np.round(LINEAR.forward(sub) * 65535).astype(np.uint16))
+    if threshold_sigma:
+        return radiance, events, np.stack(frames), ts, te, emulator.threshold_map
+    return radiance, events, np.stack(frames), ts, te
+
+
+@pytest.fixture(scope="module")
+def moving():
+    return _moving_scene()
+
+
+def test_ideal_sensor_converges_to_the_true_log_intensity():
+    """Exact 16-bit frames and noise-free events of threshold c = 0.05: the estimate stays within the events'
+    quantisation of the true log intensity (events cannot report sub-threshold changes), and below the error of
+    integrating the same events from the first frame."""
+    c = 0.05
+    radiance, events, frames, ts, te = _moving_scene(c=c)
+    i0 = 1e-4  # the emulator's dark level: events report changes of log(I + 1e-4)
+    times = np.arange(100_000, 380_000, 10_000)
+    truth = np.log(np.stack([radiance(t) for t in times]) + i0)
+    out = akf.reconstruct(events, frames, ts, te, LINEAR, times, params=akf.AKFParams(i0=i0), bit_depth=16,
+                          contrast=c)
+    err = np.abs(np.log(out + i0) - truth)
+    assert err.mean() < 0.4 * c
+    assert np.percentile(err, 99) < 1.5 * c
+    direct = akf.direct_integration(events, frames, ts, te, LINEAR, times, bit_depth=16, contrast=c, i0=i0)
+    assert err.mean() < 0.75 * np.abs(np.log(direct + i0) - truth).mean()
+
+
+def test_per_pixel_threshold_maps_reduce_the_error():
+    """Thresholds with 0.05 mismatch around 0.2: the sensor's true (2, H, W) maps beat the nominal 0.2."""
+    radiance, events, frames, ts, te, cmap = _moving_scene(threshold_sigma=0.05)
+    times = np.arange(100_000, 380_000, 10_000)
+    truth = np.log(np.stack([radiance(t) for t in times]) + 1e-4)
+
+    def err(contrast, calibrate):
+        params = akf.AKFParams(i0=1e-4, calibrate=calibrate)
+        out = akf.reconstruct(events, frames, ts, te, LINEAR, times, params=params, bit_depth=16, contrast=contrast)
+        return np.abs(np.log(out + 1e-4) - truth).mean()
+
+    assert err(cmap, False) < 0.9 * err(0.2, False)
+
+
+def test_publishing_does_not_change_the_trajectory(moving):
+    _, events, frames, ts, te = moving
+    dense = akf.reconstruct(events, frames, ts, te, LINEAR, np.arange(3_000, 300_001, 1_000), bit_depth=16)
+    sparse = akf.reconstruct(events, frames, ts, te, LINEAR, [150_000, 300_000], bit_depth=16)
+    np.testing.assert_allclose(sparse[0], dense[147], rtol=1e-5)
+    np.testing.assert_allclose(sparse[1], dense[-1], rtol=1e-5)
+
+
+def test_image_at_t_includes_events_before_t_only():
+    frames, ts, te = _static(n=2, period=100_000)
+    ev = sim.make_events([50_000], [2], [1], [1])
+    out = akf.reconstruct(ev, frames, ts, te, LINEAR, [50_000, 50_001], params=akf.AKFParams(calibrate=False))
+    jump = np.log(out[1, 1, 2] + 1e-3) - np.log(out[0, 1, 2] + 1e-3)
+    assert jump == pytest.approx(0.2, abs=1e-4)  # the state steps by c at the event (eq. 15)
+    np.testing.assert_allclose(out[1, 1, 3], out[0, 1, 3], rtol=1e-6)
+
+
+def test_input_validation():
+    frames, ts, te = _static()
+    ev = sim.empty_events()
+    with pytest.raises(UnsortedEventsError):
+        akf.reconstruct(sim.make_events([5, 1], [0, 0], [0, 0], [1, 1]), frames, ts, te, LINEAR, [10])
+    with pytest.raises(EvsimInputError, match="unsigned"):
+        akf.reconstruct(ev, frames.astype(np.float32), ts, te, LINEAR, [10])
+    with pytest.raises(TimeOrderError, match="before the first exposure"):
+        akf.reconstruct(ev, frames, ts + 10, te + 10, LINEAR, [0])
+    with pytest.raises(TimeOrderError, match="before frame"):
+        akf.reconstruct(ev, frames, ts, ts + 50_000, LINEAR, [10])
+    with pytest.raises(TimeOrderError, match="non-decreasing"):
+        akf.reconstruct(ev, frames, ts, te, LINEAR, [20, 10])
+    with pytest.raises(InvalidParameterError, match="contrast"):
+        akf.reconstruct(ev, frames, ts, te, LINEAR, [10], contrast=-0.2)
+    with pytest.raises(EvsimInputError, match="exceed the frame size"):
+        akf.reconstruct(sim.make_events([1], [4], [0], [1]), frames, ts, te, LINEAR, [10])
+    with pytest.raises(EvsimInputError, match="bit_depth"):
+        akf.reconstruct(ev, frames.astype(np.uint16) * 64, ts, te, LINEAR, [10], bit_depth=8)
+    with pytest.raises(InvalidParameterError, match="p0"):
+        akf.AKFParams(p0=0.0)
+    with pytest.raises(InvalidParameterError, match="calib_scale_range"):
+        akf.AKFParams(calib_scale_range=(1.5, 2.0))
+
+
+def test_clipped_frames_are_one_sided_measurements():
+    """Frame 0 well exposed, frames 1 and 2 clipped high. Events raise pixel 0 to 0.6 and pixel 1 to 1.2 log units
+    above frame 0: after frame 1's exposure the measurement is the clip level, which pixel 1's state exceeds
+    (consistent with a clipped frame: it relaxes with the saturated variance R) and pixel 0's state does not
+    (impossible: pulled with R * sigma_im2 / max_variance). Both follow the closed form of eqs. 17 and 20:
+    L - A = (L1 - A) / (1 + P1 dt / R_eff)."""
+    params = akf.AKFParams()
+    frames = np.array([[[100, 100]], [[255, 255]], [[255, 255]]], np.uint8)
+    ts = np.array([0, 50_000, 200_000])
+    te = ts + 5_000
+    t_ev = [20_000, 20_010, 20_020, 20_030, 20_040, 20_050]
+    ev = sim.make_events(t_ev[:3] + t_ev, [0] * 3 + [1] * 6, [0] * 9, [1] * 9)
+    ev = ev[np.argsort(ev["t"], kind="stable")]
+    t1, t2 = 60_000, 61_000
+    img, P = akf.reconstruct(ev, frames, ts, te, LINEAR, [30_000, t1, t2], params=params, return_variance=True)
+    clip = frame_measurement(frames[1] / 255.0, LINEAR, params)
+    A, R = clip.log[0], clip.r[0]
+    L = np.log(img[:, 0] + params.i0)
+    lf0 = frame_measurement(frames[0] / 255.0, LINEAR, params).log[0]
+    np.testing.assert_allclose(L[0] - lf0, [0.6, 1.2], atol=1e-3)  # forward from frame 0 (frame 1 is clipped)
+    assert L[1, 0] < A[0] < L[1, 1]
+    dt = (t2 - t1) * 1e-6
+    strong = params.sigma_im2 / params.max_variance
+    for k, r_eff in ((0, R[0] * strong), (1, R[1])):
+        expected = (L[1, k] - A[k]) / (1 + P[1, 0, k] * dt / r_eff)
+        assert L[2, k] - A[k] == pytest.approx(expected, rel=1e-3, abs=1e-6)
+    # by t1 (5 ms after the clipped exposure) the impossible state is mostly corrected, the consistent one kept
+    gap0, gap1 = L[:2] - A
+    assert abs(gap1[0]) < 0.25 * abs(gap0[0]) and gap1[1] > 0.5 * gap0[1]

@@ -1,0 +1,42 @@
+"""Metrics against known values."""
+
+import numpy as np
+import pytest
+
+from akf import metrics
+from sim.errors import EvsimInputError
+
+
+def test_mse_and_psnr_of_a_known_error():
+    ref = np.full((8, 8), 0.5)
+    ref[0, 0] = 2.0
+    x = ref + 0.1
+    assert metrics.mse(x, ref) == pytest.approx(0.01)
+    assert metrics.psnr(x, ref) == pytest.approx(10 * np.log10(4.0 / 0.01))  # data range = reference max = 2
+    assert metrics.psnr(x, ref, data_range=1.0) == pytest.approx(20.0)
+    assert metrics.psnr(ref, ref) == np.inf
+
+
+def test_ssim_identity_and_scale():
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(0, 3, (32, 32))
+    assert metrics.ssim(ref, ref) == pytest.approx(1.0)
+    assert metrics.ssim(ref * 0.5, ref) < 0.95
+    with pytest.raises(EvsimInputError):
+        metrics.ssim(ref, np.ones((32, 32)))
+    with pytest.raises(EvsimInputError):
+        metrics.mse(ref, ref[:-1])
+
+
+def test_pu21_anchor_values_and_monotonicity():
+    y = np.logspace(np.log10(0.005), 4, 200)
+    v = metrics.pu21_encode(y)
+    assert np.all(np.diff(v) > 0)
+    assert metrics.pu21_encode(0.005) == pytest.approx(0.0, abs=1e-6)  # the encoding starts at 0
+    assert metrics.pu21_encode(100.0) == pytest.approx(256.0, abs=0.5)  # SDR white maps to ~256 like 8-bit sRGB
+    assert metrics.pu21_encode(10000.0) == pytest.approx(595.4, abs=0.1)
+    assert metrics.pu21_encode(1e6) == metrics.pu21_encode(1e4)  # clamped to the model's range
+    ref = np.linspace(0.01, 5, 256).reshape(16, 16)
+    assert metrics.pu21_psnr(ref, ref) == np.inf
+    assert metrics.pu21_ssim(ref, ref) == pytest.approx(1.0)
+    assert metrics.pu21_psnr(ref * 1.1, ref) > metrics.pu21_psnr(ref * 1.5, ref)
