@@ -1,0 +1,79 @@
+"""Atomic outputs: write to a temporary sibling, then os.replace it onto the final path.
+
+A failed or interrupted writer therefore never leaves anything at the final path that looks complete, and an
+existing file there is untouched until the new one is whole.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+
+def temp_sibling(path: Path, *, directory: bool = False) -> Path:
+    """A new, uniquely named temporary file (or directory) next to `path`, named `.<name>.<random>.tmp`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    prefix, suffix = f".{path.name}.", ".tmp"
+    if directory:
+        return Path(tempfile.mkdtemp(prefix=prefix, suffix=suffix, dir=path.parent))
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def commit(tmp: Path, path: Path) -> None:
+    """Move a finished temporary file or directory onto `path`, replacing what was there.
+
+    Files are replaced atomically (os.replace). A directory cannot be replaced by rename while the old one exists,
+    so the old one is first renamed aside and deleted only after the new one is in place (restored on failure).
+    """
+    tmp, path = Path(tmp), Path(path)
+    _apply_umask(tmp)
+    if not tmp.is_dir() or not path.exists():
+        os.replace(tmp, path)
+        return
+    old = temp_sibling(path, directory=True)
+    os.rmdir(old)
+    os.replace(path, old)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        os.replace(old, path)
+        raise
+    discard(old)
+
+
+def _apply_umask(p: Path) -> None:
+    """mkstemp/mkdtemp create private (0600/0700) entries; give outputs the mode a plain open() would."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(p, (0o777 if p.is_dir() else 0o666) & ~umask)
+
+
+def discard(p: Path) -> None:
+    """Delete a temporary file or directory if it exists."""
+    if p.is_dir() and not p.is_symlink():
+        shutil.rmtree(p, ignore_errors=True)
+    else:
+        p.unlink(missing_ok=True)
+
+
+@contextmanager
+def atomic_path(path, *, directory: bool = False) -> Iterator[Path]:
+    """Yield a temporary path to write; on normal exit it replaces `path`, on exception it is deleted."""
+    tmp = temp_sibling(Path(path), directory=directory)
+    try:
+        yield tmp
+    except BaseException:
+        discard(tmp)
+        raise
+    try:
+        commit(tmp, Path(path))
+    except BaseException:
+        discard(tmp)
+        raise

@@ -1,0 +1,91 @@
+"""OpenEXR reference frames (linear HDR radiance) through the OpenEXR package's File API.
+
+One image: a single "Y" channel, float32 or half (float16), ZIP-compressed. A sequence is a folder of
+frame_000000.exr, frame_000001.exr, ... with a sidecar `timestamps.txt` of lines "t_us file_name" (int64
+microseconds): EXR header attributes are 32-bit, so microsecond times are never stored there.
+Half floats keep about 3 significant digits (relative error <= 2**-11) and saturate at 65504.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+
+from sim import EvsimInputError
+
+from .atomic import atomic_path
+from .common import fail
+
+TIMES_FILE = "timestamps.txt"
+
+
+def _exr_file(image: np.ndarray, half: bool) -> OpenEXR.File:
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise EvsimInputError(f"EXR image must be (H, W), got shape {image.shape}")
+    if not np.all(np.isfinite(image)):
+        raise EvsimInputError("EXR image must be finite")
+    pixels = np.ascontiguousarray(image, dtype=np.float16 if half else np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    return OpenEXR.File(header, {"Y": pixels})
+
+
+def write_exr(path, image: np.ndarray, *, half: bool = False) -> None:
+    """Write one (H, W) float image as a single-channel EXR, atomically."""
+    f = _exr_file(image, half)
+    with atomic_path(path) as tmp:
+        f.write(str(tmp))
+
+
+def read_exr(path) -> np.ndarray:
+    """Read a single-channel (or "Y") EXR image as float32 (H, W)."""
+    path = Path(path)
+    if not path.is_file():
+        raise fail(path, "no such file")
+    try:
+        channels = OpenEXR.File(str(path), separate_channels=True).channels()
+    except Exception as e:  # the binding raises plain RuntimeError/Exception for every decoding failure
+        raise fail(path, f"not a readable OpenEXR file: {e}") from e
+    name = "Y" if "Y" in channels else (next(iter(channels)) if len(channels) == 1 else None)
+    if name is None:
+        raise fail(path, f"expected a single or 'Y' channel, found {sorted(channels)}")
+    return np.asarray(channels[name].pixels, dtype=np.float32)
+
+
+def write_exr_sequence(directory, images: np.ndarray, t_us: np.ndarray, *, half: bool = False) -> None:
+    """Write (R, H, W) images with their int64 microsecond times as an EXR folder, atomically (whole folder)."""
+    t_us = np.asarray(t_us, dtype=np.int64)
+    if len(images) != t_us.shape[0]:
+        raise EvsimInputError(f"{len(images)} images but {t_us.shape[0]} timestamps")
+    with atomic_path(directory, directory=True) as tmp:
+        lines = [f"# t_us file (int64 microseconds)\n"]
+        for i, (img, t) in enumerate(zip(images, t_us)):
+            name = f"frame_{i:06d}.exr"
+            _exr_file(img, half).write(str(tmp / name))
+            lines.append(f"{int(t)} {name}\n")
+        (tmp / TIMES_FILE).write_text("".join(lines))
+
+
+def read_exr_sequence(directory) -> tuple[np.ndarray, np.ndarray]:
+    """Read an EXR folder written by write_exr_sequence: (R, H, W) float32 images and (R,) int64 times (us)."""
+    directory = Path(directory)
+    times = directory / TIMES_FILE
+    if not times.is_file():
+        raise fail(directory, f"no {TIMES_FILE} (lines 't_us file_name')")
+    t, names = [], []
+    for n, line in enumerate(times.read_text().splitlines(), 1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        parts = line.split()
+        if len(parts) != 2 or not parts[0].lstrip("-").isdigit():
+            raise fail(times, f"line {n}: expected 't_us file_name', got {line!r}")
+        t.append(int(parts[0]))
+        names.append(parts[1])
+    if not names:
+        return np.zeros((0, 0, 0), np.float32), np.zeros(0, np.int64)
+    images = [read_exr(directory / name) for name in names]
+    if len({im.shape for im in images}) != 1:
+        raise fail(directory, "EXR frames differ in size")
+    return np.stack(images), np.array(t, dtype=np.int64)

@@ -1,0 +1,188 @@
+"""The IJRR "Event Camera Dataset" text layout (Mueggler et al. 2017), plus evsim's extensions.
+
+A folder holding:
+    events.txt      lines "t x y p": t in seconds written with exactly 6 decimals (so microseconds round-trip
+                    exactly), x y pixel coordinates, p 1 = ON / 0 = OFF
+    images.txt      lines "t images/frame_00000000.png": t = mid-exposure time in seconds
+    images/         the frames as PNG (8-bit, or 16-bit for bit depth > 8), written and read with OpenCV
+    exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt
+    evsim.json      (extension) height, width, frame_bit_depth, crf, metadata
+    threshold_maps.npy   (extension) (2, H, W) float32 ON/OFF contrast thresholds
+    event_labels.txt     (extension) one label per event line (0 signal, 1 shot, 2 leak, 3 hot)
+    reference/      (extension) HDR reference frames as an EXR sequence (see exr.py)
+Reading accepts the original dataset too: extra files (calib.txt, imu.txt, groundtruth.txt) are ignored; times
+are rounded to the nearest microsecond (9-decimal text included), exactly for microsecond-resolution times below
+2**51 us (about 71 years: Unix time included); missing exposures give t_start = t_mid = t_end; colour PNGs are
+converted to grey; without evsim.json or images the sensor size is max(x) + 1 by max(y) + 1.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sim import EvsimInputError
+
+from ..recording import Recording
+from .atomic import atomic_path
+from .common import check_recording, events_from_columns, fail, polarity_pm1, to_json
+from .exr import read_exr_sequence, write_exr_sequence
+from .native import recording_event_chunks
+
+_FORMAT_ROWS = 100_000  # events formatted per string operation
+
+
+def seconds_text(t_us: int) -> str:
+    """Microseconds as exact decimal seconds with 6 decimals ("-0.000001" for -1)."""
+    t_us = int(t_us)
+    sign, a = ("-" if t_us < 0 else ""), abs(t_us)
+    return f"{sign}{a // 1_000_000}.{a % 1_000_000:06d}"
+
+
+def _events_text(ev: np.ndarray) -> str:
+    t = ev["t"]
+    if t.size and t[0] < 0:
+        raise EvsimInputError("the IJRR text layout stores non-negative event times; got t < 0")
+    cols = np.column_stack([t // 1_000_000, t % 1_000_000, ev["x"], ev["y"], ev["p"] > 0]).astype(np.int64)
+    return ("%d.%06d %d %d %d\n" * ev.size) % tuple(cols.ravel().tolist())
+
+
+def write_ijrr(rec: Recording, directory, *, event_source: Iterator | None = None) -> None:
+    """Write a Recording as an IJRR text folder, atomically (the whole folder appears at the end)."""
+    check_recording(rec)
+    with atomic_path(directory, directory=True) as tmp:
+        with open(tmp / "events.txt", "w") as fe, open(tmp / "event_labels.txt", "w") as fl:
+            has_labels = False
+            for chunk, labels in event_source if event_source is not None else recording_event_chunks(rec):
+                for i in range(0, chunk.size, _FORMAT_ROWS):
+                    fe.write(_events_text(chunk[i : i + _FORMAT_ROWS]))
+                if labels is not None:
+                    has_labels = True
+                    fl.write("".join(f"{v}\n" for v in labels.tolist()))
+        if not has_labels:
+            (tmp / "event_labels.txt").unlink()
+        if rec.frames is not None:
+            (tmp / "images").mkdir()
+            depth = np.uint8 if rec.frame_bit_depth == 8 else np.uint16
+            img_lines, exp_lines = [], []
+            for i, img in enumerate(rec.frames):
+                name = f"images/frame_{i:08d}.png"
+                if not cv2.imwrite(str(tmp / name), np.ascontiguousarray(img, dtype=depth)):
+                    raise OSError(f"OpenCV could not write {tmp / name}")
+                img_lines.append(f"{seconds_text(rec.frame_t_mid_us[i])} {name}\n")
+                exp_lines.append(f"{seconds_text(rec.frame_t_start_us[i])} {seconds_text(rec.frame_t_end_us[i])}\n")
+            (tmp / "images.txt").write_text("".join(img_lines))
+            (tmp / "exposures.txt").write_text("".join(exp_lines))
+        if rec.threshold_maps is not None:
+            np.save(tmp / "threshold_maps.npy", np.asarray(rec.threshold_maps, dtype=np.float32))
+        if rec.reference is not None:
+            write_exr_sequence(tmp / "reference", rec.reference, rec.reference_t_us)
+        info = {"height": rec.height, "width": rec.width, "frame_bit_depth": rec.frame_bit_depth,
+                "crf": rec.crf, "metadata": rec.metadata}
+        (tmp / "evsim.json").write_text(to_json(info))
+
+
+def is_ijrr(directory: Path) -> bool:
+    return (Path(directory) / "events.txt").is_file()
+
+
+def _seconds_to_us(s) -> np.ndarray:
+    return np.rint(np.asarray(s, dtype=np.float64) * 1e6).astype(np.int64)
+
+
+def _load_table(path: Path, ncols: int, dtype=np.float64, usecols=None) -> np.ndarray:
+    if path.stat().st_size == 0:
+        return np.zeros((0, ncols), dtype)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data" for comment-only files
+            a = np.loadtxt(path, dtype=dtype, ndmin=2, comments="#", usecols=usecols)
+    except ValueError as e:
+        raise fail(path, f"malformed line: {e}") from e
+    if a.size and a.shape[1] != ncols:
+        raise fail(path, f"expected {ncols} columns, got {a.shape[1]}")
+    return a.reshape(-1, ncols)
+
+
+def read_ijrr(directory) -> Recording:
+    """Read an IJRR text folder (ours or the original dataset's) into a Recording."""
+    d = Path(directory)
+    if d.is_file() and d.name == "events.txt":
+        d = d.parent
+    if not is_ijrr(d):
+        raise fail(d, "no events.txt: not an IJRR text folder")
+    info = {}
+    if (d / "evsim.json").is_file():
+        try:
+            info = json.loads((d / "evsim.json").read_text())
+        except ValueError as e:
+            raise fail(d / "evsim.json", f"invalid JSON: {e}") from e
+    ev = _load_table(d / "events.txt", 4)
+    if ev.size and not np.isin(ev[:, 3], (0, 1, -1)).all():
+        raise fail(d / "events.txt", "polarity column must hold 0/1 (or -1/+1)")
+    events = events_from_columns(d / "events.txt", _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2],
+                                 polarity_pm1(ev[:, 3]))
+    del ev
+    frames, t_start, t_mid, t_end, depth = _read_frames(d)
+    if "height" in info and "width" in info:
+        h, w = int(info["height"]), int(info["width"])
+    elif frames is not None:
+        h, w = frames.shape[1:]
+    elif events.size:
+        h, w = int(events["y"].max()) + 1, int(events["x"].max()) + 1
+    else:
+        raise fail(d, "sensor size unknown: no evsim.json, no images and no events")
+    labels = None
+    if (d / "event_labels.txt").is_file():
+        labels = _load_table(d / "event_labels.txt", 1, dtype=np.int64)[:, 0].astype(np.uint8)
+        if labels.shape[0] != events.size:
+            raise fail(d / "event_labels.txt", f"{labels.shape[0]} labels for {events.size} events")
+    reference = reference_t = None
+    if (d / "reference").is_dir():
+        reference, reference_t = read_exr_sequence(d / "reference")
+    thr = np.load(d / "threshold_maps.npy") if (d / "threshold_maps.npy").is_file() else None
+    return Recording(events=events, height=h, width=w, frames=frames, frame_t_start_us=t_start,
+                     frame_t_mid_us=t_mid, frame_t_end_us=t_end,
+                     frame_bit_depth=int(info.get("frame_bit_depth", depth)), reference=reference,
+                     reference_t_us=reference_t, crf=info.get("crf"), threshold_maps=thr, event_labels=labels,
+                     metadata=info.get("metadata", {}))
+
+
+def _read_frames(d: Path):
+    path = d / "images.txt"
+    if not path.is_file():
+        return None, None, None, None, 8
+    rows = [ln.split() for ln in path.read_text().splitlines() if ln.strip() and not ln.startswith("#")]
+    if any(len(r) != 2 for r in rows):
+        raise fail(path, "expected lines 't images/frame_XXXXXXXX.png'")
+    if not rows:
+        return None, None, None, None, 8
+    try:
+        t_mid = _seconds_to_us([r[0] for r in rows])
+    except ValueError as e:
+        raise fail(path, f"bad time: {e}") from e
+    images = []
+    for _, name in rows:
+        img = cv2.imread(str(d / name), cv2.IMREAD_UNCHANGED)
+        if img is None:
+            raise fail(d / name, "missing or unreadable image")
+        images.append(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img)
+    if len({im.shape for im in images}) != 1 or len({im.dtype for im in images}) != 1:
+        raise fail(path, "images differ in size or bit depth")
+    frames = np.stack(images)
+    if frames.dtype.kind != "u":
+        raise fail(path, f"images must be unsigned integer PNGs, got {frames.dtype}")
+    exp = d / "exposures.txt"
+    if exp.is_file():
+        e = _load_table(exp, 2)
+        if e.shape[0] != len(rows):
+            raise fail(exp, f"{e.shape[0]} exposure lines for {len(rows)} images")
+        t_start, t_end = _seconds_to_us(e[:, 0]), _seconds_to_us(e[:, 1])
+    else:
+        t_start, t_end = t_mid.copy(), t_mid.copy()
+    return frames, t_start, t_mid, t_end, 8 * frames.dtype.itemsize

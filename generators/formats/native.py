@@ -1,0 +1,334 @@
+"""The native HDF5 layout (one file per sequence), DSEC-like, written in streaming fashion.
+
+Layout (all times int64 microseconds):
+    /t_offset (i8)    as in DSEC, stored event times are relative: absolute t = events/t + t_offset. It is the
+                      first event's time floored to a whole millisecond (0 for a sequence starting at 0).
+    /events/t (i8, relative), /events/x, /events/y (u2), /events/p (i1, -1/+1)   time-sorted events
+    /events/label (u1, optional)                                      0 signal, 1 shot, 2 leak, 3 hot
+    /ms_to_idx (u8)   ms_to_idx[k] = index of the first event with events/t >= k * 1000 (i.e. absolute
+                      t >= t_offset + k * 1000 us), for k = 0 .. events/t[-1] // 1000 + 1; the last entry is
+                      the event count, so events of millisecond k are [ms_to_idx[k], ms_to_idx[k + 1]).
+    /frames/images (F, H, W) u1 (bit depth 8) or u2 (9..16), attr bit_depth
+    /frames/t_start_us, /frames/t_mid_us, /frames/t_end_us (F,) i8   exposure window of each frame
+    /reference/images (R, H, W) f4 linear HDR radiance, /reference/t_us (R,) i8
+    /threshold_maps (2, H, W) f4 (optional): ON and OFF contrast thresholds, log units
+    root attrs: format="evsim-native", format_version, height, width, metadata (JSON), crf (JSON or absent)
+Datasets are chunked, resizable and gzip-compressed; each add_* call appends, so memory stays flat.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from sim import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError, validate_events
+
+from ..recording import Recording
+from .atomic import commit, discard, temp_sibling
+from .common import (
+    EVENT_CHUNK,
+    append_rows,
+    check_recording,
+    event_chunks,
+    events_from_columns,
+    fail,
+    frame_times_check,
+    json_attr,
+    open_h5,
+    require,
+    to_json,
+)
+
+FORMAT_NAME = "evsim-native"
+FORMAT_VERSION = 1
+_EVENT_FIELDS = {"t": np.int64, "x": np.uint16, "y": np.uint16, "p": np.int8}
+_EV_H5_CHUNK = 1 << 16
+
+
+class NativeWriter:
+    """Stream one sequence into a native HDF5 file, atomically.
+
+    Usage: `with NativeWriter(path, H, W, metadata=...) as w: w.add_events(chunk); w.add_frame(...)`.
+    Everything goes to a temporary file beside `path`, renamed onto `path` by close() (or a clean `with` exit);
+    on an exception inside the `with` block the temporary file is deleted and `path` is left as it was.
+    frame_bit_depth: 8..16 bits per LDR sample. compression: "gzip" (default), "lzf" or None.
+    """
+
+    def __init__(self, path, height: int, width: int, *, metadata: dict, frame_bit_depth: int = 8,
+                 compression: str | None = "gzip"):
+        if int(height) <= 0 or int(width) <= 0:
+            raise InvalidParameterError(f"sensor size must be positive, got {height}x{width}")
+        if not 8 <= int(frame_bit_depth) <= 16:
+            raise InvalidParameterError(f"frame_bit_depth must be in 8..16, got {frame_bit_depth}")
+        if compression not in ("gzip", "lzf", None):
+            raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {compression!r}")
+        self.path = Path(path)
+        self.height, self.width, self.bit_depth = int(height), int(width), int(frame_bit_depth)
+        self._metadata = {}
+        self.update_metadata(metadata)
+        self._crf = None
+        self._n_events = 0
+        self._t_last = None
+        self._has_labels = None
+        self._ms_next = 0  # next ms_to_idx entry to fill
+        self._t_offset = None  # fixed by the first non-empty chunk
+        self._tmp = temp_sibling(self.path)
+        self._f = None
+        try:
+            self._f = h5py.File(self._tmp, "w")
+            self._create_layout(compression)
+        except BaseException:
+            self.abort()
+            raise
+
+    def _create_layout(self, compression) -> None:
+        f, h, w = self._f, self.height, self.width
+        kw = {"compression": compression} if compression else {}
+        ev = f.create_group("events")
+        for name, dt in _EVENT_FIELDS.items():
+            ev.create_dataset(name, (0,), dtype=dt, maxshape=(None,), chunks=(_EV_H5_CHUNK,), **kw)
+        f.create_dataset("ms_to_idx", (0,), dtype=np.uint64, maxshape=(None,), chunks=(4096,), **kw)
+        f.create_dataset("t_offset", data=np.int64(0))
+        fr = f.create_group("frames")
+        fr.attrs["bit_depth"] = self.bit_depth
+        fdt = np.uint8 if self.bit_depth == 8 else np.uint16
+        fr.create_dataset("images", (0, h, w), dtype=fdt, maxshape=(None, h, w), chunks=(1, h, w), **kw)
+        ref = f.create_group("reference")
+        ref.create_dataset("images", (0, h, w), dtype=np.float32, maxshape=(None, h, w), chunks=(1, h, w), **kw)
+        for g, names in ((fr, ("t_start_us", "t_mid_us", "t_end_us")), (ref, ("t_us",))):
+            for name in names:
+                g.create_dataset(name, (0,), dtype=np.int64, maxshape=(None,), chunks=(1024,))
+        self._kw = kw
+
+    # -- appending ------------------------------------------------------------------------------------------
+    def add_events(self, events: np.ndarray, labels: np.ndarray | None = None) -> None:
+        """Append a time-sorted chunk of sim.EVENT_DTYPE events (later than every earlier chunk), with optional
+        per-event uint8 labels. Either every chunk has labels or none has."""
+        validate_events(events, name="event chunk")
+        if events.size == 0:
+            return
+        if self._t_last is not None and events["t"][0] < self._t_last:
+            raise UnsortedEventsError(
+                f"event chunk starts at t={events['t'][0]} us, before the previous chunk's last event "
+                f"t={self._t_last} us: chunks must arrive in time order")
+        if events["x"].max() >= self.width or events["y"].max() >= self.height:
+            raise EvsimInputError(f"event coordinates exceed the sensor size {self.width}x{self.height}")
+        if self._has_labels is not None and (labels is not None) != self._has_labels:
+            raise EvsimInputError("event labels must be given for every event chunk or for none")
+        if labels is not None:
+            labels = np.asarray(labels)
+            if labels.shape != events.shape or labels.dtype != np.uint8:
+                raise EvsimInputError(f"labels must be uint8 of shape {events.shape}, got {labels.dtype} "
+                                      f"{labels.shape}")
+        if self._has_labels is None:
+            self._has_labels = labels is not None
+            if self._has_labels:
+                self._f["events"].create_dataset("label", (0,), dtype=np.uint8, maxshape=(None,),
+                                                 chunks=(_EV_H5_CHUNK,), **self._kw)
+        n0, n = self._n_events, events.size
+        if self._t_offset is None:
+            self._t_offset = int(events["t"][0]) // 1000 * 1000
+        t = events["t"] - self._t_offset
+        ev = self._f["events"]
+        for name in _EVENT_FIELDS:
+            append_rows(ev[name], t if name == "t" else events[name])
+        if labels is not None:
+            append_rows(ev["label"], labels)
+        # ms_to_idx entries whose millisecond starts at or before this chunk's last event are now known.
+        k_last = int(t[-1]) // 1000
+        if k_last >= self._ms_next:
+            ks = np.arange(self._ms_next, k_last + 1, dtype=np.int64) * 1000
+            append_rows(self._f["ms_to_idx"], (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
+            self._ms_next = k_last + 1
+        self._n_events += n
+        self._t_last = int(events["t"][-1])
+
+    def add_frame(self, image: np.ndarray, t_start_us: int, t_mid_us: int, t_end_us: int) -> None:
+        """Append one LDR frame (unsigned integer (H, W), values < 2**frame_bit_depth) with its exposure window."""
+        image = np.asarray(image)
+        if image.shape != (self.height, self.width) or image.dtype.kind != "u":
+            raise EvsimInputError(f"frame must be unsigned integer ({self.height}, {self.width}), got "
+                                  f"{image.dtype} {image.shape}")
+        if image.size and int(image.max()) >= 1 << self.bit_depth:
+            raise EvsimInputError(f"frame value {int(image.max())} exceeds {self.bit_depth}-bit range")
+        ts = [int(t_start_us), int(t_mid_us), int(t_end_us)]
+        frame_times_check(*ts)
+        fr = self._f["frames"]
+        if fr["t_mid_us"].shape[0] and ts[1] < fr["t_mid_us"][-1]:
+            raise TimeOrderError(f"frame at t_mid={ts[1]} us comes after one at {fr['t_mid_us'][-1]} us")
+        append_rows(fr["images"], image[None])
+        for name, t in zip(("t_start_us", "t_mid_us", "t_end_us"), ts):
+            append_rows(fr[name], np.array([t], dtype=np.int64))
+
+    def add_reference(self, image: np.ndarray, t_us: int) -> None:
+        """Append one HDR reference frame (linear radiance, float (H, W), finite, >= 0) at time t_us."""
+        image = np.asarray(image, dtype=np.float32)
+        if image.shape != (self.height, self.width):
+            raise EvsimInputError(f"reference must be ({self.height}, {self.width}), got {image.shape}")
+        if not np.all(np.isfinite(image)) or image.min(initial=0) < 0:
+            raise EvsimInputError("reference radiance must be finite and >= 0")
+        ref = self._f["reference"]
+        if ref["t_us"].shape[0] and int(t_us) < ref["t_us"][-1]:
+            raise TimeOrderError(f"reference at t={int(t_us)} us comes after one at {ref['t_us'][-1]} us")
+        append_rows(ref["images"], image[None])
+        append_rows(ref["t_us"], np.array([int(t_us)], dtype=np.int64))
+
+    def set_threshold_maps(self, maps: np.ndarray) -> None:
+        """Store the (2, H, W) ON and OFF contrast threshold maps (log units)."""
+        maps = np.asarray(maps, dtype=np.float32)
+        if maps.shape != (2, self.height, self.width):
+            raise EvsimInputError(f"threshold maps must be (2, {self.height}, {self.width}), got {maps.shape}")
+        if "threshold_maps" in self._f:
+            del self._f["threshold_maps"]
+        self._f.create_dataset("threshold_maps", data=maps, **self._kw)
+
+    def set_crf(self, crf: dict | None) -> None:
+        """Record the CRF as {"name": ..., "params": {...}} (crf_models.get(name, **params) rebuilds it)."""
+        if crf is not None and not (isinstance(crf, dict) and "name" in crf):
+            raise EvsimInputError(f"crf must be a dict with 'name' and 'params', got {crf!r}")
+        to_json(crf)
+        self._crf = crf
+
+    def update_metadata(self, metadata: dict) -> None:
+        """Merge keys into the metadata (written when the file is closed; must be JSON-serialisable)."""
+        try:
+            to_json(metadata)
+        except (TypeError, ValueError) as e:
+            raise EvsimInputError(f"metadata is not JSON-serialisable: {e}") from e
+        self._metadata.update(metadata)
+
+    # -- finishing ------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Finish the file and move it onto `path`. Idempotent."""
+        if self._f is None:
+            return
+        try:
+            f = self._f
+            append_rows(f["ms_to_idx"], np.array([self._n_events], dtype=np.uint64))
+            f["t_offset"][()] = self._t_offset or 0
+            f.attrs.update({"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
+                            "height": self.height, "width": self.width, "metadata": to_json(self._metadata)})
+            if self._crf is not None:
+                f.attrs["crf"] = to_json(self._crf)
+            f.close()
+            self._f = None
+            commit(self._tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+
+    def abort(self) -> None:
+        """Drop the temporary file; `path` is left untouched."""
+        if self._f is not None:
+            try:
+                self._f.close()
+            finally:
+                self._f = None
+        discard(self._tmp)
+
+    def __enter__(self) -> NativeWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def write_native(rec: Recording, path, *, event_source: Iterator[tuple[np.ndarray, np.ndarray | None]] | None = None,
+                 compression: str | None = "gzip") -> None:
+    """Write a Recording as a native file. event_source, when given, yields (events, labels) chunks instead of
+    rec.events / rec.event_labels."""
+    check_recording(rec)
+    with NativeWriter(path, rec.height, rec.width, metadata=rec.metadata, frame_bit_depth=rec.frame_bit_depth,
+                      compression=compression) as w:
+        for ev, lab in event_source if event_source is not None else recording_event_chunks(rec):
+            w.add_events(ev, lab)
+        if rec.frames is not None:
+            for img, t0, tm, t1 in zip(rec.frames, rec.frame_t_start_us, rec.frame_t_mid_us, rec.frame_t_end_us):
+                w.add_frame(img, t0, tm, t1)
+        if rec.reference is not None:
+            for img, t in zip(rec.reference, rec.reference_t_us):
+                w.add_reference(img, t)
+        if rec.threshold_maps is not None:
+            w.set_threshold_maps(rec.threshold_maps)
+        w.set_crf(rec.crf)
+
+
+def recording_event_chunks(rec: Recording, size: int = EVENT_CHUNK):
+    """(events, labels) chunks of a Recording's events."""
+    for i, ev in enumerate(event_chunks(rec.events, size)):
+        yield ev, None if rec.event_labels is None else rec.event_labels[i * size : i * size + ev.size]
+
+
+# -- reading ----------------------------------------------------------------------------------------------------
+def is_native(f: h5py.File) -> bool:
+    """True for files in the native layout (by format attribute, or DSEC-like events/t)."""
+    fmt = f.attrs.get("format")
+    return (fmt.decode() if isinstance(fmt, bytes) else fmt) == FORMAT_NAME or "events/t" in f
+
+
+def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
+    """Stream (events, labels) chunks from a native file without loading the whole stream."""
+    with open_h5(path) as f:
+        require(f, path, ["events/t", "events/x", "events/y", "events/p"])
+        ev = f["events"]
+        n, t_offset = ev["t"].shape[0], _t_offset(f)
+        for i in range(0, n, size):
+            cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
+            cols[0] += t_offset
+            labels = ev["label"][i : i + size] if "label" in ev else None
+            yield events_from_columns(path, *cols), labels
+
+
+def read_native(path, *, events: bool = True) -> Recording:
+    """Read a native file into a Recording (events=False skips the event stream and labels)."""
+    with open_h5(path) as f:
+        if not is_native(f):
+            raise fail(path, "not a native evsim HDF5 file")
+        require(f, path, ["events/t", "events/x", "events/y", "events/p", "frames/images", "frames/t_start_us",
+                          "frames/t_mid_us", "frames/t_end_us"])
+        h, w = _resolution(f, path)
+        ev = f["events"]
+        if events:
+            evs = events_from_columns(path, ev["t"][()] + _t_offset(f), *(ev[k][()] for k in ("x", "y", "p")))
+            labels = ev["label"][()] if "label" in ev else None
+        else:
+            evs = events_from_columns(path, [], [], [], [])
+            labels = None
+        fr = f["frames"]
+        nf = fr["images"].shape[0]
+        ref = f["reference"] if "reference" in f else None
+        rec = Recording(
+            events=evs, height=h, width=w,
+            frames=fr["images"][()] if nf else None,
+            frame_t_start_us=fr["t_start_us"][()] if nf else None,
+            frame_t_mid_us=fr["t_mid_us"][()] if nf else None,
+            frame_t_end_us=fr["t_end_us"][()] if nf else None,
+            frame_bit_depth=int(fr.attrs.get("bit_depth", 8 * fr["images"].dtype.itemsize)),
+            reference=ref["images"][()] if ref is not None and ref["images"].shape[0] else None,
+            reference_t_us=ref["t_us"][()] if ref is not None and ref["images"].shape[0] else None,
+            crf=json_attr(f, "crf"),
+            threshold_maps=f["threshold_maps"][()] if "threshold_maps" in f else None,
+            event_labels=labels,
+            metadata=json_attr(f, "metadata", {}),
+        )
+        if nf and not all(fr[k].shape[0] == nf for k in ("t_start_us", "t_mid_us", "t_end_us")):
+            raise fail(path, "frame time datasets do not have one entry per frame")
+        return rec
+
+
+def _t_offset(f: h5py.File) -> int:
+    return int(f["t_offset"][()]) if "t_offset" in f else 0
+
+
+def _resolution(f: h5py.File, path) -> tuple[int, int]:
+    if "height" in f.attrs and "width" in f.attrs:
+        return int(f.attrs["height"]), int(f.attrs["width"])
+    if f["frames/images"].shape[0]:
+        return tuple(int(s) for s in f["frames/images"].shape[1:])
+    raise fail(path, "sensor size unknown: no height/width attributes and no frames")

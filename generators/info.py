@@ -1,0 +1,135 @@
+"""What a dataset holds: `describe(path)` gathers it, `format_description(d)` prints it (used by `evsim info`).
+
+Native files are summarised by streaming their events (memory stays flat); other layouts are loaded.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .formats import detect, load
+from .formats.common import json_attr, open_h5
+from .formats.native import iter_native_events, recording_event_chunks
+
+LABEL_NAMES = ("signal", "shot", "leak", "hot")
+
+
+def describe(path) -> dict:
+    """Summary of a dataset in any readable layout (times in microseconds, rates in Hz, durations in s):
+    path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
+    t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
+    reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
+    seed_entropy, generator, packages. Raises DatasetFormatError for unreadable files."""
+    path = Path(path)
+    layout = detect(path)
+    if layout == "native":
+        with open_h5(path) as f:
+            h, w = int(f.attrs["height"]), int(f.attrs["width"])
+            fr = f["frames"]
+            frames = {k: fr[k][()] for k in ("t_start_us", "t_mid_us", "t_end_us")}
+            frames["bit_depth"] = int(fr.attrs.get("bit_depth", 8))
+            ref_t = f["reference/t_us"][()] if "reference/t_us" in f else np.zeros(0, np.int64)
+            thr = f["threshold_maps"][()] if "threshold_maps" in f else None
+            crf, meta = json_attr(f, "crf"), json_attr(f, "metadata", {})
+        chunks = iter_native_events(path)
+    else:
+        rec = load(path)
+        h, w, crf, meta, thr = rec.height, rec.width, rec.crf, rec.metadata, rec.threshold_maps
+        frames = None if rec.frames is None else {"t_start_us": rec.frame_t_start_us, "t_mid_us": rec.frame_t_mid_us,
+                                                   "t_end_us": rec.frame_t_end_us, "bit_depth": rec.frame_bit_depth}
+        ref_t = rec.reference_t_us if rec.reference is not None else np.zeros(0, np.int64)
+        chunks = recording_event_chunks(rec)
+    ev = _event_stats(chunks)
+    if frames is not None and frames["t_mid_us"].size == 0:
+        frames = None
+    spans = [(ev["t_first_us"], ev["t_last_us"])] if ev["count"] else []
+    if frames is not None:
+        spans.append((int(frames["t_start_us"].min()), int(frames["t_end_us"].max())))
+    if ref_t.size:
+        spans.append((int(ref_t.min()), int(ref_t.max())))
+    t0 = min((s[0] for s in spans), default=0)
+    t1 = max((s[1] for s in spans), default=0)
+    duration_s = (t1 - t0) / 1e6
+    ev["rate_hz"] = ev["count"] / duration_s if duration_s > 0 else None
+    seed = meta.get("seed")
+    return {
+        "path": str(path), "layout": layout, "height": h, "width": w,
+        "duration_s": duration_s, "t_start_us": t0, "t_end_us": t1, "events": ev,
+        "frames": None if frames is None else _frame_stats(frames),
+        "reference": {"count": int(ref_t.size), "t_first_us": int(ref_t.min()), "t_last_us": int(ref_t.max())}
+        if ref_t.size else None,
+        "threshold_maps": None if thr is None else {"on_mean": float(thr[0].mean()), "off_mean": float(thr[1].mean())},
+        "crf": crf,
+        "seed_entropy": seed.get("entropy") if isinstance(seed, dict) else seed,
+        "generator": meta.get("generator"),
+        "packages": meta.get("packages"),
+    }
+
+
+def _event_stats(chunks) -> dict:
+    n = on = 0
+    first = last = None
+    label_counts = None
+    for events, labels in chunks:
+        if events.size == 0:
+            continue
+        n += events.size
+        on += int(np.count_nonzero(events["p"] > 0))
+        first = int(events["t"][0]) if first is None else first
+        last = int(events["t"][-1])
+        if labels is not None:
+            c = np.bincount(labels, minlength=len(LABEL_NAMES))
+            label_counts = c if label_counts is None else label_counts + c
+    labels = None
+    if label_counts is not None:
+        labels = {(LABEL_NAMES[i] if i < len(LABEL_NAMES) else str(i)): int(c) for i, c in enumerate(label_counts)}
+    return {"count": n, "on": on, "off": n - on, "rate_hz": None, "t_first_us": first, "t_last_us": last,
+            "labels": labels}
+
+
+def _frame_stats(frames: dict) -> dict:
+    mid = np.asarray(frames["t_mid_us"], np.int64)
+    exposure = np.asarray(frames["t_end_us"], np.int64) - np.asarray(frames["t_start_us"], np.int64)
+    span = int(mid[-1] - mid[0])
+    return {"count": int(mid.size), "bit_depth": frames["bit_depth"],
+            "rate_hz": (mid.size - 1) / (span / 1e6) if span > 0 else None,
+            "exposure_us": {"min": int(exposure.min()), "mean": float(exposure.mean()), "max": int(exposure.max())}}
+
+
+def format_description(d: dict) -> str:
+    """A human-readable, multi-line rendering of describe()'s dictionary."""
+    ev = d["events"]
+    lines = [
+        f"{d['path']} ({d['layout']})",
+        f"  sensor      {d['width']} x {d['height']} px",
+        f"  duration    {d['duration_s']:.6f} s  [{d['t_start_us']} .. {d['t_end_us']}] us",
+        f"  events      {ev['count']} (ON {ev['on']}, OFF {ev['off']})"
+        + (f", {ev['rate_hz']:,.0f} ev/s" if ev["rate_hz"] else ""),
+    ]
+    if ev["labels"]:
+        lines.append("  labels      " + ", ".join(f"{k} {v}" for k, v in ev["labels"].items()))
+    fr = d["frames"]
+    if fr:
+        e = fr["exposure_us"]
+        rate = f" at {fr['rate_hz']:.4g} Hz" if fr["rate_hz"] else ""
+        lines.append(f"  frames      {fr['count']}{rate}, {fr['bit_depth']}-bit, exposure "
+                     f"{e['min']} / {e['mean']:.1f} / {e['max']} us (min/mean/max)")
+    else:
+        lines.append("  frames      none")
+    ref = d["reference"]
+    lines.append(f"  reference   {ref['count']} HDR frames [{ref['t_first_us']} .. {ref['t_last_us']}] us" if ref
+                 else "  reference   none")
+    if d["threshold_maps"]:
+        t = d["threshold_maps"]
+        lines.append(f"  thresholds  ON mean {t['on_mean']:.4f}, OFF mean {t['off_mean']:.4f} (log units)")
+    crf = d["crf"]
+    lines.append(f"  CRF         {crf['name']} {crf.get('params', {})}" if crf else "  CRF         unknown")
+    if d["generator"]:
+        lines.append(f"  generator   {d['generator']}")
+    if d["seed_entropy"] is not None:
+        lines.append(f"  seed        {d['seed_entropy']} (SeedSequence entropy)")
+    if d["packages"]:
+        lines.append("  packages    " + ", ".join(f"{k} {v}" for k, v in d["packages"].items()))
+    return "\n".join(lines)
