@@ -1,39 +1,303 @@
-"""The `evsim` command line. Each subcommand is a thin layer over the public Python API."""
+"""The `evsim` command line. Each subcommand is a thin layer over the public Python API.
+
+Exit codes: 0 success, 2 usage error or bad input (message "evsim: error: ..."), 1 unexpected failure.
+Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz,
+speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units.
+"""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
+from pathlib import Path
+
+import sim
+
+EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
+          "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
+          "Exit codes: 0 success, 2 usage error or bad input, 1 unexpected failure.")
+DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    import numpy as np
+# ----- building a dataset configuration from flags -----------------------------------------------------------
 
-    import sim
+def _settings_from_flags(args) -> dict:
+    """Sequence settings (generators.config schema) from the flags that were given."""
+    s = {k: getattr(args, k) for k in ("duration_s", "height", "width", "sensor") if getattr(args, k) is not None}
+    s["camera"] = {k: getattr(args, k) for k in ("fps", "exposure_us") if getattr(args, k) is not None}
+    if args.crf is not None:
+        s["crf"] = {"name": args.crf, "params": {}}
+    if args.sampling is not None:
+        s["sampling"] = {"mode": args.sampling}
+    s["output"] = {"labels": args.labels}
+    if args.reference_rate_hz is not None:
+        s["output"]["reference_rate_hz"] = args.reference_rate_hz
+    return s
 
-    # Placeholder until the generators land: a bright bar sweeping over a dark background.
-    h, w, n = 120, 160, 200
-    times = np.arange(n, dtype=np.int64) * 1000
-    xx = np.arange(w)[None, :]
-    frames = (0.01 + np.exp(-0.5 * ((xx - 10 - 0.6 * np.arange(n)[:, None, None]) / 4.0) ** 2)).astype(np.float32)
-    frames = np.broadcast_to(frames, (n, h, w))
-    events = sim.emulate(frames, times, sim.DVSParams.preset("davis346"), seed=args.seed)
-    print(f"{events.size} events over {times[-1] / 1e6:.3f} s at {w}x{h}")
+
+def _scene_sequences(args) -> list[dict]:
+    """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
+    from .builtin import BUILTIN_SEQUENCES
+
+    if args.image is not None:
+        traj = {"pan_px_per_s": list(args.pan), "zoom_per_s": args.zoom, "rotation_deg_per_s": args.rotation,
+                "shake_px": args.shake_px}
+        return [{"name": Path(args.image).stem, "scene": {"type": "image", "path": str(Path(args.image).resolve()),
+                                                         "trajectory": traj}}]
+    if args.scene is None:
+        return [dict(s) for s in BUILTIN_SEQUENCES]
+    by_name = {s["name"]: s for s in BUILTIN_SEQUENCES}
+    if args.scene not in by_name:
+        raise sim.EvsimInputError(f"unknown --scene {args.scene!r}; built-in scenes: {', '.join(by_name)}")
+    return [dict(by_name[args.scene])]
+
+
+_SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
+                "reference_rate_hz", "sampling")
+
+
+def _dataset_config(args):
+    from .config import load_config, parse_config
+
+    if args.config is not None:
+        given = [f for f in _SCENE_FLAGS if getattr(args, f) not in (None, False)]
+        if given:
+            raise sim.EvsimInputError(f"--{given[0].replace('_', '-')} cannot be combined with --config: "
+                                      "set it in the configuration file")
+        cfg = load_config(args.config)
+        if args.sensor is not None:
+            for spec in cfg.sequences:
+                spec.settings["sensor"] = args.sensor
+        return cfg
+    data = {"defaults": _settings_from_flags(args), "sequence": _scene_sequences(args)}
+    return parse_config(data, source="<command line>")
+
+
+# ----- subcommands -----------------------------------------------------------------------------------------
+
+def _cmd_generate_ahdr(args) -> int:
+    from .dataset import generate_dataset
+
+    cfg = _dataset_config(args)
+    index = generate_dataset(cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                             fmt=args.format, seed=args.seed)
+    print(f"wrote {len(cfg.sequences)} sequence(s) to {index.parent} (index: {index.name})")
     return 0
 
 
+def _cmd_generate_sweep(args) -> int:
+    from .config import build_scene, to_ahdr_config
+    from .sweep import DEFAULT_GRID, GRID_KEYS, generate_sweep
+
+    cfg = _dataset_config(args)
+    spec = cfg.sequences[0]
+    grid = dict(cfg.sweep) or dict(DEFAULT_GRID)
+    for key in GRID_KEYS:
+        values = getattr(args, key)
+        if values is not None:
+            grid[key] = values
+    s = spec.settings
+    scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us, where=f"sequence {spec.name!r}")
+    index = generate_sweep(scene, args.out, grid, to_ahdr_config(s), cfg.seed if args.seed is None else args.seed,
+                           overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format)
+    print(f"wrote the sweep over {', '.join(grid)} for {spec.name!r} to {index.parent} (index: {index.name})")
+    return 0
+
+
+def _cmd_info(args) -> int:
+    from .info import describe, format_description
+
+    print(format_description(describe(args.file)))
+    return 0
+
+
+def _cmd_demo(args) -> int:
+    from .builtin import DEMO_SEQUENCE
+    from .config import build_scene, parse_config, to_ahdr_config
+    from .dataset import write_sequence
+
+    data = {"seed": args.seed, "defaults": {"duration_s": args.duration_s, "height": args.height,
+                                            "width": args.width, "sensor": args.sensor,
+                                            "output": {"reference_rate_hz": 40.0}},
+            "sequence": [dict(DEMO_SEQUENCE)]}
+    spec = parse_config(data, source="<demo>").sequences[0]
+    s = spec.settings
+    scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    import numpy as np
+
+    entry = write_sequence(out, "demo", scene, to_ahdr_config(s), np.random.SeedSequence(args.seed), "native",
+                           progress=not args.no_progress)
+    path = out / entry["file"]
+    from .info import describe, format_description
+
+    print(f"evsim demo: {spec.name} ({scene.describe()['image']}), written to {path}")
+    print(format_description(describe(path)))
+    if args.no_reconstruct:
+        return 0
+    try:
+        import akf
+    except ImportError:
+        akf = None
+    if akf is None or not hasattr(akf, "evaluate_sequence"):
+        print("(reconstruction skipped: the akf package is not available)")
+        return 0
+    table = _demo_metrics(path, akf)
+    text = _metrics_table(table)
+    (out / "metrics.txt").write_text(text + "\n")
+    print()
+    print(text)
+    print(f"\nmetrics written to {out / 'metrics.txt'}")
+    return 0
+
+
+def _demo_metrics(path: Path, akf) -> dict:
+    """Reconstruct the demo file with AKF and the baselines and score them on the reference frames that lie
+    strictly between the first and last frame (reference in the CRF's scaled-irradiance units)."""
+    import crf_models
+
+    from .formats import load
+
+    rec = load(path)
+    cam = rec.metadata["config"]["camera"]
+    params = sim.CameraParams(**cam)
+    exposure = int(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
+    to_x = params.electrons_per_radiance_us * exposure / params.full_well_e
+    inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
+    crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
+    dvs = rec.metadata["config"]["dvs"]
+    return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
+                                 rec.reference[inside] * to_x, rec.reference_t_us[inside],
+                                 methods=tuple(m for m in ("akf", "cf", "frames") if m in akf.METHODS),
+                                 contrast=0.5 * (dvs["pos_threshold"] + dvs["neg_threshold"]),
+                                 bit_depth=rec.frame_bit_depth)
+
+
+def _metrics_table(table: dict) -> str:
+    metrics = list(next(iter(table.values())))
+    lines = ["method    " + "".join(f"{m:>12}" for m in metrics)]
+    for method, row in table.items():
+        lines.append(f"{method:<10}" + "".join(f"{row[m]:>12.4g}" for m in metrics))
+    return "\n".join(lines)
+
+
+# ----- parser --------------------------------------------------------------------------------------------
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = -1
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return v
+
+
+def _add_output_flags(p, default_out: str) -> None:
+    p.add_argument("--out", default=default_out, help=f"output folder (default: {default_out})")
+    p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
+    p.add_argument("--seed", type=_seed, default=None,
+                   help="root seed (non-negative integer, numpy SeedSequence entropy; default: the config's, or 0)")
+    p.add_argument("--format", choices=("native", "e2vid", "ijrr", "akf-mat"), default=None,
+                   help="also export every sequence to this layout (the native HDF5 file is always written)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+
+def _add_scene_flags(p) -> None:
+    from .builtin import BUILTIN_SEQUENCES
+
+    names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
+    p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")
+    g = p.add_argument_group("scene and sensors (without --config)")
+    g.add_argument("--scene", help=f"a built-in scene: {names} (default: all of them for ahdr, the first for sweep)")
+    g.add_argument("--image", help="an HDR image (.exr, .hdr, .npy) or an LDR image (inverse sRGB) to move over")
+    g.add_argument("--pan", type=float, nargs=2, default=(60.0, 0.0), metavar=("VX", "VY"),
+                   help="with --image: camera pan in pixels per second (default: 60 0)")
+    g.add_argument("--zoom", type=float, default=0.0, help="with --image: zoom rate in 1/s (log magnification per "
+                                                          "second; default 0)")
+    g.add_argument("--rotation", type=float, default=0.0, help="with --image: rotation in degrees per second")
+    g.add_argument("--shake-px", type=float, default=0.0, help="with --image: hand-held shake amplitude in pixels")
+    g.add_argument("--duration-s", type=float, help="sequence duration in seconds (default 1.0)")
+    g.add_argument("--height", type=int, help="sensor height in pixels (default 180)")
+    g.add_argument("--width", type=int, help="sensor width in pixels (default 240)")
+    g.add_argument("--fps", type=float, help="frame rate of the LDR camera in frames per second (default 30)")
+    g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
+    g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
+    g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
+    g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--reference-rate-hz", type=float,
+                   help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+    p.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS),
+                   help="DVS preset (default davis346); with --config it replaces every sequence's sensor")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="evsim", description=__doc__)
+    parser = argparse.ArgumentParser(prog="evsim", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="run the main job on the built-in default data")
-    demo.add_argument("--seed", type=int, default=0, help="root seed (numpy SeedSequence entropy)")
+
+    demo = sub.add_parser("demo", help="generate a short built-in AHDR sequence, reconstruct it and print metrics",
+                          epilog=EPILOG)
+    demo.add_argument("--out", default="evsim_demo", help="output folder (default ./evsim_demo); demo.h5 and "
+                                                          "metrics.txt in it are replaced")
+    demo.add_argument("--seed", type=_seed, default=0, help="root seed (non-negative integer; default 0)")
+    demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
+    demo.add_argument("--height", type=int, default=DEMO_SIZE[0], help=f"height in pixels (default {DEMO_SIZE[0]})")
+    demo.add_argument("--width", type=int, default=DEMO_SIZE[1], help=f"width in pixels (default {DEMO_SIZE[1]})")
+    demo.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), default="davis346", help="DVS preset")
+    demo.add_argument("--no-reconstruct", action="store_true", help="only generate, do not run AKF and baselines")
+    demo.add_argument("--no-progress", action="store_true", help="no progress bars")
     demo.set_defaults(func=_cmd_demo)
+
+    gen = sub.add_parser("generate", help="generate datasets (ahdr, sweep)", epilog=EPILOG)
+    gsub = gen.add_subparsers(dest="generator", required=True)
+    ahdr = gsub.add_parser("ahdr", help="scene(s) -> events + LDR frames + HDR reference, one file per sequence",
+                           epilog=EPILOG)
+    _add_scene_flags(ahdr)
+    _add_output_flags(ahdr, "evsim_dataset")
+    ahdr.set_defaults(func=_cmd_generate_ahdr)
+    sweep = gsub.add_parser("sweep", help="one scene over a grid of DVS noise/threshold parameters", epilog=EPILOG)
+    _add_scene_flags(sweep)
+    _add_output_flags(sweep, "evsim_sweep")
+    grid = sweep.add_argument_group("grid (lists of values; default threshold_sigma 0 0.05 x shot_noise_hz 0 2)")
+    grid.add_argument("--threshold-sigma", type=float, nargs="+", help="threshold mismatch std (log units)")
+    grid.add_argument("--shot-noise-hz", type=float, nargs="+", help="shot-noise rate per pixel (Hz)")
+    grid.add_argument("--leak-hz", type=float, nargs="+", help="leak-event rate per pixel (Hz)")
+    grid.add_argument("--refractory-us", type=int, nargs="+", help="refractory period (microseconds)")
+    grid.add_argument("--hot-pixel-fraction", type=float, nargs="+", help="fraction of hot pixels (0..1)")
+    grid.add_argument("--hot-pixel-hz", type=float, nargs="+", help="event rate of a hot pixel (Hz)")
+    sweep.set_defaults(func=_cmd_generate_sweep)
+
+    info = sub.add_parser("info", help="what a dataset holds (duration, events, rates, frames, exposure, CRF, seed)",
+                          epilog=EPILOG)
+    info.add_argument("file", type=Path, help="a dataset: native or E2VID HDF5, IJRR folder, AKF .mat")
+    info.set_defaults(func=_cmd_info)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    return args.func(args)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:  # argparse: --help (0) or a usage error (2), message already printed
+        return int(e.code or 0)
+    try:
+        return args.func(args)
+    except sim.EvsimInputError as e:
+        print(f"evsim: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("evsim: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # the reader of our output went away (e.g. `evsim info f | head`): not a failure
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except Exception:
+        traceback.print_exc()
+        print("evsim: unexpected error (a bug: please report it with the traceback above)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

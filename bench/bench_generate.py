@@ -1,0 +1,86 @@
+"""Benchmark of end-to-end AHDR generation (not a test).
+
+1. Time split (scene sampling, DVS, camera, writing) for a 346x260 sequence (default 10 s) of the built-in
+   astronaut image under pan and shake, with the davis346 sensor and the default camera (30 fps, window CRF).
+2. Peak resident memory of generating 640x480 sequences (default 60 s, and a quarter of it to show that memory is
+   flat in duration); each run is a fresh subprocess so that the peaks are independent.
+
+    python bench/bench_generate.py [--duration-s 10] [--memory-duration-s 60] [--skip-memory] [--compression lzf]
+
+Numba kernels are compiled (or loaded from cache) by a short warm-up run first. Timings are wall-clock on
+whatever else the machine is doing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def run_once(duration_s: float, height: int, width: int, out: Path, compression: str = "gzip") -> dict:
+    from generators.ahdr import AHDRConfig, generate_ahdr
+    from generators.builtin import builtin_image_scene
+    from generators.scenes import Trajectory
+
+    scene = builtin_image_scene(height, width, int(duration_s * 1e6),
+                                Trajectory(pan_px_per_s=(30.0, 8.0), shake_px=1.0, shake_hz=2.0))
+    t0 = time.perf_counter()
+    r = generate_ahdr(scene, out, AHDRConfig(compression=compression), 0, progress=False)
+    wall = time.perf_counter() - t0
+    return {"duration_s": duration_s, "size": f"{width}x{height}", "wall_s": wall, "timings_s": r.timings_s,
+            "n_events": r.n_events, "n_frames": r.n_frames, "n_dvs_samples": r.n_dvs_samples,
+            "file_mb": out.stat().st_size / 2**20,
+            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def _child(args) -> None:
+    with tempfile.TemporaryDirectory() as d:
+        run_once(0.05, 16, 16, Path(d) / "warm.h5")  # numba compile / cache load
+        print(json.dumps(run_once(args.duration_s, args.height, args.width, Path(d) / "seq.h5", args.compression)))
+
+
+def _spawn(duration_s: float, height: int, width: int, compression: str) -> dict:
+    cmd = [sys.executable, __file__, "--child", "--duration-s", str(duration_s), "--height", str(height),
+           "--width", str(width), "--compression", compression]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--duration-s", type=float, default=10.0, help="timed sequence length in seconds (346x260)")
+    p.add_argument("--memory-duration-s", type=float, default=60.0, help="memory run length in seconds (640x480)")
+    p.add_argument("--skip-memory", action="store_true", help="only the time split")
+    p.add_argument("--compression", choices=("gzip", "lzf"), default="gzip", help="HDF5 compression (default gzip)")
+    p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    p.add_argument("--height", type=int, default=260, help=argparse.SUPPRESS)
+    p.add_argument("--width", type=int, default=346, help=argparse.SUPPRESS)
+    args = p.parse_args()
+    if args.child:
+        _child(args)
+        return
+    r = _spawn(args.duration_s, 260, 346, args.compression)
+    t = r["timings_s"]
+    print(f"time split ({args.compression}), {r['size']}, {r['duration_s']:g} s sequence ({r['n_events']:,} events, {r['n_frames']} frames, "
+          f"{r['n_dvs_samples']:,} DVS samples, {r['file_mb']:.1f} MB file):")
+    for k in ("scene", "dvs", "camera", "writing"):
+        print(f"  {k:<8} {t[k]:8.2f} s  ({100 * t[k] / t['total']:4.1f} %)")
+    print(f"  total    {t['total']:8.2f} s  -> {r['duration_s'] / t['total']:.2f}x real time, "
+          f"{r['n_events'] / t['total']:,.0f} events/s; peak RSS {r['peak_rss_mb']:.0f} MB")
+    if args.skip_memory:
+        return
+    print("peak memory, 640x480:")
+    for d in (args.memory_duration_s / 4, args.memory_duration_s):
+        m = _spawn(d, 480, 640, args.compression)
+        print(f"  {d:6.1f} s: peak RSS {m['peak_rss_mb']:7.0f} MB ({m['n_events']:,} events, {m['file_mb']:.0f} MB file, "
+              f"{m['timings_s']['total']:.1f} s)")
+
+
+if __name__ == "__main__":
+    main()

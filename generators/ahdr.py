@@ -1,0 +1,296 @@
+"""The AHDR generator: one scene -> one hybrid event/frame sequence with HDR ground truth.
+
+generate_ahdr() streams the scene through both sensor models into a native HDF5 file:
+- DVS: the scene is sampled by the adaptive (or fixed-rate) sampler and fed to sim.DVSEmulator in chunks;
+- LDR camera: sim.LDRCamera captures frames (exposure, motion blur, noise, the CRF; AHDR "window" by default);
+- reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
+- threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
+  spawn key), package versions, the CRF, and the number of DVS samples.
+Memory stays flat in the sequence length: one chunk of samples and one frame are alive at a time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+import crf_models
+import sim
+from sim import InvalidParameterError
+
+from .formats.native import NativeWriter
+from .sampling import make_sampler
+
+_PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
+             "scikit-image", "tqdm")
+_CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
+
+
+@dataclass(frozen=True)
+class AHDRConfig:
+    """How to turn a scene into a sequence.
+
+    dvs, camera: the sensor parameters (sim.DVSParams, sim.CameraParams).
+    crf, crf_params: the camera response (crf_models.get(crf, **crf_params)); default the AHDR "window".
+    auto_exposure: set camera.reference_radiance so that the scene's median radiance at t=0 gives the mid response
+        (crf.inverse(0.5)); auto_illumination: set dvs.full_illumination to the scene's 99th-percentile radiance at
+        t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
+        radiance units; the resolved values are recorded in the metadata.
+    sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample, min/max step in microseconds)
+        or "fixed" (rate_hz samples per second).
+    reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
+        regular grid (0: none).
+    threshold_maps, labels: store the per-pixel thresholds / per-event labels.
+    compression: of the HDF5 datasets: "gzip" (default, smallest), "lzf" (faster to write) or None.
+    """
+
+    dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))
+    camera: sim.CameraParams = field(default_factory=sim.CameraParams)
+    crf: str = "window"
+    crf_params: dict = field(default_factory=dict)
+    auto_exposure: bool = True
+    auto_illumination: bool = True
+    sampling: str = "adaptive"
+    sampling_fraction: float = 0.5
+    min_step_us: int = 10
+    max_step_us: int = 5000
+    rate_hz: float = 2000.0
+    reference_times_us: tuple[int, ...] = ()
+    reference_rate_hz: float = 0.0
+    threshold_maps: bool = True
+    labels: bool = False
+    compression: str | None = "gzip"
+
+    def __post_init__(self):
+        if not isinstance(self.dvs, sim.DVSParams) or not isinstance(self.camera, sim.CameraParams):
+            raise InvalidParameterError("AHDRConfig: dvs must be a sim.DVSParams and camera a sim.CameraParams")
+        object.__setattr__(self, "reference_times_us", tuple(int(t) for t in self.reference_times_us))
+        if not (math.isfinite(self.reference_rate_hz) and self.reference_rate_hz >= 0):
+            raise InvalidParameterError(f"reference_rate_hz must be >= 0, got {self.reference_rate_hz}")
+        if self.compression not in ("gzip", "lzf", None):
+            raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {self.compression!r}")
+        if self.sampling not in ("adaptive", "fixed"):
+            raise InvalidParameterError(f"sampling must be 'adaptive' or 'fixed', got {self.sampling!r}")
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable form (tuples as lists)."""
+        return _jsonable(dataclasses.asdict(self))
+
+
+def _jsonable(v):
+    if isinstance(v, dict):
+        return {k: _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+@dataclass
+class GenerationResult:
+    """What generate_ahdr wrote: the file, counts, and the wall-clock split of the work in seconds: scene (scene
+    rendering and sampling-step control), dvs (the emulator), camera (exposure, noise, CRF; without rendering),
+    writing (the HDF5 file), total."""
+
+    path: Path
+    n_events: int
+    n_frames: int
+    n_references: int
+    n_dvs_samples: int
+    timings_s: dict
+
+
+def package_versions() -> dict:
+    """Versions of Python and the packages that determine the output."""
+    out = {"python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def child_seed(ss: np.random.SeedSequence, i: int) -> np.random.SeedSequence:
+    """The i-th child of ss, derived from its entropy and spawn key (independent of ss's spawn counter)."""
+    return np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i))
+
+
+def seed_record(ss: np.random.SeedSequence) -> dict:
+    """JSON form of a SeedSequence: SeedSequence(entropy, spawn_key=spawn_key) regenerates it."""
+    return {"entropy": int(ss.entropy), "spawn_key": [int(k) for k in ss.spawn_key]}
+
+
+def resolve_sensors(scene, config: AHDRConfig):
+    """The DVS and camera parameters after auto exposure / illumination, and the CRF object."""
+    try:
+        crf = crf_models.get(config.crf, **config.crf_params)
+    except crf_models.CRFError as e:
+        raise InvalidParameterError(f"crf: {e}") from None
+    dvs, camera = config.dvs, config.camera
+    if config.auto_exposure or config.auto_illumination:
+        first = scene.radiance(0)
+        if config.auto_exposure:
+            median = float(np.median(first))
+            if median > 0:
+                x_mid = float(crf.inverse(0.5))
+                camera = dataclasses.replace(camera, reference_radiance=median * camera.reference_fill / x_mid)
+        if config.auto_illumination:
+            bright = float(np.percentile(first, 99))
+            if bright > 0:
+                dvs = dataclasses.replace(dvs, full_illumination=bright)
+    return dvs, camera, crf
+
+
+class _TimedSource:
+    """A RadianceSource proxy that adds up the time spent in radiance() (scene rendering)."""
+
+    def __init__(self, source):
+        self._source = source
+        self.height, self.width, self.duration_us = source.height, source.width, source.duration_us
+        self.seconds = 0.0
+
+    def radiance(self, t_us):
+        t0 = time.perf_counter()
+        img = self._source.radiance(t_us)
+        self.seconds += time.perf_counter() - t0
+        return img
+
+    def max_speed_px_per_s(self):
+        return self._source.max_speed_px_per_s()
+
+
+def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
+    times = set(config.reference_times_us)
+    if config.reference_rate_hz > 0:
+        step = 1e6 / config.reference_rate_hz
+        times.update(int(round(k * step)) for k in range(int(duration_us / step) + 1))
+    bad = [t for t in times if not 0 <= t <= duration_us]
+    if bad:
+        raise InvalidParameterError(f"reference time {min(bad)} us lies outside the scene [0, {duration_us}] us")
+    return sorted(times)
+
+
+def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, progress: bool = True,
+                  metadata: dict | None = None) -> GenerationResult:
+    """Simulate `scene` (a sim.source.RadianceSource) into a native HDF5 file at `path` (written atomically).
+
+    seed: int or numpy SeedSequence; child 0 seeds the DVS, child 1 the camera. The same seed and configuration
+    give bit-identical events and frames. metadata: extra keys stored with the sequence (e.g. its name).
+    """
+    config = config or AHDRConfig()
+    ss = sim.dvs.as_seed_sequence(seed)
+    src = _TimedSource(scene)
+    h, w, duration = scene.height, scene.width, int(scene.duration_us)
+    dvs_params, cam_params, crf = resolve_sensors(scene, config)
+    refs = _reference_times(config, duration)
+    dvs = sim.DVSEmulator(h, w, dvs_params, child_seed(ss, 0), return_labels=config.labels)
+    camera = sim.LDRCamera(h, w, cam_params, crf, child_seed(ss, 1))
+    # The DVS is sampled at every reference time too, so its input is exact there.
+    schedule = cam_params.schedule(h, duration)
+    breakpoints = sorted(set(refs) | set(schedule[:, 1].tolist()))
+    if config.sampling == "adaptive":
+        threshold = min(dvs_params.pos_threshold, dvs_params.neg_threshold)
+        sampler = make_sampler(src, "adaptive", threshold=threshold, fraction=config.sampling_fraction,
+                               min_step_us=config.min_step_us, max_step_us=config.max_step_us,
+                               log_eps=dvs_params.dark_fraction * dvs_params.full_illumination,
+                               breakpoints_us=breakpoints)
+    else:
+        sampler = make_sampler(src, config.sampling, rate_hz=config.rate_hz, breakpoints_us=breakpoints)
+    resolved = config.to_dict()
+    resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))
+    resolved["camera"] = _jsonable(dataclasses.asdict(cam_params))
+    meta = {
+        "generator": "ahdr",
+        "seed": seed_record(ss),
+        "config": resolved,
+        "scene": scene.describe() if hasattr(scene, "describe") else {"type": type(scene).__name__},
+        "duration_us": duration,
+        "crf": {"name": crf.name, "params": _jsonable(crf.params)},
+        "packages": package_versions(),
+        **(metadata or {}),
+    }
+    timings = {"scene": 0.0, "dvs": 0.0, "camera": 0.0, "writing": 0.0}
+    counts = {"events": 0, "frames": 0, "references": 0}
+    t_total = time.perf_counter()
+    with NativeWriter(path, h, w, metadata=meta, frame_bit_depth=cam_params.bit_depth,
+                      compression=config.compression) as writer:
+
+        def write(method, *args):
+            t0 = time.perf_counter()
+            getattr(writer, method)(*args)
+            timings["writing"] += time.perf_counter() - t0
+
+        def feed(stack, times):
+            t0 = time.perf_counter()
+            out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
+            timings["dvs"] += time.perf_counter() - t0
+            events, labels = out if config.labels else (out, None)
+            write("add_events", events, labels)
+            counts["events"] += events.size
+
+        def reference(t):
+            write("add_reference", src.radiance(t), t)
+            counts["references"] += 1
+
+        writer.set_crf(meta["crf"])
+        if config.threshold_maps:
+            writer.set_threshold_maps(dvs.threshold_map)
+        chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
+        with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+            stack, times = [], []
+            samples = iter(sampler)
+            while True:
+                t0 = time.perf_counter()
+                item = next(samples, None)
+                timings["scene"] += time.perf_counter() - t0  # rendering and step control
+                if item is None:
+                    break
+                t, img = item
+                stack.append(img)
+                times.append(t)
+                if len(stack) == chunk:
+                    feed(stack, times)
+                    bar.update(t - bar.n)
+                    stack, times = [], []
+            if stack:
+                feed(stack, times)
+            bar.update(duration - bar.n)
+        rendered_for_dvs = src.seconds
+        with tqdm(total=len(schedule), unit="frame", desc="frames",
+                  disable=not progress, leave=False) as bar:
+            frames = camera.capture(src, irradiance=False, clean_response=False)
+            while True:
+                t0, s0 = time.perf_counter(), src.seconds
+                frame = next(frames, None)
+                timings["camera"] += (time.perf_counter() - t0) - (src.seconds - s0)
+                mid = None if frame is None else int(frame.t_mid_us)
+                while refs and (mid is None or refs[0] < mid):
+                    reference(refs.pop(0))
+                if frame is None:
+                    break
+                if refs and refs[0] == mid:
+                    refs.pop(0)
+                write("add_frame", frame.image, int(frame.t_start_us), mid, int(frame.t_end_us))
+                reference(mid)
+                counts["frames"] += 1
+                bar.update(1)
+        writer.update_metadata({"n_dvs_samples": sampler.n_samples,
+                                "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),
+                                "n_events": counts["events"], "n_frames": counts["frames"],
+                                "n_references": counts["references"]})
+        t_close = time.perf_counter()
+    timings["writing"] += time.perf_counter() - t_close
+    timings["scene"] += src.seconds - rendered_for_dvs  # rendering for the camera and the references
+    timings["total"] = time.perf_counter() - t_total
+    return GenerationResult(Path(path), counts["events"], counts["frames"], counts["references"],
+                            sampler.n_samples, timings)

@@ -1,0 +1,323 @@
+"""Dataset configuration files (TOML) and scene specifications.
+
+A configuration describes a dataset of sequences. Every key is optional except [[sequence]].scene.type:
+
+    seed = 0                      # root seed (numpy SeedSequence entropy); sequence i gets its i-th child
+    format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat
+
+    [defaults]                    # applies to every sequence; a sequence may override any of these keys
+    duration_s = 1.0              # seconds
+    height = 180                  # pixels
+    width = 240                   # pixels
+    sensor = "davis346"           # sim.DVSParams preset
+    dvs = { pos_threshold = 0.2 } # sim.DVSParams fields (log units, Hz, microseconds as named)
+    camera = { fps = 20.0 }       # sim.CameraParams fields
+    crf = { name = "window", params = {} }   # crf_models.get(name, **params)
+    sampling = { mode = "adaptive", fraction = 0.5, min_step_us = 10, max_step_us = 5000, rate_hz = 2000.0 }
+    output = { labels = false, threshold_maps = true, reference_times_us = [], reference_rate_hz = 0.0,
+               compression = "gzip" }   # or "lzf" (faster to write, larger) or "none"
+
+    [[sequence]]
+    name = "desk_pan"
+    speeds = [0.5, 1.0, 2.0]      # optional: one sequence per factor, all scene speeds scaled by it
+    scene = { type = "image", path = "Desk.exr", trajectory = { pan_px_per_s = [120.0, 0.0] } }
+
+    [sweep]                       # for `evsim generate sweep` (first sequence only): lists of values
+    threshold_sigma = [0.0, 0.03]
+
+Scene types: see SCENE_TYPES; the other keys of a scene table are the keyword arguments of the scene class
+(lists become tuples; "path" is relative to the configuration file). Errors raise InvalidParameterError naming
+the file and the key.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import sim
+from sim import EvsimInputError, InvalidParameterError
+
+from . import scenes
+
+SCENE_TYPES = {
+    "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
+             "scale, interpolation, border, gain",
+    "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
+              "set the duration; their size must match height and width)",
+    "builtin_image": "an image shipped with scikit-image made HDR (see generators.builtin): image, trajectory {...}",
+    "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",
+    "rotating_disk": "RotatingDisk", "flicker": "FlickeringLight", "sun": "SunPatch",
+}
+_SPEED_KEYS = ("speed_px_per_s", "velocity_px_per_s", "angular_speed_deg_s")
+_TRAJECTORY_SPEED_KEYS = ("pan_px_per_s", "zoom_per_s", "rotation_deg_per_s", "shake_hz")
+
+SAMPLING_KEYS = {"mode": str, "fraction": float, "min_step_us": int, "max_step_us": int, "rate_hz": float}
+OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": list, "reference_rate_hz": float,
+               "compression": str}
+SEQUENCE_KEYS = {"duration_s": float, "height": int, "width": int, "sensor": str, "dvs": dict, "camera": dict,
+                 "crf": dict, "sampling": dict, "output": dict}
+SWEEP_KEYS = ("threshold_sigma", "shot_noise_hz", "leak_hz", "refractory_us", "hot_pixel_fraction", "hot_pixel_hz")
+
+DEFAULTS = {
+    "duration_s": 1.0, "height": 180, "width": 240, "sensor": "davis346", "dvs": {}, "camera": {},
+    "crf": {"name": "window", "params": {}},
+    "sampling": {"mode": "adaptive", "fraction": 0.5, "min_step_us": 10, "max_step_us": 5000, "rate_hz": 2000.0},
+    "output": {"labels": False, "threshold_maps": True, "reference_times_us": [], "reference_rate_hz": 0.0,
+               "compression": "gzip"},
+}
+
+
+@dataclass
+class SequenceSpec:
+    """One sequence of a dataset, fully resolved: settings as in DEFAULTS plus name and scene."""
+
+    name: str
+    scene: dict
+    settings: dict
+
+    @property
+    def duration_us(self) -> int:
+        return int(round(self.settings["duration_s"] * 1e6))
+
+
+@dataclass
+class DatasetConfig:
+    seed: int
+    format: str
+    sequences: list[SequenceSpec]
+    sweep: dict
+    source: str = "<flags>"
+
+
+def _fail(where: str, msg: str) -> InvalidParameterError:
+    return InvalidParameterError(f"{where}: {msg}")
+
+
+def _check_type(where: str, value, kind):
+    ok = {float: lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
+          int: lambda v: isinstance(v, int) and not isinstance(v, bool)}.get(kind, lambda v: isinstance(v, kind))
+    if not ok(value):
+        raise _fail(where, f"expected {kind.__name__}, got {type(value).__name__} {value!r}")
+    return float(value) if kind is float else value
+
+
+def _check_table(where: str, table, allowed: dict) -> dict:
+    if not isinstance(table, dict):
+        raise _fail(where, f"expected a table, got {type(table).__name__}")
+    out = {}
+    for key, value in table.items():
+        if key not in allowed:
+            raise _fail(f"{where}.{key}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
+        out[key] = _check_type(f"{where}.{key}", value, allowed[key])
+    return out
+
+
+def _field_names(cls) -> set[str]:
+    return {f.name for f in dataclasses.fields(cls)}
+
+
+def _resolve_settings(where: str, table: dict, base: dict) -> dict:
+    """Validate the sequence-level keys of `table` and merge them over `base` (sub-tables merged key by key)."""
+    settings = copy.deepcopy(base)
+    for key, value in table.items():
+        value = _check_type(f"{where}.{key}", value, SEQUENCE_KEYS[key])
+        if key == "sampling":
+            value = _check_table(f"{where}.sampling", value, SAMPLING_KEYS)
+        elif key == "output":
+            value = _check_table(f"{where}.output", value, OUTPUT_KEYS)
+            for i, t in enumerate(value.get("reference_times_us", [])):
+                _check_type(f"{where}.output.reference_times_us[{i}]", t, int)
+        elif key == "dvs":
+            unknown = set(value) - _field_names(sim.DVSParams)
+            if unknown:
+                raise _fail(f"{where}.dvs.{sorted(unknown)[0]}", "unknown sim.DVSParams field")
+        elif key == "crf":
+            value = _check_table(f"{where}.crf", value, {"name": str, "params": dict})
+        if isinstance(value, dict) and key != "crf":
+            settings[key] = {**settings[key], **value}
+        else:
+            settings[key] = value
+    if settings["sensor"] not in sim.DVS_PRESETS:
+        raise _fail(f"{where}.sensor", f"unknown DVS preset {settings['sensor']!r}; known: "
+                                       f"{', '.join(sorted(sim.DVS_PRESETS))}")
+    if settings["sampling"]["mode"] not in ("adaptive", "fixed"):
+        raise _fail(f"{where}.sampling.mode", f"must be 'adaptive' or 'fixed', got {settings['sampling']['mode']!r}")
+    if settings["output"]["compression"] not in ("gzip", "lzf", "none"):
+        raise _fail(f"{where}.output.compression",
+                    f"must be 'gzip', 'lzf' or 'none', got {settings['output']['compression']!r}")
+    for key in ("height", "width"):
+        if settings[key] < 1:
+            raise _fail(f"{where}.{key}", f"must be a positive number of pixels, got {settings[key]}")
+    if not settings["duration_s"] > 0:
+        raise _fail(f"{where}.duration_s", f"must be > 0 seconds, got {settings['duration_s']}")
+    return settings
+
+
+def _scale_speeds(scene: dict, k: float) -> dict:
+    scene = copy.deepcopy(scene)
+    for key in _SPEED_KEYS:
+        if key in scene:
+            v = scene[key]
+            scene[key] = [k * x for x in v] if isinstance(v, list) else k * v
+    traj = scene.get("trajectory")
+    if isinstance(traj, dict):
+        for key in _TRAJECTORY_SPEED_KEYS:
+            if key in traj:
+                v = traj[key]
+                traj[key] = [k * x for x in v] if isinstance(v, list) else k * v
+    return scene
+
+
+def _check_scene(where: str, scene, base_dir: Path) -> dict:
+    if not isinstance(scene, dict):
+        raise _fail(where, "expected a table with at least 'type'")
+    if "type" not in scene:
+        raise _fail(f"{where}.type", f"missing; one of {', '.join(SCENE_TYPES)}")
+    if scene["type"] not in SCENE_TYPES:
+        raise _fail(f"{where}.type", f"unknown scene type {scene['type']!r}; one of {', '.join(SCENE_TYPES)}")
+    scene = dict(scene)
+    if "path" in scene:
+        p = Path(_check_type(f"{where}.path", scene["path"], str)).expanduser()
+        scene["path"] = str(p if p.is_absolute() else (base_dir / p).resolve())
+    elif scene["type"] in ("image", "frames"):
+        raise _fail(f"{where}.path", f"required for scene type {scene['type']!r}")
+    return scene
+
+
+def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None = None) -> DatasetConfig:
+    """Validate a configuration already parsed from TOML (a dict) and resolve every sequence."""
+    base_dir = Path.cwd() if base_dir is None else base_dir
+    top = {"seed": int, "format": str, "defaults": dict, "sequence": list, "sweep": dict}
+    for key in data:
+        if key not in top:
+            raise _fail(f"{source}: {key}", f"unknown key (allowed: {', '.join(top)})")
+    seed = _check_type(f"{source}: seed", data.get("seed", 0), int)
+    if seed < 0:
+        raise _fail(f"{source}: seed", f"must be >= 0, got {seed}")
+    fmt = _check_type(f"{source}: format", data.get("format", "native"), str)
+    if fmt not in ("native", "e2vid", "ijrr", "akf-mat"):
+        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of native, e2vid, ijrr, akf-mat")
+    defaults_table = _check_type(f"{source}: defaults", data.get("defaults", {}), dict)
+    for key in defaults_table:
+        if key not in SEQUENCE_KEYS:
+            raise _fail(f"{source}: defaults.{key}", f"unknown key (allowed: {', '.join(SEQUENCE_KEYS)})")
+    defaults = _resolve_settings(f"{source}: defaults", defaults_table, DEFAULTS)
+    seq_tables = _check_type(f"{source}: sequence", data.get("sequence", []), list)
+    if not seq_tables:
+        raise _fail(f"{source}: sequence", "no [[sequence]] defined")
+    sequences, names = [], set()
+    for i, table in enumerate(seq_tables):
+        where = f"{source}: sequence[{i}]"
+        if not isinstance(table, dict):
+            raise _fail(where, "expected a table")
+        own = {"name", "scene", "speeds"}
+        for key in table:
+            if key not in own and key not in SEQUENCE_KEYS:
+                raise _fail(f"{where}.{key}", f"unknown key (allowed: {', '.join([*own, *SEQUENCE_KEYS])})")
+        name = _check_type(f"{where}.name", table.get("name", f"seq{i:03d}"), str)
+        scene = _check_scene(f"{where}.scene", table.get("scene"), base_dir)
+        settings = _resolve_settings(where, {k: v for k, v in table.items() if k in SEQUENCE_KEYS}, defaults)
+        speeds = _check_type(f"{where}.speeds", table.get("speeds", [None]), list)
+        for k in speeds:
+            if k is not None:
+                k = _check_type(f"{where}.speeds", k, float)
+            seq_name = name if k is None else f"{name}_x{k:g}"
+            if seq_name in names:
+                raise _fail(f"{where}.name", f"duplicate sequence name {seq_name!r}")
+            names.add(seq_name)
+            sequences.append(SequenceSpec(seq_name, scene if k is None else _scale_speeds(scene, k), settings))
+    sweep = _check_type(f"{source}: sweep", data.get("sweep", {}), dict)
+    for key, values in sweep.items():
+        if key not in SWEEP_KEYS:
+            raise _fail(f"{source}: sweep.{key}", f"unknown sweep parameter (allowed: {', '.join(SWEEP_KEYS)})")
+        if not isinstance(values, list) or not values:
+            raise _fail(f"{source}: sweep.{key}", "expected a non-empty list of values")
+        for v in values:
+            _check_type(f"{source}: sweep.{key}", v, int if key == "refractory_us" else float)
+    return DatasetConfig(seed, fmt, sequences, sweep, source)
+
+
+def load_config(path: str | Path) -> DatasetConfig:
+    """Read and validate a TOML dataset configuration (see the module docstring)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise EvsimInputError(f"configuration file not found: {path}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
+    return parse_config(data, source=str(path), base_dir=path.parent.resolve())
+
+
+def _as_tuples(v):
+    if isinstance(v, list):
+        return tuple(_as_tuples(x) for x in v)
+    if isinstance(v, dict):
+        return {k: _as_tuples(x) for k, x in v.items()}
+    return v
+
+
+def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where: str = "scene"):
+    """Construct the radiance source described by a scene table (see SCENE_TYPES) at the given size/duration."""
+    params = {k: _as_tuples(v) for k, v in scene.items() if k != "type"}
+    kind = scene["type"]
+    try:
+        if kind in ("image", "builtin_image"):
+            traj = scenes.Trajectory(**params.pop("trajectory", {}))
+            if kind == "image":
+                return scenes.ImageMotionScene.from_file(params.pop("path"), duration_us, traj, height=height,
+                                                         width=width, **params)
+            from .builtin import builtin_image_scene
+
+            return builtin_image_scene(height, width, duration_us, traj, **params)
+        if kind == "frames":
+            src = scenes.FrameSequenceScene.from_folder(params.pop("path"), **params)
+            if (src.height, src.width) != (height, width):
+                raise _fail(where, f"frames are {src.width}x{src.height} but the sequence asks for {width}x{height}")
+            return src
+        cls = getattr(scenes, SCENE_TYPES[kind])
+        return cls(height, width, duration_us, **params)
+    except TypeError as e:  # an unexpected keyword argument: name it
+        raise _fail(where, f"bad parameter for scene type {kind!r}: {e}") from None
+
+
+def to_ahdr_config(settings: dict, *, where: str = "settings"):
+    """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS)."""
+    from .ahdr import AHDRConfig
+
+    dvs_over = dict(settings["dvs"])
+    cam_over = dict(settings["camera"])
+    cam_preset = cam_over.pop("preset", None)
+    unknown = set(cam_over) - _field_names(sim.CameraParams)
+    if unknown:
+        raise _fail(f"{where}.camera.{sorted(unknown)[0]}", "unknown sim.CameraParams field")
+    for key in ("exposure_us", "frame_times_us"):
+        if isinstance(cam_over.get(key), list):
+            cam_over[key] = tuple(cam_over[key])
+    try:
+        dvs = sim.DVSParams.preset(settings["sensor"], **dvs_over)
+    except InvalidParameterError as e:
+        raise _fail(f"{where}.dvs", str(e)) from None
+    try:
+        camera = (sim.CameraParams.preset(cam_preset, **cam_over) if cam_preset is not None
+                  else sim.CameraParams(**cam_over))
+    except (InvalidParameterError, TypeError) as e:
+        raise _fail(f"{where}.camera", str(e)) from None
+    sampling, output = settings["sampling"], settings["output"]
+    try:
+        return AHDRConfig(
+            dvs=dvs, camera=camera, crf=settings["crf"].get("name", "window"),
+            crf_params=settings["crf"].get("params", {}), auto_exposure="reference_radiance" not in cam_over,
+            auto_illumination="full_illumination" not in dvs_over, sampling=sampling["mode"],
+            sampling_fraction=sampling["fraction"], min_step_us=sampling["min_step_us"],
+            max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
+            reference_times_us=tuple(output["reference_times_us"]), reference_rate_hz=output["reference_rate_hz"],
+            threshold_maps=output["threshold_maps"], labels=output["labels"],
+            compression=None if output["compression"] == "none" else output["compression"],
+        )
+    except InvalidParameterError as e:
+        raise _fail(where, str(e)) from None

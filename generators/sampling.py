@@ -1,0 +1,140 @@
+"""Choosing the times at which the DVS samples a radiance source.
+
+The DVS emulator interpolates log intensity linearly between the samples it is fed, so samples must be dense
+enough that log intensity is close to linear between them. Two strategies, both iterators of (t_us, radiance)
+pairs (one image alive at a time, so memory stays flat) that count the samples they produce:
+
+- AdaptiveSampler (ESIM's idea): the next step is predicted from the last two samples so that the largest
+  per-pixel change of L = log(I + log_eps) stays below `fraction * threshold`; a sample that turns out to exceed it
+  is discarded and the step halved (bisection) until it fits or reaches min_step_us. Steps never exceed
+  max_step_us.
+- FixedRateSampler: a regular grid at rate_hz, plus the end time.
+
+Times are int64 microseconds, strictly increasing, from t_start_us to t_end_us inclusive, and include every
+time of `breakpoints_us` in that range (e.g. the reference-frame times, so that the DVS state is exact there).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from sim import InvalidParameterError
+
+# Fraction of the predicted step actually taken, so that a constant rate of change lands below the bound.
+_SAFETY = 0.9
+
+
+def _time_range(source, t_start_us, t_end_us) -> tuple[int, int]:
+    t_end_us = source.duration_us if t_end_us is None else int(t_end_us)
+    if not 0 <= t_start_us < t_end_us <= source.duration_us:
+        raise InvalidParameterError(f"sampling range [{t_start_us}, {t_end_us}] us must satisfy "
+                                    f"0 <= start < end <= duration_us={source.duration_us}")
+    return int(t_start_us), t_end_us
+
+
+def _breakpoints(breakpoints_us, t_start: int, t_end: int) -> np.ndarray:
+    b = np.unique(np.asarray(breakpoints_us, dtype=np.int64).ravel())
+    return b[(b > t_start) & (b < t_end)]
+
+
+def _positive_int(name: str, v) -> int:
+    if isinstance(v, bool) or int(v) != v or v < 1:
+        raise InvalidParameterError(f"{name} must be a positive integer (microseconds), got {v!r}")
+    return int(v)
+
+
+class AdaptiveSampler:
+    """Samples of `source` such that max |L(t_{k+1}) - L(t_k)| <= fraction * threshold (unless at min_step_us).
+
+    threshold: the DVS contrast threshold (natural-log units); fraction: its share allowed between samples
+    (0 < fraction <= 1); min_step_us, max_step_us: step bounds (microseconds); log_eps: the offset in log(I + eps),
+    in radiance units (use the DVS's dark level). After iteration: n_samples (yielded), n_evaluations (radiance
+    calls, including rejected trials) and n_at_min_step (steps accepted at min_step_us although above the bound).
+    """
+
+    def __init__(self, source, *, threshold: float, fraction: float = 0.5, min_step_us: int = 10,
+                 max_step_us: int = 10_000, log_eps: float = 1e-4, t_start_us: int = 0, t_end_us: int | None = None,
+                 breakpoints_us=()):
+        if not threshold > 0 or not 0 < fraction <= 1:
+            raise InvalidParameterError(f"need threshold > 0 and 0 < fraction <= 1, got threshold={threshold!r}, "
+                                        f"fraction={fraction!r}")
+        if not log_eps > 0:
+            raise InvalidParameterError(f"log_eps must be > 0, got {log_eps!r}")
+        self.source = source
+        self.max_change = float(threshold) * float(fraction)
+        self.min_step = _positive_int("min_step_us", min_step_us)
+        self.max_step = _positive_int("max_step_us", max_step_us)
+        if self.max_step < self.min_step:
+            raise InvalidParameterError(f"max_step_us={max_step_us} is below min_step_us={min_step_us}")
+        self.log_eps = np.float32(log_eps)
+        self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
+        self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)
+        self.n_samples = self.n_evaluations = self.n_at_min_step = 0
+
+    def _log(self, img: np.ndarray) -> np.ndarray:
+        return np.log(img + self.log_eps)
+
+    def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
+        self.n_samples = self.n_evaluations = self.n_at_min_step = 0
+        t = self.t_start
+        img = self.source.radiance(t)
+        log_prev = self._log(img)
+        self.n_evaluations += 1
+        self.n_samples += 1
+        yield t, img
+        rate = None  # largest per-pixel |dL/dt| seen between the last two samples, per microsecond
+        while t < self.t_end:
+            dt = self.max_step if not rate else int(np.clip(_SAFETY * self.max_change / rate, self.min_step, self.max_step))
+            k = np.searchsorted(self.breakpoints, t, side="right")
+            dt = min(dt, (self.breakpoints[k] if k < self.breakpoints.size else self.t_end) - t)
+            while True:
+                img = self.source.radiance(t + dt)
+                log_new = self._log(img)
+                self.n_evaluations += 1
+                change = float(np.max(np.abs(log_new - log_prev)))
+                if change <= self.max_change or dt <= self.min_step:
+                    break
+                dt = max(self.min_step, dt // 2)
+            if change > self.max_change:
+                self.n_at_min_step += 1
+            rate = change / dt
+            t += dt
+            log_prev = log_new
+            self.n_samples += 1
+            yield t, img
+
+
+class FixedRateSampler:
+    """Samples of `source` every round(1e6 / rate_hz) microseconds from t_start_us, at the breakpoints, and at
+    t_end_us."""
+
+    def __init__(self, source, *, rate_hz: float, t_start_us: int = 0, t_end_us: int | None = None,
+                 breakpoints_us=()):
+        if not rate_hz > 0 or not np.isfinite(rate_hz):
+            raise InvalidParameterError(f"rate_hz must be a finite positive number, got {rate_hz!r}")
+        self.source = source
+        self.step = max(1, round(1e6 / rate_hz))
+        self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
+        self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)
+        self.n_samples = 0
+
+    def times(self) -> np.ndarray:
+        """The sample times (int64 microseconds)."""
+        grid = np.arange(self.t_start, self.t_end, self.step, dtype=np.int64)
+        return np.union1d(np.append(grid, self.breakpoints), [self.t_end])
+
+    def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
+        self.n_samples = 0
+        for t in self.times():
+            self.n_samples += 1
+            yield int(t), self.source.radiance(int(t))
+
+
+def make_sampler(source, mode: str = "adaptive", **kwargs):
+    """AdaptiveSampler (mode "adaptive") or FixedRateSampler (mode "fixed") with the given keyword arguments."""
+    samplers = {"adaptive": AdaptiveSampler, "fixed": FixedRateSampler}
+    if mode not in samplers:
+        raise InvalidParameterError(f"sampling mode must be one of {sorted(samplers)}, got {mode!r}")
+    return samplers[mode](source, **kwargs)

@@ -1,0 +1,239 @@
+"""A still HDR image under continuous camera motion (pan, zoom, rotation, hand-held shake).
+
+The output image at time t samples the source image through a homography H(t) that maps output pixel coordinates
+to source pixel coordinates (cv2.warpPerspective with WARP_INVERSE_MAP, bilinear or bicubic interpolation, a
+reflective or constant border). Loading: OpenEXR (.exr, the OpenEXR File API), Radiance (.hdr/.pic, OpenCV),
+numpy (.npy), or an LDR image (.png, .jpg, .tif, ...) linearised through an inverse CRF from crf_models.
+Colour is reduced to luminance (see luminance.py) unless a channel is selected.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sim import EvsimInputError, InvalidParameterError
+
+from .base import Scene, positive
+from .luminance import to_luminance
+
+_INTERPOLATION = {"linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
+_BORDER = {"reflect": cv2.BORDER_REFLECT_101, "constant": cv2.BORDER_CONSTANT}
+# Hand-held shake: three sinusoids per axis at these multiples of shake_hz, with these relative amplitudes.
+_SHAKE_HARMONICS = np.array([1.0, 1.7, 2.9])
+_SHAKE_WEIGHTS = np.array([1.0, 0.5, 0.25])
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A smooth camera motion, as seen in the output image.
+
+    pan_px_per_s: (vx, vy) velocity of the view over the source, in output pixels per second (the content moves
+        the opposite way).
+    zoom_per_s: magnification rate: magnification(t) = exp(zoom_per_s * t) (t in seconds; > 0 zooms in).
+    rotation_deg_per_s: rotation of the view about the image centre, degrees per second.
+    shake_px, shake_deg: amplitudes of hand-held shake in translation (output pixels) and rotation (degrees):
+        a sum of three sinusoids per axis at shake_hz * (1, 1.7, 2.9) with relative amplitudes (1, 0.5, 0.25) and
+        phases drawn from shake_seed.
+    """
+
+    pan_px_per_s: tuple[float, float] = (0.0, 0.0)
+    zoom_per_s: float = 0.0
+    rotation_deg_per_s: float = 0.0
+    shake_px: float = 0.0
+    shake_deg: float = 0.0
+    shake_hz: float = 2.0
+    shake_seed: int = 0
+
+    def __post_init__(self):
+        if len(self.pan_px_per_s) != 2:
+            raise InvalidParameterError(f"Trajectory: pan_px_per_s must be (vx, vy), got {self.pan_px_per_s!r}")
+        object.__setattr__(self, "pan_px_per_s", tuple(float(v) for v in self.pan_px_per_s))
+        for name in ("zoom_per_s", "rotation_deg_per_s", "shake_px", "shake_deg", "shake_hz"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise InvalidParameterError(f"Trajectory: {name} must be finite, got {getattr(self, name)!r}")
+        positive("shake_px", self.shake_px, "Trajectory", allow_zero=True)
+        positive("shake_deg", self.shake_deg, "Trajectory", allow_zero=True)
+        positive("shake_hz", self.shake_hz, "Trajectory")
+        phases = np.random.default_rng(self.shake_seed).uniform(0, 2 * np.pi, size=(3, 3))
+        object.__setattr__(self, "_phases", phases)
+
+    def _shake(self, t_s: float) -> np.ndarray:
+        """(dx px, dy px, dtheta deg) of the shake at t_s seconds."""
+        w = 2 * np.pi * self.shake_hz * _SHAKE_HARMONICS
+        s = (_SHAKE_WEIGHTS[None, :] * np.sin(w[None, :] * t_s + self._phases)).sum(axis=1)
+        return s * np.array([self.shake_px, self.shake_px, self.shake_deg])
+
+    def homography(self, t_us: int, out_size: tuple[int, int], src_centre: tuple[float, float],
+                   scale: float) -> np.ndarray:
+        """3x3 matrix mapping output (x, y, 1) to source coordinates at t_us.
+
+        out_size: (height, width) of the output; src_centre: source point shown at the output centre at t=0;
+        scale: source pixels per output pixel at t=0.
+        """
+        t = t_us * 1e-6
+        dx, dy, dtheta = self._shake(t)
+        theta = math.radians(self.rotation_deg_per_s * t + dtheta)
+        s = scale * math.exp(-self.zoom_per_s * t)
+        c, si = math.cos(theta), math.sin(theta)
+        cx_out, cy_out = (out_size[1] - 1) / 2, (out_size[0] - 1) / 2
+        tx = src_centre[0] + scale * (self.pan_px_per_s[0] * t + dx)
+        ty = src_centre[1] + scale * (self.pan_px_per_s[1] * t + dy)
+        a = s * np.array([[c, -si], [si, c]])
+        m = np.eye(3)
+        m[:2, :2] = a
+        m[:2, 2] = np.array([tx, ty]) - a @ np.array([cx_out, cy_out])
+        return m
+
+    def max_speed_px_per_s(self, out_size: tuple[int, int], duration_us: int) -> float:
+        """Upper bound of image-plane speed (output pixels per second) over [0, duration_us]."""
+        r = math.hypot(out_size[0], out_size[1]) / 2
+        w = 2 * np.pi * self.shake_hz * _SHAKE_HARMONICS
+        shake_v = float((_SHAKE_WEIGHTS * w).sum())
+        mag = math.exp(abs(self.zoom_per_s) * duration_us * 1e-6)
+        trans = math.hypot(*self.pan_px_per_s) + math.sqrt(2) * self.shake_px * shake_v
+        rot = math.radians(abs(self.rotation_deg_per_s) + self.shake_deg * shake_v)
+        return mag * trans + (abs(self.zoom_per_s) + rot) * r
+
+    def describe(self) -> dict:
+        d = asdict(self)
+        d["pan_px_per_s"] = list(self.pan_px_per_s)
+        return d
+
+
+def load_image(path: str | Path, *, channel: str | int | None = None, crf: str | object = "srgb",
+               crf_params: dict | None = None) -> np.ndarray:
+    """Load an image as float32 (H, W) linear luminance (or the selected channel).
+
+    .exr (OpenEXR), .hdr/.pic (Radiance) and .npy are taken as linear radiance. Any other format OpenCV reads is an
+    LDR image: its values are normalised to [0, 1] by the integer type's maximum and linearised with the inverse of
+    `crf` (a crf_models name, built with crf_params, or an object with an inverse(response) method).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise EvsimInputError(f"image file not found: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".exr":
+        img = _read_exr(path)
+    elif suffix in (".hdr", ".pic"):
+        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if img is None:
+            raise EvsimInputError(f"cannot read Radiance image {path}")
+        img = img[..., ::-1] if img.ndim == 3 else img
+    elif suffix == ".npy":
+        img = np.load(path, allow_pickle=False)
+    else:
+        raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if raw is None:
+            raise EvsimInputError(f"cannot read image {path} (supported: .exr, .hdr, .npy and OpenCV's LDR formats)")
+        if raw.ndim == 3:
+            raw = raw[..., :3][..., ::-1]
+        img = linearise_ldr(raw, crf, crf_params)
+    try:
+        return to_luminance(img, channel)
+    except EvsimInputError as e:
+        raise EvsimInputError(f"{path}: {e}") from None
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    import OpenEXR
+
+    try:
+        channels = OpenEXR.File(str(path)).channels()
+    except Exception as e:  # the OpenEXR binding raises plain exceptions for unreadable files
+        raise EvsimInputError(f"cannot read OpenEXR file {path}: {e}") from None
+    for key in ("RGB", "RGBA"):
+        if key in channels:
+            return np.asarray(channels[key].pixels)[..., :3]
+    if all(k in channels for k in "RGB"):
+        return np.stack([np.asarray(channels[k].pixels) for k in "RGB"], axis=-1)
+    if "Y" in channels:
+        return np.asarray(channels["Y"].pixels)
+    raise EvsimInputError(f"OpenEXR file {path} has no RGB, RGBA or Y channels (has {sorted(channels)})")
+
+
+def linearise_ldr(image: np.ndarray, crf: str | object = "srgb", crf_params: dict | None = None) -> np.ndarray:
+    """Linearise an integer LDR image (any channels) with the inverse CRF; returns float32 in the CRF's linear units."""
+    img = np.asarray(image)
+    if not np.issubdtype(img.dtype, np.integer):
+        raise EvsimInputError(f"an LDR image must have an integer dtype, got {img.dtype}")
+    if isinstance(crf, str):
+        import crf_models
+
+        try:
+            crf = crf_models.get(crf, **(crf_params or {}))
+        except crf_models.CRFError as e:
+            raise InvalidParameterError(str(e)) from None
+    response = img.astype(np.float64) / np.iinfo(img.dtype).max
+    return np.asarray(crf.inverse(response), dtype=np.float32)
+
+
+class ImageMotionScene(Scene):
+    """A still linear image seen by a moving camera.
+
+    image: (H, W) linear radiance (or (H, W, C) colour, reduced with `channel` as in to_luminance).
+    height, width: output size (default: the source size). scale: source pixels per output pixel at t=0
+    (default: the largest view that fits inside the source). When scale > 1 the source is first reduced with area
+    averaging so that the warp never decimates (which would alias).
+    interpolation: "linear" (bilinear) or "cubic" (bicubic; negative overshoots are clipped to 0).
+    border: "reflect" (mirror without repeating the edge pixel) or "constant" (border_value).
+    """
+
+    def __init__(self, image: np.ndarray, duration_us: int, trajectory: Trajectory | None = None, *,
+                 height: int | None = None, width: int | None = None, scale: float | None = None,
+                 channel: str | int | None = None, interpolation: str = "linear", border: str = "reflect",
+                 border_value: float = 0.0, gain: float = 1.0, name: str | None = None):
+        src = to_luminance(image, channel)
+        sh, sw = src.shape
+        height = sh if height is None else height
+        width = sw if width is None else width
+        self._init_size(height, width, duration_us)
+        if interpolation not in _INTERPOLATION:
+            raise InvalidParameterError(f"ImageMotionScene: interpolation must be one of {sorted(_INTERPOLATION)}, "
+                                        f"got {interpolation!r}")
+        if border not in _BORDER:
+            raise InvalidParameterError(f"ImageMotionScene: border must be one of {sorted(_BORDER)}, got {border!r}")
+        self.trajectory = trajectory or Trajectory()
+        self.interpolation, self.border = interpolation, border
+        self.border_value = positive("border_value", border_value, "ImageMotionScene", allow_zero=True)
+        self.gain = positive("gain", gain, "ImageMotionScene")
+        self.name = name
+        scale = min(sh / self.height, sw / self.width) if scale is None else positive("scale", scale, "ImageMotionScene")
+        self.scale = scale
+        if scale > 1:
+            nw, nh = max(1, round(sw / scale)), max(1, round(sh / scale))
+            src = cv2.resize(src, (nw, nh), interpolation=cv2.INTER_AREA)
+            scale = scale * nw / sw
+            sh, sw = nh, nw
+        self._src = src * np.float32(self.gain)
+        self._src_scale = scale
+        self._src_centre = ((sw - 1) / 2, (sh - 1) / 2)
+
+    @classmethod
+    def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
+                  channel: str | int | None = None, crf: str | object = "srgb", crf_params: dict | None = None,
+                  **kwargs) -> ImageMotionScene:
+        """Build from an image file (see load_image); kwargs as for the constructor."""
+        img = load_image(path, channel=channel, crf=crf, crf_params=crf_params)
+        return cls(img, duration_us, trajectory, name=kwargs.pop("name", str(path)), **kwargs)
+
+    def homography(self, t_us: int) -> np.ndarray:
+        """The output-to-source homography at t_us (source coordinates of the possibly pre-reduced image)."""
+        return self.trajectory.homography(t_us, (self.height, self.width), self._src_centre, self._src_scale)
+
+    def _render(self, t_us):
+        img = cv2.warpPerspective(self._src, self.homography(t_us), (self.width, self.height),
+                                  flags=_INTERPOLATION[self.interpolation] | cv2.WARP_INVERSE_MAP,
+                                  borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
+        return np.maximum(img, 0.0, out=img) if self.interpolation == "cubic" else img
+
+    def max_speed_px_per_s(self):
+        return self.trajectory.max_speed_px_per_s((self.height, self.width), self.duration_us)
+
+    def _params(self):
+        return {"image": self.name, "trajectory": self.trajectory.describe(), "scale": self.scale,
+                "interpolation": self.interpolation, "border": self.border, "gain": self.gain}

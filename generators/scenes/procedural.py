@@ -1,0 +1,282 @@
+"""Procedural scenes with analytic ground truth.
+
+Pixel (row i, column j) covers the unit square centred on (x=j, y=i). The moving edge and the checkerboard render
+the exact mean radiance over that square (closed form). Curved or rotated shapes are anti-aliased with a
+one-pixel linear ramp of their signed distance d from the pixel centre to the boundary, coverage =
+clip(0.5 + d, 0, 1) (d > 0 inside), which is close to the area fraction and, unlike supersampling, continuous in
+time: a sub-pixel motion gives a proportionally small change, which the adaptive DVS sampling relies on.
+Each scene exposes its analytic state (edge position, offset, angle, centre, lamp intensity) at any time so that
+tests and users can compare measurements with the truth. Speeds are in pixels per second, angular
+speeds in degrees per second, times in microseconds, radiance in arbitrary linear units.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim import InvalidParameterError
+
+from .base import Scene, positive
+
+
+def _levels(owner: str, low: float, high: float) -> tuple[float, float]:
+    low, high = positive("low", low, owner), positive("high", high, owner)
+    if high <= low:
+        raise InvalidParameterError(f"{owner}: high={high} must exceed low={low}")
+    return low, high
+
+
+def _pixel_grid(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """x, y coordinates (float64, shape (H, W)) of the pixel centres."""
+    return np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+
+
+def _ramp(signed_distance: np.ndarray) -> np.ndarray:
+    """Coverage of a pixel whose centre lies signed_distance inside a boundary (one-pixel linear ramp)."""
+    return np.clip(0.5 + signed_distance, 0.0, 1.0)
+
+
+def _disk_coverage(height: int, width: int, centre, radius: float) -> np.ndarray:
+    x, y = _pixel_grid(height, width)
+    return _ramp(radius - np.hypot(x - centre[0], y - centre[1]))
+
+
+class MovingEdge(Scene):
+    """A vertical step edge moving horizontally: radiance `high` left of x_e(t), `low` right of it.
+
+    x_e(t) = x0 + speed * t (pixels; x0 defaults to a quarter of the width). Rendering is exact: a pixel's value is
+    low + (high - low) * coverage, so sum over a row of (I - low) / (high - low) equals x_e + 0.5 while the edge is in
+    the image.
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, speed_px_per_s: float = 100.0,
+                 x0: float | None = None, low: float = 0.05, high: float = 1.0):
+        self._init_size(height, width, duration_us)
+        self.speed = float(speed_px_per_s)
+        self.x0 = width / 4 if x0 is None else float(x0)
+        self.low, self.high = _levels("MovingEdge", low, high)
+
+    def edge_x(self, t_us: float) -> float:
+        """Analytic edge position (pixel x coordinate) at time t_us."""
+        return self.x0 + self.speed * t_us * 1e-6
+
+    def _render(self, t_us):
+        cov = np.clip(self.edge_x(t_us) - (np.arange(self.width) - 0.5), 0.0, 1.0)
+        row = self.low + (self.high - self.low) * cov
+        return np.broadcast_to(row.astype(np.float32), (self.height, self.width))
+
+    def max_speed_px_per_s(self):
+        return abs(self.speed)
+
+    def _params(self):
+        return {"speed_px_per_s": self.speed, "x0": self.x0, "low": self.low, "high": self.high}
+
+
+def _square_wave_mean(u: np.ndarray, size: float) -> np.ndarray:
+    """Mean over [u - 1/2, u + 1/2] of the +-1 square wave that is +1 on [0, size) (period 2 size)."""
+
+    def integral(v):  # a triangle wave: the exact antiderivative of the square wave
+        return size - np.abs(np.mod(v, 2 * size) - size)
+
+    return integral(u + 0.5) - integral(u - 0.5)
+
+
+class Checkerboard(Scene):
+    """A translating checkerboard of `low` and `high` squares (contrast high/low, default 2e4:1).
+
+    The board's origin moves as (x0 + vx t, y0 + vy t). Exact rendering: the checkerboard is (1 + a(x) a(y)) / 2 for
+    a square wave a, and the pixel-box mean of a separable product is the product of the 1-D means (closed form).
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, square_px: float = 8.0,
+                 velocity_px_per_s: tuple[float, float] = (40.0, 0.0), low: float = 0.05, high: float = 1000.0,
+                 origin: tuple[float, float] = (0.0, 0.0)):
+        self._init_size(height, width, duration_us)
+        self.square = positive("square_px", square_px, "Checkerboard")
+        self.vx, self.vy = (float(v) for v in velocity_px_per_s)
+        self.origin = tuple(float(v) for v in origin)
+        self.low, self.high = _levels("Checkerboard", low, high)
+
+    @property
+    def contrast(self) -> float:
+        return self.high / self.low
+
+    def offset(self, t_us: float) -> tuple[float, float]:
+        """Analytic (x, y) position of the board's origin corner at time t_us, in pixels."""
+        s = t_us * 1e-6
+        return self.origin[0] + self.vx * s, self.origin[1] + self.vy * s
+
+    def _render(self, t_us):
+        ox, oy = self.offset(t_us)
+        ax = _square_wave_mean(np.arange(self.width) - ox, self.square)
+        ay = _square_wave_mean(np.arange(self.height) - oy, self.square)
+        frac = 0.5 * (1.0 + ay[:, None] * ax[None, :])
+        return self.low + (self.high - self.low) * frac
+
+    def max_speed_px_per_s(self):
+        return math.hypot(self.vx, self.vy)
+
+    def _params(self):
+        return {"square_px": self.square, "velocity_px_per_s": [self.vx, self.vy], "origin": list(self.origin),
+                "low": self.low, "high": self.high}
+
+
+class RotatingBar(Scene):
+    """A bright bar (length x thickness pixels) rotating about the image centre on a dark background.
+
+    angle(t) = angle0 + angular_speed * t, in degrees, measured from the +x axis towards +y (image rows).
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, angular_speed_deg_s: float = 90.0,
+                 length_px: float | None = None, thickness_px: float = 4.0, angle0_deg: float = 0.0,
+                 low: float = 0.05, high: float = 1.0):
+        self._init_size(height, width, duration_us)
+        self.omega = float(angular_speed_deg_s)
+        self.length = 0.8 * min(height, width) if length_px is None else positive("length_px", length_px, "RotatingBar")
+        self.thickness = positive("thickness_px", thickness_px, "RotatingBar")
+        self.angle0 = float(angle0_deg)
+        self.low, self.high = _levels("RotatingBar", low, high)
+        self.centre = ((width - 1) / 2, (height - 1) / 2)
+
+    def angle_deg(self, t_us: float) -> float:
+        """Analytic bar angle in degrees at time t_us."""
+        return self.angle0 + self.omega * t_us * 1e-6
+
+    def _render(self, t_us):
+        a = math.radians(self.angle_deg(t_us))
+        x, y = _pixel_grid(self.height, self.width)
+        dx, dy = x - self.centre[0], y - self.centre[1]
+        along = dx * math.cos(a) + dy * math.sin(a)
+        across = -dx * math.sin(a) + dy * math.cos(a)
+        cov = _ramp(self.length / 2 - np.abs(along)) * _ramp(self.thickness / 2 - np.abs(across))
+        return self.low + (self.high - self.low) * cov
+
+    def max_speed_px_per_s(self):
+        return math.radians(abs(self.omega)) * self.length / 2
+
+    def _params(self):
+        return {"angular_speed_deg_s": self.omega, "length_px": self.length, "thickness_px": self.thickness,
+                "angle0_deg": self.angle0, "low": self.low, "high": self.high}
+
+
+class RotatingDisk(Scene):
+    """A disk of `sectors` bright sectors alternating with as many dark ones, spinning about the image centre.
+
+    Bright sector k spans angles [angle(t) + 2k pi / sectors, angle(t) + (2k+1) pi / sectors) (radians, from +x
+    towards +y); angle(t) = angle0 + angular_speed * t in degrees. Outside the disk the radiance is `background`.
+    With sectors=1 the bright half-disk's centroid lies at angle(t) + 90 degrees, 4 R / (3 pi) from the centre.
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, angular_speed_deg_s: float = 180.0,
+                 radius_px: float | None = None, sectors: int = 4, angle0_deg: float = 0.0, low: float = 0.05,
+                 high: float = 1.0, background: float = 0.2):
+        self._init_size(height, width, duration_us)
+        self.omega = float(angular_speed_deg_s)
+        self.radius = 0.45 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "RotatingDisk")
+        if int(sectors) != sectors or sectors < 1:
+            raise InvalidParameterError(f"RotatingDisk: sectors must be a positive integer, got {sectors!r}")
+        self.sectors = int(sectors)
+        self.angle0 = float(angle0_deg)
+        self.low, self.high = _levels("RotatingDisk", low, high)
+        self.background = positive("background", background, "RotatingDisk")
+        self.centre = ((width - 1) / 2, (height - 1) / 2)
+
+    def angle_deg(self, t_us: float) -> float:
+        """Analytic disk angle in degrees at time t_us."""
+        return self.angle0 + self.omega * t_us * 1e-6
+
+    def _render(self, t_us):
+        x, y = _pixel_grid(self.height, self.width)
+        dx, dy = x - self.centre[0], y - self.centre[1]
+        r = np.hypot(dx, dy)
+        width = np.pi / self.sectors  # angular width of one sector
+        u = np.mod(np.arctan2(dy, dx) - math.radians(self.angle_deg(t_us)), 2 * np.pi) / width
+        # distance from the pixel centre to the nearest sector boundary ray, signed positive in a bright sector
+        to_edge = np.minimum(u - np.floor(u), np.ceil(u) - u) * width
+        sign = np.where(np.mod(np.floor(u), 2) == 0, 1.0, -1.0)
+        bright = _ramp(sign * r * np.sin(np.minimum(to_edge, np.pi / 2)))
+        disk = _ramp(self.radius - r)
+        return self.background + disk * (self.low + (self.high - self.low) * bright - self.background)
+
+    def max_speed_px_per_s(self):
+        return math.radians(abs(self.omega)) * self.radius
+
+    def _params(self):
+        return {"angular_speed_deg_s": self.omega, "radius_px": self.radius, "sectors": self.sectors,
+                "angle0_deg": self.angle0, "low": self.low, "high": self.high, "background": self.background}
+
+
+class FlickeringLight(Scene):
+    """A static lamp (a disk) whose radiance flickers sinusoidally over a static background.
+
+    lamp(t) = mean * (1 + depth * sin(2 pi frequency t + phase)); pixel = background + coverage * lamp(t).
+    depth < 1 keeps the lamp positive. Nothing moves: max_speed_px_per_s() is 0.
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, frequency_hz: float = 100.0,
+                 mean: float = 10.0, depth: float = 0.8, phase_rad: float = 0.0, background: float = 0.1,
+                 radius_px: float | None = None):
+        self._init_size(height, width, duration_us)
+        self.frequency = positive("frequency_hz", frequency_hz, "FlickeringLight")
+        self.mean = positive("mean", mean, "FlickeringLight")
+        self.depth = float(depth)
+        if not 0 <= self.depth < 1:
+            raise InvalidParameterError(f"FlickeringLight: depth must be in [0, 1), got {depth!r}")
+        self.phase = float(phase_rad)
+        self.background = positive("background", background, "FlickeringLight")
+        self.radius = 0.25 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "FlickeringLight")
+        centre = ((width - 1) / 2, (height - 1) / 2)
+        self._coverage = _disk_coverage(height, width, centre, self.radius).astype(np.float32)
+
+    @property
+    def period_us(self) -> float:
+        return 1e6 / self.frequency
+
+    def lamp_intensity(self, t_us: float) -> float:
+        """Analytic lamp radiance at time t_us."""
+        return self.mean * (1 + self.depth * math.sin(2 * math.pi * self.frequency * t_us * 1e-6 + self.phase))
+
+    def _render(self, t_us):
+        return self.background + self._coverage * np.float32(self.lamp_intensity(t_us))
+
+    def _params(self):
+        return {"frequency_hz": self.frequency, "mean": self.mean, "depth": self.depth, "phase_rad": self.phase,
+                "background": self.background, "radius_px": self.radius}
+
+
+class SunPatch(Scene):
+    """A very bright "sun" disk moving in a straight line over a dark, gently textured background.
+
+    background(x, y) = dark * (1 + 0.5 sin(2 pi x / 23) sin(2 pi y / 17)); pixel = background + coverage * sun.
+    centre(t) = start + velocity * t (pixels). The dynamic range sun / dark is 1e4:1 by default.
+    """
+
+    def __init__(self, height: int, width: int, duration_us: int, *, sun: float = 1000.0, dark: float = 0.1,
+                 radius_px: float | None = None, start: tuple[float, float] | None = None,
+                 velocity_px_per_s: tuple[float, float] = (30.0, 10.0)):
+        self._init_size(height, width, duration_us)
+        self.sun = positive("sun", sun, "SunPatch")
+        self.dark = positive("dark", dark, "SunPatch")
+        self.radius = 0.08 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "SunPatch")
+        self.start = (width / 3, height / 3) if start is None else tuple(float(v) for v in start)
+        self.vx, self.vy = (float(v) for v in velocity_px_per_s)
+        yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
+        self._background = self.dark * (1 + 0.5 * np.sin(2 * np.pi * xx / 23) * np.sin(2 * np.pi * yy / 17))
+
+    def centre(self, t_us: float) -> tuple[float, float]:
+        """Analytic (x, y) centre of the sun at time t_us, in pixels."""
+        s = t_us * 1e-6
+        return self.start[0] + self.vx * s, self.start[1] + self.vy * s
+
+    def _render(self, t_us):
+        cov = _disk_coverage(self.height, self.width, self.centre(t_us), self.radius)
+        return self._background + self.sun * cov
+
+    def max_speed_px_per_s(self):
+        return math.hypot(self.vx, self.vy)
+
+    def _params(self):
+        return {"sun": self.sun, "dark": self.dark, "radius_px": self.radius, "start": list(self.start),
+                "velocity_px_per_s": [self.vx, self.vy]}

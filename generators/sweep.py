@@ -1,0 +1,60 @@
+"""The sweep generator: one scene, a grid over DVS noise and threshold parameters, one sequence per grid point.
+
+The grid is the Cartesian product of lists of values for any of GRID_KEYS (sim.DVSParams fields). Point i is
+simulated with the base configuration's DVS parameters replaced by the point's values, seeded with child i of
+one root SeedSequence (spawn). The output folder holds sweep_<i>.h5 per point and index.json recording the grid,
+the root seed and, per point, its parameters and seed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from pathlib import Path
+
+import numpy as np
+
+from sim import InvalidParameterError
+
+from .ahdr import AHDRConfig, seed_record
+from .config import SWEEP_KEYS
+from .dataset import EXPORT_SUFFIX, prepare_output_dir, write_index, write_sequence
+
+GRID_KEYS = SWEEP_KEYS
+DEFAULT_GRID = {"threshold_sigma": [0.0, 0.05], "shot_noise_hz": [0.0, 2.0]}
+
+
+def grid_points(grid: dict) -> list[dict]:
+    """The Cartesian product of the grid, in the order of the keys (the last key varies fastest)."""
+    for key, values in grid.items():
+        if key not in GRID_KEYS:
+            raise InvalidParameterError(f"sweep: unknown parameter {key!r}; one of {', '.join(GRID_KEYS)}")
+        if not isinstance(values, (list, tuple)) or len(values) == 0:
+            raise InvalidParameterError(f"sweep: {key} needs a non-empty list of values, got {values!r}")
+    keys = list(grid)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
+
+
+def generate_sweep(scene, out_dir, grid: dict | None = None, config: AHDRConfig | None = None, seed=0, *,
+                   overwrite: bool = False, progress: bool = True, fmt: str = "native") -> Path:
+    """Write one sequence per grid point of `grid` (default DEFAULT_GRID) for `scene`; return the index path."""
+    grid = DEFAULT_GRID if grid is None else grid
+    config = config or AHDRConfig()
+    points = grid_points(grid)
+    if fmt != "native" and fmt not in EXPORT_SUFFIX:
+        raise InvalidParameterError(f"unknown format {fmt!r}; one of native, {', '.join(EXPORT_SUFFIX)}")
+    # validate every point before writing anything
+    dvs_points = [dataclasses.replace(config.dvs, **p) for p in points]
+    out = prepare_output_dir(out_dir, overwrite)
+    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    children = np.random.SeedSequence(root.entropy, spawn_key=root.spawn_key).spawn(len(points))
+    entries = []
+    width = max(3, len(str(len(points) - 1)))
+    for i, (point, dvs, child) in enumerate(zip(points, dvs_points, children)):
+        name = f"sweep_{i:0{width}d}"
+        if progress:
+            print(f"[{i + 1}/{len(points)}] {name}: {point}", flush=True)
+        entries.append(write_sequence(out, name, scene, dataclasses.replace(config, dvs=dvs), child, fmt,
+                                      progress=progress, metadata={"sweep_point": point}))
+    return write_index(out, {"generator": "sweep", "seed": seed_record(root), "format": fmt,
+                             "grid": {k: list(v) for k, v in grid.items()}, "sequences": entries})

@@ -1,0 +1,116 @@
+import dataclasses
+
+import cv2
+import numpy as np
+import pytest
+
+import sim
+from generators import load
+from generators.ahdr import AHDRConfig, generate_ahdr
+from generators.scenes import ImageMotionScene, SunPatch, Trajectory
+
+H, W, DURATION = 24, 32, 200_000
+
+
+def _scene():
+    rng = np.random.default_rng(5)
+    tex = np.exp(cv2.GaussianBlur(rng.uniform(-4.0, 4.0, (60, 80)).astype(np.float32), (0, 0), 1.5))
+    return ImageMotionScene(tex, DURATION, Trajectory(pan_px_per_s=(40.0, 15.0), shake_px=0.5), height=H, width=W)
+
+
+def _camera(**kw):
+    return sim.CameraParams(fps=50.0, exposure_us=4000, **kw)
+
+
+@pytest.fixture(scope="module")
+def ideal(tmp_path_factory):
+    scene = _scene()
+    cfg = AHDRConfig(dvs=sim.DVSParams.preset("ideal"), camera=_camera(), reference_times_us=(0, 77_777, DURATION))
+    path = tmp_path_factory.mktemp("ahdr") / "ideal.h5"
+    result = generate_ahdr(scene, path, cfg, seed=11, progress=False)
+    return scene, result, load(path)
+
+
+def test_ideal_events_reproduce_reference_log_change_within_one_threshold(ideal):
+    scene, result, rec = ideal
+    dvs = rec.metadata["config"]["dvs"]
+    assert dvs["threshold_sigma"] == 0 and dvs["cutoff_hz"] == 0 and dvs["refractory_us"] == 0
+    c = np.float32(0.2).astype(np.float64)  # the thresholds are float32 (threshold_maps)
+    np.testing.assert_array_equal(rec.threshold_maps, np.float32(0.2))
+    dark = dvs["dark_fraction"] * dvs["full_illumination"]
+    log_ref = np.log(rec.reference.astype(np.float64) + dark)
+    assert rec.reference_t_us[0] == 0
+    ev = rec.events
+    assert ev.size == result.n_events > 1000
+    flat = ev["y"].astype(np.int64) * W + ev["x"]
+    for k in range(1, rec.reference_t_us.size):
+        upto = ev[ev["t"] <= rec.reference_t_us[k]]
+        count = np.bincount(flat[: upto.size], weights=upto["p"], minlength=H * W).reshape(H, W)
+        residual = log_ref[k] - log_ref[0] - c * count
+        assert np.abs(residual).max() < c + 1e-9, f"reference {k} at {rec.reference_t_us[k]} us"
+    # and the events are not trivially few: most of the log change is carried by them
+    change = np.abs(log_ref[-1] - log_ref[0])
+    assert np.mean(change) > c
+
+
+def test_frames_follow_the_configured_schedule_and_references_equal_the_scene(ideal):
+    scene, result, rec = ideal
+    n = result.n_frames
+    assert n == rec.frames.shape[0] == 10  # 50 fps over 0.2 s, exposures within the sequence
+    np.testing.assert_array_equal(rec.frame_t_end_us - rec.frame_t_start_us, 4000)
+    np.testing.assert_array_equal(np.diff(rec.frame_t_mid_us), 20_000)
+    assert rec.frame_t_start_us[0] == 0
+    np.testing.assert_array_equal(rec.frame_t_mid_us, rec.frame_t_start_us + 2000)
+    # one reference per frame at its mid-exposure time, plus the three extra times, sorted
+    expected_t = np.union1d(rec.frame_t_mid_us, [0, 77_777, DURATION])
+    np.testing.assert_array_equal(rec.reference_t_us, expected_t)
+    for img, t in zip(rec.reference, rec.reference_t_us):
+        np.testing.assert_array_equal(img, scene.radiance(int(t)))
+    assert rec.crf["name"] == "window" and rec.metadata["crf"] == rec.crf
+    # auto exposure: the median radiance at t=0 maps to the middle of the window (mid-grey frames)
+    assert 100 < np.median(rec.frames[0]) < 155
+    assert rec.metadata["n_dvs_samples"] == result.n_dvs_samples > 0
+
+
+def test_metadata_seed_and_bit_identical_regeneration(tmp_path):
+    scene = SunPatch(H, W, 100_000, radius_px=4, velocity_px_per_s=(60.0, 20.0))
+    cfg = AHDRConfig(dvs=sim.DVSParams.preset("noisy"), camera=_camera(prnu_sigma=0.01), labels=True)
+    a = generate_ahdr(scene, tmp_path / "a.h5", cfg, seed=123, progress=False)
+    rec_a = load(a.path)
+    seed = rec_a.metadata["seed"]
+    assert seed["entropy"] == 123 and seed["spawn_key"] == []
+    assert rec_a.metadata["packages"]["numpy"] == np.__version__
+    assert rec_a.metadata["config"]["labels"] is True
+    ss = np.random.SeedSequence(seed["entropy"], spawn_key=tuple(seed["spawn_key"]))
+    rec_b = load(generate_ahdr(scene, tmp_path / "b.h5", cfg, seed=ss, progress=False).path)
+    np.testing.assert_array_equal(rec_a.events, rec_b.events)
+    np.testing.assert_array_equal(rec_a.frames, rec_b.frames)
+    np.testing.assert_array_equal(rec_a.event_labels, rec_b.event_labels)
+    np.testing.assert_array_equal(rec_a.threshold_maps, rec_b.threshold_maps)
+    rec_c = load(generate_ahdr(scene, tmp_path / "c.h5", cfg, seed=124, progress=False).path)
+    assert rec_c.events.size != rec_a.events.size or not np.array_equal(rec_c.events, rec_a.events)
+    # labels: the noisy preset produces signal and noise events, and the threshold maps show the mismatch
+    labels = rec_a.event_labels
+    assert labels.shape == rec_a.events.shape and set(np.unique(labels)) >= {0, 1}
+    assert rec_a.threshold_maps.std() == pytest.approx(cfg.dvs.threshold_sigma, rel=0.3)
+
+
+def test_failure_leaves_no_file(tmp_path):
+    class Broken(SunPatch):
+        def _render(self, t_us):
+            if t_us > 50_000:
+                raise RuntimeError("scene failed")
+            return super()._render(t_us)
+
+    with pytest.raises(RuntimeError, match="scene failed"):
+        generate_ahdr(Broken(8, 8, 100_000), tmp_path / "x.h5", seed=0, progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_config_is_reported():
+    with pytest.raises(sim.InvalidParameterError, match="crf"):
+        generate_ahdr(_scene(), "/nonexistent/x.h5", AHDRConfig(crf="nope"), progress=False)
+    with pytest.raises(sim.InvalidParameterError, match="reference time"):
+        generate_ahdr(_scene(), "/nonexistent/x.h5", AHDRConfig(reference_times_us=(DURATION + 1,)), progress=False)
+    with pytest.raises(sim.InvalidParameterError):
+        dataclasses.replace(AHDRConfig(), reference_rate_hz=-1.0)
