@@ -9,10 +9,15 @@ are central differences of the exact curve (relative step 1e-6, one-sided at the
 
 from __future__ import annotations
 
+import warnings
 from functools import partial
 
-import colour
 import numpy as np
+
+with warnings.catch_warnings():
+    # colour-science warns at import when matplotlib (an optional extra here) is absent; nothing here plots.
+    warnings.filterwarnings("ignore", message='"Matplotlib" related API features are not available')
+    import colour
 
 from .base import CRF, CRFError
 
