@@ -5,7 +5,8 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
 - LDR camera: sim.LDRCamera captures frames (exposure, motion blur, noise, the CRF; AHDR "window" by default);
 - reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
 - threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
-  spawn key), package versions, the CRF, and the number of DVS samples.
+  spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
+  reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output).
 Memory stays flat in the sequence length: one chunk of samples and one frame are alive at a time.
 """
 
@@ -216,6 +217,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         "scene": scene.describe() if hasattr(scene, "describe") else {"type": type(scene).__name__},
         "duration_us": duration,
         "crf": {"name": crf.name, "params": _jsonable(crf.params)},
+        # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
+        "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
+                               / cam_params.full_well_e) if len(schedule) else None,
         "packages": package_versions(),
         **(metadata or {}),
     }

@@ -5,6 +5,11 @@ linearised with the inverse sRGB curve (crf_models "srgb"), reduced to Rec. 709 
 HDR boost: a bright "window" region (x 8, soft edges), a "sun" disk (radiance 30 with a soft halo) and a
 shadowed corner (x 0.02), over a floor of 1e-3. The photo's own range is about 1e-3..1, so the result spans
 more than 1e4:1, of which the AHDR window CRF keeps only a narrow band.
+
+ahdr_suite() is the benchmark of the AKF paper's AHDR construction (section 4.2): the HDR reference is what a
+well-exposed linear camera sees (ahdr_reference_image: white at the 98th percentile of the radiance, black at 1/255
+of white, as the paper's original 8-bit frames), and the LDR camera sees it through the 100..160 window CRF
+(x = reference radiance; the window keeps x in about [0.13, 0.36]), with the davis346 DVS.
 """
 
 from __future__ import annotations
@@ -14,8 +19,12 @@ import numpy as np
 
 from sim import InvalidParameterError
 
+from pathlib import Path
+
+import sim
+
 from .config import DatasetConfig, parse_config
-from .scenes import ImageMotionScene, Trajectory, linearise_ldr, to_luminance
+from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
 
 BUILTIN_IMAGES = ("astronaut", "camera", "coffee", "chelsea")
 WINDOW_GAIN, SUN_RADIANCE, SHADOW_GAIN, FLOOR = 8.0, 30.0, 0.02, 1e-3
@@ -82,3 +91,83 @@ def builtin_dataset(*, duration_s: float = 1.0, height: int = 180, width: int = 
     data = {"seed": seed, "defaults": {"duration_s": duration_s, "height": height, "width": width},
             "sequence": [dict(s) for s in seqs]}
     return parse_config(data, source="<built-in dataset>")
+
+
+# ----- the AHDR benchmark suite ------------------------------------------------------------------------------
+
+AHDR_WHITE_PERCENTILE, AHDR_BLACK = 98.0, 1.0 / 255.0
+#: (sequence name, skimage.data image or file name in the HDR data folder, trajectory)
+AHDR_SUITE_PHOTOS = (
+    ("astronaut_pan", "astronaut", {"pan_px_per_s": [30.0, 8.0], "shake_px": 1.0, "shake_hz": 2.0}),
+    ("camera_zoom_rotate", "camera", {"zoom_per_s": 0.2, "rotation_deg_per_s": 8.0}),
+    ("coffee_pan", "coffee", {"pan_px_per_s": [-25.0, 10.0]}),
+    ("chelsea_pan", "chelsea", {"pan_px_per_s": [20.0, -15.0], "shake_px": 1.0, "shake_hz": 3.0}),
+)
+AHDR_SUITE_HDR = (
+    ("desk_pan", "Desk.exr", {"pan_px_per_s": [30.0, 8.0]}),
+    ("mttamwest_pan", "MtTamWest.exr", {"pan_px_per_s": [-30.0, 5.0], "zoom_per_s": 0.1}),
+)
+
+
+def hdr_data_dir() -> Path:
+    """The shared real-data folder of HDR photos (../shared/data/hdr next to the project; may be absent)."""
+    return Path(__file__).resolve().parents[2] / "shared" / "data" / "hdr"
+
+
+def ahdr_reference_image(radiance: np.ndarray) -> np.ndarray:
+    """float32 (H, W) AHDR reference: radiance / its 98th percentile, clipped to [1/255, 1] (a well-exposed linear
+    8-bit-range view of the scene, as the paper's original frames; x = this value with ahdr_suite_config)."""
+    y = np.asarray(radiance, np.float32)
+    white = float(np.percentile(y, AHDR_WHITE_PERCENTILE))
+    if not white > 0:
+        raise InvalidParameterError("ahdr_reference_image: the image is black")
+    return np.clip(y / white, AHDR_BLACK, 1.0)
+
+
+def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, hdr_dir=None,
+               include_hdr: bool = True) -> list[tuple[str, ImageMotionScene]]:
+    """The AHDR benchmark scenes as (name, scene): four scikit-image photos, plus the real HDR photos Desk.exr
+    and MtTamWest.exr from hdr_dir (default hdr_data_dir()) when they are there and include_hdr."""
+    duration_us = int(round(duration_s * 1e6))
+    hdr_dir = hdr_data_dir() if hdr_dir is None else Path(hdr_dir)
+    import skimage.data
+
+    out = []
+    for name, image, traj in AHDR_SUITE_PHOTOS:
+        radiance = to_luminance(linearise_ldr(getattr(skimage.data, image)(), "srgb"))
+        out.append((name, ImageMotionScene(ahdr_reference_image(radiance), duration_us, Trajectory(**traj),
+                                           height=height, width=width, name=f"skimage.data.{image} (AHDR)")))
+    for name, file, traj in AHDR_SUITE_HDR if include_hdr else ():
+        if (hdr_dir / file).is_file():
+            radiance = to_luminance(load_image(hdr_dir / file))
+            out.append((name, ImageMotionScene(ahdr_reference_image(radiance), duration_us, Trajectory(**traj),
+                                               height=height, width=width, name=f"{file} (AHDR)")))
+    return out
+
+
+def ahdr_suite_config(sensor: str = "davis346"):
+    """generators.ahdr.AHDRConfig of the suite: the sensor preset, the window CRF, x = reference radiance
+    (reference_fill = reference_radiance = 1, no auto exposure), one reference per frame."""
+    from .ahdr import AHDRConfig
+
+    return AHDRConfig(dvs=sim.DVSParams.preset(sensor), camera=sim.CameraParams(reference_radiance=1.0,
+                                                                                reference_fill=1.0),
+                      crf="window", auto_exposure=False)
+
+
+def generate_ahdr_suite(out_dir, *, height: int = 180, width: int = 240, duration_s: float = 1.0, seed: int = 0,
+                        sensor: str = "davis346", overwrite: bool = False, progress: bool = False,
+                        include_hdr: bool = True) -> Path:
+    """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset); return
+    the index path. Sequence i is seeded with child i of SeedSequence(seed)."""
+    from .ahdr import seed_record
+    from .dataset import prepare_output_dir, write_index, write_sequence
+
+    out = prepare_output_dir(out_dir, overwrite)
+    scenes = ahdr_suite(height, width, duration_s, include_hdr=include_hdr)
+    root = np.random.SeedSequence(seed)
+    config = ahdr_suite_config(sensor)
+    entries = [write_sequence(out, name, scene, config, child, "native", progress=progress)
+               for (name, scene), child in zip(scenes, root.spawn(len(scenes)))]
+    return write_index(out, {"generator": "ahdr", "seed": seed_record(root), "format": "native",
+                             "config_source": "generators.builtin.ahdr_suite", "sequences": entries})

@@ -145,43 +145,44 @@ def _cmd_demo(args) -> int:
     if akf is None or not hasattr(akf, "evaluate_sequence"):
         print("(reconstruction skipped: the akf package is not available)")
         return 0
-    table = _demo_metrics(path, akf)
-    text = _metrics_table(table)
+    from .evaluation import UNITS, evaluate_recording, format_scores
+    from .formats import load
+
+    table, _ = evaluate_recording(load(path))
+    text = format_scores(table)
     (out / "metrics.txt").write_text(text + "\n")
     print()
     print(text)
+    print(f"(units: {UNITS['reference']})")
     print(f"\nmetrics written to {out / 'metrics.txt'}")
     return 0
 
 
-def _demo_metrics(path: Path, akf) -> dict:
-    """Reconstruct the demo file with AKF and the baselines and score them on the reference frames that lie
-    strictly between the first and last frame (reference in the CRF's scaled-irradiance units)."""
-    import crf_models
+def _cmd_evaluate(args) -> int:
+    from .evaluation import evaluate_dataset, format_table, write_json
 
-    from .formats import load
-
-    rec = load(path)
-    cam = rec.metadata["config"]["camera"]
-    params = sim.CameraParams(**cam)
-    exposure = int(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
-    to_x = params.electrons_per_radiance_us * exposure / params.full_well_e
-    inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
-    crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
-    dvs = rec.metadata["config"]["dvs"]
-    return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
-                                 rec.reference[inside] * to_x, rec.reference_t_us[inside],
-                                 methods=tuple(m for m in ("akf", "cf", "frames") if m in akf.METHODS),
-                                 contrast=0.5 * (dvs["pos_threshold"] + dvs["neg_threshold"]),
-                                 bit_depth=rec.frame_bit_depth)
+    result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
+                                     metrics=_names(args.metrics))
+    print(format_table(result, args.protocol, notes))
+    if args.json is not None:
+        write_json(result, args.json)
+        print(f"\nscores written to {args.json}")
+    return 0
 
 
-def _metrics_table(table: dict) -> str:
-    metrics = list(next(iter(table.values())))
-    lines = ["method    " + "".join(f"{m:>12}" for m in metrics)]
-    for method, row in table.items():
-        lines.append(f"{method:<10}" + "".join(f"{row[m]:>12.4g}" for m in metrics))
-    return "\n".join(lines)
+def _cmd_reconstruct(args) -> int:
+    from .evaluation import reconstruct_dataset
+
+    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times):
+        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {folder}")
+    return 0
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise sim.EvsimInputError(f"expected a comma-separated list of names, got {text!r}")
+    return names
 
 
 # ----- parser --------------------------------------------------------------------------------------------
@@ -275,6 +276,30 @@ def build_parser() -> argparse.ArgumentParser:
                           epilog=EPILOG)
     info.add_argument("file", type=Path, help="a dataset: native or E2VID HDF5, IJRR folder, AKF .mat")
     info.set_defaults(func=_cmd_info)
+
+    ev = sub.add_parser("evaluate", help="score HDR reconstructions per sequence (AKF, baselines) and print a table",
+                        epilog=EPILOG)
+    ev.add_argument("dataset", type=Path, help="a native .h5 file, a dataset folder (index.json or .h5 files), "
+                                               "an IJRR folder or an AKF .mat")
+    ev.add_argument("--methods", default="akf,cf,frames", help="comma-separated methods (akf.METHODS; default "
+                                                               "akf,cf,frames)")
+    ev.add_argument("--metrics", default="mse,psnr,ssim,pu21_psnr,pu21_ssim", help="comma-separated metrics "
+                                                                                   "(akf.METRICS)")
+    ev.add_argument("--protocol", choices=("reference", "interleave"), default="reference",
+                    help="reference: against the HDR reference frames; interleave: feed every second frame and "
+                         "score on the frames in between (real data; paper supplementary Table 2)")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}}")
+    ev.set_defaults(func=_cmd_evaluate)
+
+    rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
+                        epilog=EPILOG)
+    rc.add_argument("dataset", type=Path, help="as for evaluate")
+    rc.add_argument("--out", type=Path, required=True, help="output folder (one sub-folder per sequence when the "
+                                                            "dataset has several)")
+    rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
+    rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
+                                                         "fps:N (N per second); default reference")
+    rc.set_defaults(func=_cmd_reconstruct)
     return parser
 
 

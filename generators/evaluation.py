@@ -1,0 +1,266 @@
+"""Dataset-level evaluation of HDR reconstructions (the paper's Table 1 and supplementary Table 2).
+
+Units. Every method outputs linear intensity in the CRF's scaled-irradiance units "x" of the first input frame's
+exposure (x = 1 is the full well; crf.forward(x) is the normalised response). Scores are computed in those units:
+- protocol "reference" (synthetic data with HDR ground truth): the reference radiance is multiplied by
+  reference_to_x(rec) (recorded at generation time as metadata["reference_to_crf_x"], else computed from the
+  recorded camera configuration), and the scored times are the reference times strictly between the first and the
+  last frame's mid-exposure (the filters need a frame on each side).
+- protocol "interleave" (real recordings, paper supplementary Table 2): the even frames 0, 2, 4, ... are the input
+  (with the full event stream) and every odd frame between two of them is the ground truth at its mid-exposure
+  time, as x = CRF^-1(response) * T_0 / T_k. A frame only measures x inside the CRF's range
+  [CRF^-1(0), CRF^-1(1)], so reconstructions are clipped to that range (of the held-out frame's exposure) before
+  scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
+  assumed linear (x = response).
+Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+import akf
+import crf_models
+import sim
+from sim import EvsimInputError
+
+from .formats import detect, load
+from .formats.exr import write_exr_sequence
+from .formats.atomic import atomic_path
+from .recording import Recording
+
+PROTOCOLS = ("reference", "interleave")
+DEFAULT_METHODS = ("akf", "cf", "frames")
+DEFAULT_METRICS = ("mse", "psnr", "ssim", "pu21_psnr", "pu21_ssim")
+DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds (typical DAVIS bias setting)
+UNITS = {"reference": "x = CRF scaled irradiance of frame 0's exposure (reference radiance * reference_to_crf_x)",
+         "interleave": "x = CRF^-1(held-out frame) of frame 0's exposure; reconstructions clipped to the CRF range"}
+
+
+# ----- what a dataset holds ------------------------------------------------------------------------------------
+
+def dataset_sequences(path) -> list[tuple[str, Path]]:
+    """(name, file) of every sequence of DATASET: a readable file or IJRR folder (one sequence), a generated dataset
+    folder (its index.json), or a folder of native .h5 files."""
+    path = Path(path)
+    if not path.exists():
+        raise EvsimInputError(f"{path}: no such file or directory")
+    if path.is_dir() and (path / "index.json").is_file():
+        try:
+            entries = json.loads((path / "index.json").read_text())["sequences"]
+            return [(e["name"], path / e["file"]) for e in entries]
+        except (ValueError, KeyError, TypeError) as e:
+            raise EvsimInputError(f"{path / 'index.json'}: not a dataset index ({e})") from None
+    if path.is_dir() and not (path / "events.txt").is_file():
+        files = sorted(path.glob("*.h5"))
+        if not files:
+            raise EvsimInputError(f"{path}: a folder with neither index.json, .h5 files nor events.txt")
+        return [(f.stem, f) for f in files]
+    detect(path)  # raises DatasetFormatError (an EvsimInputError) naming the problem
+    return [(path.stem if path.is_file() else path.name, path)]
+
+
+def recording_crf(rec: Recording):
+    """(crf object, note): the recorded CRF, or a linear one (note says so) when the layout carries none."""
+    if rec.crf:
+        try:
+            return crf_models.get(rec.crf["name"], **rec.crf.get("params", {})), ""
+        except (crf_models.CRFError, KeyError, TypeError) as e:
+            raise EvsimInputError(f"cannot rebuild the recorded CRF {rec.crf!r}: {e}") from None
+    return crf_models.get("linear"), "no CRF recorded: assumed linear (x = response)"
+
+
+def recording_contrast(rec: Recording):
+    """Nominal (ON, OFF) contrast thresholds (log units) from the recorded DVS configuration, else the AKF .mat's
+    ct, else DEFAULT_CONTRAST. The per-pixel threshold maps are ground truth, not used (a real camera does not know
+    them)."""
+    dvs = rec.metadata.get("config", {}).get("dvs", {})
+    if "pos_threshold" in dvs and "neg_threshold" in dvs:
+        return float(dvs["pos_threshold"]), float(dvs["neg_threshold"])
+    ct = rec.metadata.get("akf_mat", {}).get("ct")
+    if isinstance(ct, (int, float)) and ct > 0:
+        return float(ct), float(ct)
+    return DEFAULT_CONTRAST, DEFAULT_CONTRAST
+
+
+def reference_to_x(rec: Recording) -> float:
+    """The factor from reference radiance to the CRF's x units of frame 0's exposure: metadata
+    "reference_to_crf_x" (written by generators.ahdr), else electrons_per_radiance_us * exposure_0 / full_well_e
+    of the recorded camera configuration (older files)."""
+    factor = rec.metadata.get("reference_to_crf_x")
+    if factor is not None:
+        return float(factor)
+    cam = rec.metadata.get("config", {}).get("camera")
+    if cam is None or rec.frames is None:
+        raise EvsimInputError("the recording has no reference_to_crf_x nor camera configuration: the reference "
+                              "radiance cannot be put in the CRF's units (use --protocol interleave)")
+    params = sim.CameraParams(**{k: tuple(v) if isinstance(v, list) else v for k, v in cam.items()})
+    exposure = int(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
+    return params.electrons_per_radiance_us * exposure / params.full_well_e
+
+
+def _check_frames(rec: Recording, need: int, what: str) -> None:
+    n = 0 if rec.frames is None else rec.frames.shape[0]
+    if n < need:
+        raise EvsimInputError(f"{what} needs at least {need} frames, the recording has {n}")
+
+
+# ----- the two protocols -----------------------------------------------------------------------------------------
+
+def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=DEFAULT_METHODS,
+                       metrics=DEFAULT_METRICS, method_options=None) -> tuple[dict, str]:
+    """Score methods on one recording: ({method: {metric: value}}, note on assumptions or "")."""
+    crf, note = recording_crf(rec)
+    contrast = recording_contrast(rec)
+    if protocol == "reference":
+        _check_frames(rec, 2, "protocol 'reference'")
+        if rec.reference is None:
+            raise EvsimInputError("the recording has no HDR reference frames (use --protocol interleave)")
+        inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
+        if not inside.any():
+            raise EvsimInputError("no reference frame lies between the first and the last frame")
+        table = akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
+                                      rec.reference[inside] * reference_to_x(rec), rec.reference_t_us[inside],
+                                      methods=methods, metrics=metrics, contrast=contrast,
+                                      bit_depth=rec.frame_bit_depth, method_options=method_options)
+        return table, note
+    if protocol != "interleave":
+        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
+    _check_frames(rec, 3, "protocol 'interleave'")
+    return _interleave(rec, crf, contrast, methods, metrics, method_options or {}), note
+
+
+def _interleave(rec, crf, contrast, methods, metrics, method_options) -> dict:
+    unknown = [m for m in methods if m not in akf.METHODS] + [m for m in metrics if m not in akf.METRICS]
+    if unknown:
+        raise EvsimInputError(f"unknown methods/metrics {unknown}; methods: {sorted(akf.METHODS)}, "
+                              f"metrics: {sorted(akf.METRICS)}")
+    nf = rec.frames.shape[0]
+    fed = np.arange(0, nf, 2)
+    held = np.arange(1, fed[-1], 2)
+    t0 = float(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
+    full = float((1 << rec.frame_bit_depth) - 1)
+    gains = np.ones(held.size)
+    for i, k in enumerate(held):
+        tk = float(rec.frame_t_end_us[k] - rec.frame_t_start_us[k])
+        gains[i] = t0 / tk if t0 > 0 and tk > 0 else 1.0
+    truth = np.stack([g * np.asarray(crf.inverse(rec.frames[k] / full), np.float64) for g, k in zip(gains, held)])
+    x_lo, x_hi = float(crf.inverse(0.0)), float(crf.inverse(1.0))
+    table = {}
+    for name in methods:
+        images = akf.METHODS[name](rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
+                                   crf, rec.frame_t_mid_us[held], contrast=contrast, bit_depth=rec.frame_bit_depth,
+                                   **method_options.get(name, {}))
+        clipped = [np.clip(img, g * x_lo, g * x_hi) for img, g in zip(images, gains)]
+        table[name] = {m: float(np.mean([akf.METRICS[m](c, t) for c, t in zip(clipped, truth)])) for m in metrics}
+    return table
+
+
+def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHODS, metrics=DEFAULT_METRICS,
+                     method_options=None) -> tuple[dict, list[str]]:
+    """Score every sequence of a dataset: ({method: {sequence: {metric: value}, "mean": {metric: value}}}, notes)."""
+    if protocol not in PROTOCOLS:
+        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
+    result = {m: {} for m in methods}
+    notes = []
+    for name, file in dataset_sequences(path):
+        table, note = evaluate_recording(load(file), protocol=protocol, methods=methods, metrics=metrics,
+                                         method_options=method_options)
+        if note:
+            notes.append(f"{name}: {note}")
+        for m in methods:
+            result[m][name] = table[m]
+    for m in methods:
+        rows = list(result[m].values())
+        result[m]["mean"] = {k: float(np.mean([r[k] for r in rows])) for k in metrics}
+    return result, notes
+
+
+# ----- reconstruction to files ----------------------------------------------------------------------------------
+
+def output_times(rec: Recording, times: str) -> np.ndarray:
+    """int64 us output times for --times: "reference" (the reference times from the first exposure start on),
+    "frames" (every frame's mid-exposure) or "fps:N" (N per second from the first exposure start to the last
+    frame's exposure end)."""
+    _check_frames(rec, 1, "reconstruction")
+    start, end = int(rec.frame_t_start_us[0]), int(rec.frame_t_end_us[-1])
+    if times == "reference":
+        if rec.reference_t_us is None:
+            raise EvsimInputError("--times reference: the recording has no reference frames (use frames or fps:N)")
+        return rec.reference_t_us[rec.reference_t_us >= start].astype(np.int64)
+    if times == "frames":
+        return rec.frame_t_mid_us.astype(np.int64)
+    if times.startswith("fps:"):
+        try:
+            fps = float(times[4:])
+        except ValueError:
+            fps = math.nan
+        if not (math.isfinite(fps) and fps > 0):
+            raise EvsimInputError(f"--times {times!r}: fps:N needs a positive rate in Hz")
+        return np.arange(start, end + 1, 1e6 / fps).round().astype(np.int64)
+    raise EvsimInputError(f"--times {times!r}: one of reference, frames, fps:N")
+
+
+def reconstruct_dataset(path, out_dir, *, method: str = "akf", times: str = "reference",
+                        method_options=None) -> list[tuple[str, Path, int]]:
+    """Reconstruct every sequence of a dataset with `method` and write float32 EXR folders (frame_NNNNNN.exr and
+    timestamps.txt, see generators.formats.exr; values in x units as the module docstring says), atomically.
+    One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""
+    if method not in akf.METHODS:
+        raise EvsimInputError(f"unknown method {method!r}; one of {', '.join(sorted(akf.METHODS))}")
+    sequences = dataset_sequences(path)
+    written = []
+    for name, file in sequences:
+        rec = load(file)
+        t = output_times(rec, times)
+        if t.size == 0:
+            raise EvsimInputError(f"{name}: no output time at or after the first exposure start")
+        crf, _ = recording_crf(rec)
+        images = akf.METHODS[method](rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf, t,
+                                     contrast=recording_contrast(rec), bit_depth=rec.frame_bit_depth,
+                                     **(method_options or {}))
+        folder = Path(out_dir) if len(sequences) == 1 else Path(out_dir) / name
+        write_exr_sequence(folder, images, t)
+        written.append((name, folder, int(t.size)))
+    return written
+
+
+# ----- output ------------------------------------------------------------------------------------------------
+
+def format_table(result: dict, protocol: str = "reference", notes=()) -> str:
+    """The paper's Table 1 layout: one block per metric, a row per sequence and the mean, a column per method."""
+    methods = list(result)
+    sequences = list(result[methods[0]])
+    metrics = list(result[methods[0]][sequences[0]])
+    width = max(12, *(len(s) + 2 for s in sequences))
+    lines = [f"units: {UNITS[protocol]}", *(f"note: {n}" for n in notes)]
+    for metric in metrics:
+        lines += ["", f"{metric:<{width}}" + "".join(f"{m:>14}" for m in methods)]
+        for seq in sequences:
+            lines.append(f"{seq:<{width}}" + "".join(f"{_fmt(result[m][seq][metric]):>14}" for m in methods))
+    return "\n".join(lines)
+
+
+def format_scores(table: dict) -> str:
+    """One sequence's {method: {metric: value}} as a method-by-metric table (evsim demo's metrics.txt)."""
+    metrics = list(next(iter(table.values())))
+    lines = ["method    " + "".join(f"{m:>12}" for m in metrics)]
+    for method, row in table.items():
+        lines.append(f"{method:<10}" + "".join(f"{_fmt(row[m]):>12}" for m in metrics))
+    return "\n".join(lines)
+
+
+def _fmt(v: float) -> str:
+    return "inf" if math.isinf(v) else f"{v:.4g}"
+
+
+def write_json(result: dict, path) -> None:
+    """{method: {sequence: {metric: value}, "mean": {...}}} as JSON, atomically (inf as the string "inf")."""
+    clean = {m: {s: {k: (str(v) if math.isinf(v) else v) for k, v in row.items()} for s, row in seqs.items()}
+             for m, seqs in result.items()}
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(clean, indent=2) + "\n")
