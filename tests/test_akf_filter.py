@@ -180,3 +180,31 @@ def test_clipped_frames_are_one_sided_measurements():
     # by t1 (5 ms after the clipped exposure) the impossible state is mostly corrected, the consistent one kept
     gap0, gap1 = L[:2] - A
     assert abs(gap1[0]) < 0.25 * abs(gap0[0]) and gap1[1] > 0.5 * gap0[1]
+
+
+def test_isolated_event_in_a_clipped_region_relaxes_with_the_saturated_variance():
+    """The AHDR window CRF, a region clipped high in every frame, ON events at the centre pixel at 105 and 205 ms,
+    its 8 neighbours silent since the start. At the second event (eq. 2, no refractory term: 100 ms > rho_bar)
+    P1 = P(t_e) + sigma_proc2 * 0.100 s (since the pixel's own last event) + sigma_iso2 * 0.205 s (since the latest
+    neighbour event; the pixel itself excluded). Above the clip the state is consistent with the clipped frames, so
+    it relaxes toward the clip level with the saturated R in closed form, L - A = (L1 - A) / (1 + P1 dt / R)
+    (eqs. 17, 20)."""
+    params = akf.AKFParams()
+    window = crf_models.get("window")
+    frames = np.full((9, 3, 3), 255, np.uint8)
+    ts = np.arange(9) * 50_000
+    t_e = 205_000
+    ev = sim.make_events([105_000, t_e], [1, 1], [1, 1], [1, 1])
+    times = [t_e, t_e + 1, t_e + 100_000]
+    img, P = akf.reconstruct(ev, frames, ts, ts + 5_000, window, times, params=params, return_variance=True)
+    clip = frame_measurement(frames[0] / 255.0, window, params)
+    A, R = clip.log[1, 1], clip.r[1, 1]
+    L = np.log(img[:, 1, 1] + params.i0)
+    q = params.sigma_proc2 * 0.100 + params.sigma_iso2 * (t_e - ts[0]) * 1e-6
+    assert P[1, 1, 1] == pytest.approx(P[0, 1, 1] + q, rel=1e-3)
+    assert L[1] - L[0] == pytest.approx(0.2, abs=1e-4)  # the full step is applied (eq. 15)
+    assert L[1] > A
+    expected = (L[1] - A) / (1 + P[1, 1, 1] * 0.1 / R)
+    assert L[2] - A == pytest.approx(expected, rel=1e-3)
+    # the neighbours never moved
+    np.testing.assert_allclose(np.delete(img[2].ravel(), 4), np.exp(A) - params.i0, rtol=1e-6)
