@@ -3,7 +3,8 @@
 The source replays a few precomputed radiance frames, so the figures measure the camera, not a scene. The
 per-pixel sensor model (Poisson shot noise, read noise, quantisation) runs once per frame and the exposure
 integral once per sub-frame, so throughput in pixel-subframes/s grows with the sub-frame count; both 1 and
---subframes are reported. Peak traced memory covers numpy allocations (tracemalloc), max RSS the whole process.
+--subframes are reported, by wall clock and per CPU-second of the process (all threads; steadier on a shared
+machine). Peak traced memory covers numpy allocations (tracemalloc), max RSS the whole process.
 Usage: python bench/bench_camera.py [--seconds 1.0] [--subframes 16]
 """
 
@@ -43,18 +44,19 @@ def run(height, width, seconds, subframes, crf_name):
     src = ReplaySource(height, width, int(seconds * 1e6), 0.0)
     next(cam.capture(ReplaySource(height, width, 2 * exposure, 0.0)))  # compile and warm up
     tracemalloc.start()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     n_frames = n_sub = 0
     for frame in cam.capture(src, irradiance=False, clean_response=False):
         n_frames += 1
         n_sub += frame.n_subframes
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     rate = n_sub * height * width / dt
     print(
         f"{width}x{height} crf={crf_name} subframes/frame={subframes}: {n_frames} frames in {dt:.2f} s, "
-        f"{rate / 1e6:.0f} M pixel-subframes/s, {n_frames / dt:.1f} frames/s, peak traced memory {peak / 2**20:.1f} MiB, "
+        f"{rate / 1e6:.0f} M pixel-subframes/s, {n_frames / dt:.1f} frames/s, CPU time {cpu:.2f} s "
+        f"({n_sub * height * width / cpu / 1e6:.0f} M pixel-subframes per CPU-second), peak traced memory {peak / 2**20:.1f} MiB, "
         f"process max RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB"
     )
 

@@ -11,6 +11,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .dvs_kernels import _log_row as log_row  # the vectorisable log of the DVS kernels
+
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -46,43 +48,117 @@ def _mix(z):
 
 
 @njit(cache=True, inline="always")
-def _uniform(state):
-    """Next uniform in (0, 1) of the SplitMix64 stream whose counter is state[0]."""
-    state[0] += _GOLDEN
-    return (np.float64(_mix(state[0]) >> np.uint64(11)) + 0.5) * _TO_UNIT
+def _uniform(stream, i):
+    """Uniform in (0, 1): draw i (1, 2, ...) of the SplitMix64 stream that starts at counter `stream`."""
+    return (np.float64(_mix(stream + np.uint64(i) * _GOLDEN) >> np.uint64(11)) + 0.5) * _TO_UNIT
 
 
-@njit(cache=True)
-def _poisson(lam, state):
-    """Exact Poisson sample: multiplication method below 10, Hoermann's PTRS (as numpy) above."""
+@njit(cache=True, inline="always")
+def _ptrs_constants(lam):
+    """(a, b, vr) of Hoermann's PTRS for mean lam >= 10."""
+    b = 0.931 + 2.53 * math.sqrt(lam)
+    return -0.059 + 0.02483 * b, b, 0.9277 - 3.6224 / (b - 2.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _poisson(lam, stream, i):
+    """Exact Poisson sample from the stream, starting at its draw i (1 for a fresh sample): multiplication method
+    below 10, Hoermann's PTRS (as numpy) above, where draws i, i + 1 make a candidate.
+
+    Scalar arguments only (an array argument would cost reference counting on every call).
+    """
     if lam < 10.0:
         limit = math.exp(-lam)
         k = 0
-        prod = _uniform(state)
+        prod = _uniform(stream, i)
         while prod > limit:
             k += 1
-            prod *= _uniform(state)
+            i += 1
+            prod *= _uniform(stream, i)
         return float(k)
-    slam = math.sqrt(lam)
-    b = 0.931 + 2.53 * slam
-    a = -0.059 + 0.02483 * b
-    vr = 0.9277 - 3.6224 / (b - 2.0)
+    a, b, vr = _ptrs_constants(lam)
+    log_lam = math.log(lam)
     while True:
-        u = _uniform(state) - 0.5
-        v = _uniform(state)
+        u = _uniform(stream, i) - 0.5
+        v = _uniform(stream, i + 1)
+        i += 2
         us = 0.5 - abs(u)
         k = math.floor((2.0 * a / us + b) * u + lam + 0.43)
         if us >= 0.07 and v <= vr:
             return float(k)
         if k < 0 or (us < 0.013 and v > us):
             continue
-        invalpha = 1.1239 + 1.1328 / (b - 3.4)
-        if math.log(v * invalpha / (a / (us * us) + b)) <= -lam + k * math.log(lam) - math.lgamma(k + 1.0):
+        if math.log(v * _ptrs_inv_alpha(b) / (a / (us * us) + b)) <= -lam + k * log_lam - math.lgamma(k + 1.0):
             return float(k)
 
 
-@njit(cache=True, parallel=True)
-def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key, thresholds, bin_start, image):
+@njit(cache=True, inline="always")
+def _ptrs_inv_alpha(b):
+    return 1.1239 + 1.1328 / (b - 3.4)
+
+
+@njit(cache=True, error_model="numpy")
+def _poisson_row(lam, streams, out, f, bits):
+    """out[c] = exact Poisson(lam[c]) sample of stream streams[c], the same as _poisson(lam[c], streams[c], 1).
+
+    The first PTRS candidate of every pixel is drawn and tested at once (_ptrs_first, vectorised); the pixels
+    whose candidate was rejected (about 10 %) continue in the scalar sampler from their second candidate, the few
+    that test cannot decide start the scalar sampler afresh. Scratch: f float64 (10, n), bits int64 (3, n).
+    """
+    _ptrs_first(lam, streams, out, f, bits)
+    for c in range(lam.size):
+        if out[c] < 0.0:
+            out[c] = _poisson(lam[c], streams[c], 3 if out[c] == -2.0 else 1)
+
+
+@njit(cache=True, error_model="numpy")
+def _ptrs_first(lam, streams, res, f, bits):
+    """The first PTRS candidate of each pixel (draws 1 and 2 of its stream), tested in branch-free loops that vectorise.
+
+    res[j] = the accepted sample, -2 when the candidate is rejected, -1 when this test cannot decide (mean below
+    10, or candidate below 10: Stirling's series for lgamma(k + 1), error below 1e-14, is used from 10 on).
+    Scratch: f float64 (10, n), bits int64 (3, n) for n = lam.size.
+    """
+    n = lam.size
+    us_t, v_t, k_t, quick_t = f[0], f[1], f[2], f[3]
+    arg, lgs = f[4:7], f[7:10]
+    for j in range(n):
+        lm = lam[j]
+        a, b, vr = _ptrs_constants(lm)
+        s = streams[j]
+        u = _uniform(s, 1) - 0.5
+        v = _uniform(s, 2)
+        us = 0.5 - abs(u)
+        k = math.floor((2.0 * a / us + b) * u + lm + 0.43)
+        k_t[j] = k
+        us_t[j] = us
+        v_t[j] = v
+        arg[0, j] = k + 1.0 if k >= 10.0 else 1.0
+        arg[1, j] = v * _ptrs_inv_alpha(b) / (a / (us * us) + b)
+        arg[2, j] = lm if lm > 1.0 else 1.0
+        quick_t[j] = 1.0 if (us >= 0.07) & (v <= vr) else 0.0
+    for i in range(3):
+        log_row(arg[i], bits[i], lgs[i])
+    for j in range(n):
+        lm = lam[j]
+        k = k_t[j]
+        us = us_t[j]
+        x = k + 1.0
+        ix = 1.0 / (x * x)
+        series = (((((691.0 / 360360.0 * ix - 1.0 / 1188.0) * ix + 1.0 / 1680.0) * ix - 1.0 / 1260.0) * ix
+                   + 1.0 / 360.0) * ix - 1.0 / 12.0)  # lgamma(x) = (x - 1/2) log x - x + log(2 pi) / 2 - series / x
+        lgamma = (x - 0.5) * lgs[0, j] - x + 0.5 * math.log(2.0 * math.pi) - series / x
+        big = (lm >= 10.0) & (k >= 10.0)
+        squeezed = (us < 0.013) & (v_t[j] > us)  # rejected without the full test
+        full_test = lgs[1, j] <= -lm + k * lgs[2, j] - lgamma
+        accept = (lm >= 10.0) & ((quick_t[j] != 0.0) | (big & ~squeezed & full_test))
+        reject = (lm >= 10.0) & ~accept & ((k < 0.0) | squeezed | big)
+        res[j] = k if accept else (-2.0 if reject else -1.0)
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key, thresholds, bin_start,
+          image):
     """Digital numbers of one frame, written into `image` (uint8 or uint16 (H, W)).
 
     mean electrons = irradiance * gain * prnu + dark_e + dsnu, with the (H, W) fixed-pattern maps prnu
@@ -90,34 +166,91 @@ def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, f
     [0, full_well_e], normalised by full_well_e and quantised by the CRF's decision thresholds: DN = number of
     thresholds <= x (see LDRCamera._quantiser), counted from bin_start[b], the count below b / n_bins for the
     bin b of x (bin_start has n_bins + 1 entries). key: 64-bit stream key of the frame.
+
+    Blocks of rows run in parallel, each row in short loops over its pixels that LLVM vectorises (see
+    _poisson_row and _normal_pairs). Every pixel draws from its own streams, so threads do not change the result.
     """
     height, width = irradiance.shape
+    normal_key = key ^ _M2  # a second family of streams for the read noise
+    n_pairs = (width + 1) // 2
+    rows_per_block = 8  # scratch arrays are allocated per block of rows
+    for blk in prange((height + rows_per_block - 1) // rows_per_block):
+        lam = np.empty(width)
+        e_t = np.empty(width)
+        streams = np.empty(width, dtype=np.uint64)
+        f = np.empty((10, width))
+        bits = np.empty((3, width), dtype=np.int64)
+        z = np.zeros(2 * n_pairs)
+        for r in range(blk * rows_per_block, min(height, (blk + 1) * rows_per_block)):
+            for c in range(width):
+                if use_maps:
+                    e = irradiance[r, c] * gain * prnu[r, c] + dark_e + dsnu[r, c]
+                else:
+                    e = irradiance[r, c] * gain + dark_e
+                lam[c] = max(e, 0.0)
+                streams[c] = _mix(key ^ (np.uint64(r * width + c) * _GOLDEN))
+            if noise:
+                _poisson_row(lam, streams, e_t, f, bits)
+                if read_noise_e > 0.0:
+                    _normal_pairs(normal_key, np.uint64(r * n_pairs), read_noise_e, z)
+            else:
+                e_t[:] = lam
+            _quantise_row(e_t, z, full_well_e, thresholds, bin_start, image[r])
+
+
+@njit(cache=True, error_model="numpy")
+def _quantise_row(e_t, z, full_well_e, thresholds, bin_start, out):
+    """out[c] = DN of e_t[c] + z[c] electrons (see sense)."""
     n_thr = thresholds.size
     n_bins = bin_start.size - 1
     inv_fw = 1.0 / full_well_e
-    normal_key = key ^ _M2  # a second family of streams for the read noise
-    for r in prange(height):
-        state = np.empty(1, dtype=np.uint64)
-        z_next = 0.0
-        for c in range(width):
-            if use_maps:
-                e = irradiance[r, c] * gain * prnu[r, c] + dark_e + dsnu[r, c]
-            else:
-                e = irradiance[r, c] * gain + dark_e
-            if noise:
-                state[0] = _mix(key ^ (np.uint64(r * width + c) * _GOLDEN))
-                e = _poisson(max(e, 0.0), state)
-                if read_noise_e > 0.0:
-                    if c % 2 == 0:  # Box-Muller gives two independent normals: one for c, one for c + 1
-                        state[0] = _mix(normal_key ^ (np.uint64((r * width + c) // 2) * _GOLDEN))
-                        radius = read_noise_e * math.sqrt(-2.0 * math.log(_uniform(state)))
-                        angle = 2.0 * math.pi * _uniform(state)
-                        e += radius * math.cos(angle)
-                        z_next = radius * math.sin(angle)
-                    else:
-                        e += z_next
-            x = min(max(e, 0.0), full_well_e) * inv_fw
-            d = bin_start[min(int(x * n_bins), n_bins - 1)]
-            while d < n_thr and thresholds[d] <= x:
-                d += 1
-            image[r, c] = d
+    for c in range(out.size):
+        x = min(max(e_t[c] + z[c], 0.0), full_well_e) * inv_fw
+        d = bin_start[min(int(x * n_bins), n_bins - 1)]
+        while d < n_thr and thresholds[d] <= x:
+            d += 1
+        out[c] = d
+
+
+@njit(cache=True, error_model="numpy")
+def _normal_pairs(key, first_pair, sigma, z):
+    """z[2 j], z[2 j + 1] = two independent Normal(0, sigma^2) draws of pair first_pair + j (Box-Muller).
+
+    Log, sine and cosine are polynomials (relative error below 1e-13) so that the loops vectorise.
+    """
+    n = z.size // 2
+    u1 = np.empty(n)
+    lg = np.empty(n)
+    bits = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        s = _mix(key ^ ((first_pair + np.uint64(j)) * _GOLDEN))
+        u1[j] = _uniform(s, 1)
+        z[2 * j] = _uniform(s, 2)
+    log_row(u1, bits, lg)
+    for j in range(n):
+        radius = sigma * math.sqrt(-2.0 * lg[j])
+        # angle 2 pi u2 = 2 h + pi with h in (-pi/2, pi/2): cos = -cos(2 h), sin = -sin(2 h)
+        h = math.pi * (z[2 * j] - 0.5)
+        q = h * h
+        sn = 1.0 / 121645100408832000.0  # sin(h): Taylor series to h^19 (error below 1e-16 at pi/2)
+        sn = sn * q - 1.0 / 355687428096000.0
+        sn = sn * q + 1.0 / 1307674368000.0
+        sn = sn * q - 1.0 / 6227020800.0
+        sn = sn * q + 1.0 / 39916800.0
+        sn = sn * q - 1.0 / 362880.0
+        sn = sn * q + 1.0 / 5040.0
+        sn = sn * q - 1.0 / 120.0
+        sn = sn * q + 1.0 / 6.0
+        sn = (1.0 - sn * q) * h
+        cs = -1.0 / 6402373705728000.0  # cos(h): Taylor series to h^18 (error below 1e-14 at pi/2)
+        cs = cs * q + 1.0 / 20922789888000.0
+        cs = cs * q - 1.0 / 87178291200.0
+        cs = cs * q + 1.0 / 479001600.0
+        cs = cs * q - 1.0 / 3628800.0
+        cs = cs * q + 1.0 / 40320.0
+        cs = cs * q - 1.0 / 720.0
+        cs = cs * q + 1.0 / 24.0
+        cs = cs * q - 0.5
+        cs = cs * q + 1.0
+        z[2 * j] = radius * (2.0 * sn * sn - 1.0)
+        z[2 * j + 1] = -radius * (2.0 * sn * cs)

@@ -180,6 +180,9 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
     bits = np.empty(w, dtype=np.int64)
     slow = np.empty(w, dtype=np.bool_)
     todo = np.empty(w, dtype=np.int64)
+    sf = np.empty((4, w))
+    G = np.empty((10, w))
+    si = np.empty((2, w), dtype=np.int64)
     cnt = 0
     t0 = t_prev
     # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
@@ -230,75 +233,93 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
             n_slow += slow[x]
         cnt = _row_events(todo[:n_slow], t0, hf, f0_t, lf_y, lam_t, hot_y, y, refractory, key, ref_y, tref_y,
                           es_y, eh_y, lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base,
-                          cap, cnt)
+                          cap, cnt, sf, si, G)
         ends_y[k] = cnt
         t0 = t1
     return cnt
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _row_events(todo, t0, hf, f0_t, f1_t, lam_t, hot_y, y, refractory, key, ref_y, tref_y, es_y, eh_y,
-                lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt):
+                lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt, sf, si, G):
     """Events over (t0, t0 + hf] of the columns `todo` of row y (Lf goes linearly from f0_t to f1_t).
 
-    The other arguments are that row's state; returns the row's updated event count.
+    The other arguments are that row's state; returns the row's updated event count. Almost every busy pixel has
+    exactly one crossing and no noise arrival in the interval: that case is computed for all busy columns at once
+    in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the others run _pixel_events.
+    Inlined into the caller, since array arguments of a called function cost reference counting on every call.
+    Scratch (float64 sf (4, W), G (10, W); int64 si (2, W)).
     """
     w = f0_t.size
-    for x in todo:
-        if _one_crossing(t0, hf, f0_t[x], f1_t[x], lam_t[x], hot_y[x], x, refractory, ref_y, tref_y, es_y, eh_y,
-                         lt_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt):
+    n = todo.size
+    r2_j, tr2_j, es_j, eh_j = sf[0], sf[1], sf[2], sf[3]
+    te_j, code_j = si[0], si[1]
+    for j in range(n):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
+        x = todo[j]
+        G[0, j] = f0_t[x]
+        G[1, j] = f1_t[x]
+        G[2, j] = ref_y[x]
+        G[3, j] = tref_y[x]
+        G[4, j] = dr_y[x]
+        G[5, j] = con_y[x]
+        G[6, j] = coff_y[x]
+        G[7, j] = es_y[x] - lam_t[x] * hf
+        G[8, j] = eh_y[x] - hot_y[x] * hf
+        G[9, j] = 1.0 if (refractory == 0) | (lt_y[x] + refractory < t0) else 0.0
+    for j in range(n):  # the one-crossing case for all busy columns at once (vectorised)
+        f0 = G[0, j]
+        f1 = G[1, j]
+        r = G[2, j]
+        tr = G[3, j]
+        dr = G[4, j]
+        con = G[5, j]
+        coff = G[6, j]
+        es = G[7, j]
+        eh = G[8, j]
+        g = (f1 - f0) / hf
+        m = g + dr
+        target = con if m > 0.0 else -coff
+        sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
+        sc = sc if sc > 0.0 else 0.0
+        sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+        te = t0 + np.int64(math.ceil(sc))
+        te = te if te > t0 else t0 + 1
+        sb = float(te + refractory - t0)
+        blind_after = (refractory > 0) & (sb >= hf)
+        r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
+        tr2 = float(t0) + (sb if refractory > 0 else sc)
+        d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
+        ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
+              & (blind_after | ((d_end < con) & (d_end > -coff))))
+        leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
+        te_j[j] = te
+        # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
+        code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
+        r2_j[j] = r2
+        tr2_j[j] = tr2
+        es_j[j] = es
+        eh_j[j] = eh
+    for j in range(n):
+        x = todo[j]
+        code = code_j[j]
+        if code != 0:
+            if cnt < cap:
+                out_t[base + cnt] = te_j[j]
+                out_x[base + cnt] = x
+                out_p[base + cnt] = 1 if code & 2 else -1
+                out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
             cnt += 1
+            es_y[x] = es_j[j]
+            eh_y[x] = eh_j[j]
+            lt_y[x] = te_j[j]
+            if not code & 8:
+                ref_y[x] = r2_j[j]
+                tref_y[x] = tr2_j[j]
         else:
             cnt = _pixel_events(t0, hf, f0_t[x], f1_t[x], lam_t[x], hot_y[x], y * w + x, x, refractory, key, ref_y,
                                 tref_y, es_y, eh_y, lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab,
                                 base, cap, cnt)
     return cnt
-
-
-@njit(cache=True, inline="always")
-def _one_crossing(t0, hf, f0, f1, lam_s, lam_h, x, refractory, ref_y, tref_y, es_y, eh_y, lt_y, con_y, coff_y,
-                  dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt):
-    """The common busy case, with few branches: exactly one crossing and no noise arrival in the interval.
-
-    Same arithmetic as _pixel_events for that case. Returns False, touching nothing, in any other case.
-    """
-    r = ref_y[x]
-    tr = tref_y[x]
-    dr = dr_y[x]
-    con = con_y[x]
-    lt = lt_y[x]
-    es = es_y[x] - lam_s * hf
-    eh = eh_y[x] - lam_h * hf
-    g = (f1 - f0) / hf
-    m = g + dr
-    target = con if m > 0.0 else -coff_y[x]
-    sc = max(0.0, (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0))
-    te = t0 + np.int64(math.ceil(sc))
-    te = te if te > t0 else t0 + 1
-    tb = te + refractory
-    sb = float(tb - t0)
-    blind_after = (refractory > 0) & (sb >= hf)
-    # reference after the event: reset at the end of the refractory time, or moved by the threshold
-    r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
-    tr2 = float(t0) + (sb if refractory > 0 else sc)
-    d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
-    ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & ((refractory == 0) | (lt + refractory < t0))
-          & (blind_after | ((d_end < con) & (d_end > -coff_y[x]))))
-    if not ok:
-        return False
-    pol = 1 if m > 0.0 else -1
-    if cnt < cap:
-        out_t[base + cnt] = te
-        out_x[base + cnt] = x
-        out_p[base + cnt] = pol
-        out_lab[base + cnt] = LABEL_LEAK if pol > 0 and dr * ((t0 - tr) + sc) >= 0.5 * con else LABEL_SIGNAL
-    es_y[x] = es
-    eh_y[x] = eh
-    lt_y[x] = te
-    if not blind_after:
-        ref_y[x] = r2
-        tref_y[x] = tr2
-    return True
 
 
 @njit(cache=True, inline="always")

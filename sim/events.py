@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
+from numba import njit
 
 from .errors import EvsimInputError, UnsortedEventsError
 
@@ -41,8 +42,8 @@ def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: st
         raise EvsimInputError(f"{name} must be a numpy array of sim.EVENT_DTYPE, got {got}")
     if events.ndim != 1:
         raise EvsimInputError(f"{name} must be one-dimensional, got shape {events.shape}")
-    if events.size and not np.all(np.abs(events["p"]) == 1):
-        bad = int(np.flatnonzero(np.abs(events["p"]) != 1)[0])
+    bad = _first_bad_polarity(events["p"])
+    if bad >= 0:
         raise EvsimInputError(f"{name}: polarity must be -1 or +1, got {events['p'][bad]} at index {bad}")
     if require_sorted:
         i = first_unsorted_index(events)
@@ -55,10 +56,38 @@ def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: st
 
 def first_unsorted_index(events: np.ndarray) -> int:
     """Index of the first event whose time is earlier than its predecessor's, or -1 when sorted."""
-    if events.size < 2:
-        return -1
-    bad = np.flatnonzero(np.diff(events["t"]) < 0)
-    return int(bad[0] + 1) if bad.size else -1
+    return _first_decrease(events["t"])
+
+
+# The field views events["t"], events["p"] are strided: these kernels read them in place, where numpy would first
+# copy the column (np.diff, np.searchsorted).
+@njit(cache=True)
+def _first_decrease(t) -> int:
+    for i in range(1, t.size):
+        if t[i] < t[i - 1]:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def _first_bad_polarity(p) -> int:
+    for i in range(p.size):
+        if p[i] != 1 and p[i] != -1:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def _search_left(t, value) -> int:
+    """The first index i of the non-decreasing t with t[i] >= value (binary search)."""
+    lo, hi = 0, t.size
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t[mid] < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 def is_sorted(events: np.ndarray) -> bool:
@@ -80,5 +109,4 @@ def slice_time(events: np.ndarray, t_start_us: int, t_end_us: int) -> np.ndarray
     if t_end_us < t_start_us:
         raise EvsimInputError(f"slice_time: t_end_us={t_end_us} is before t_start_us={t_start_us}")
     t = events["t"]
-    i0, i1 = np.searchsorted(t, [t_start_us, t_end_us], side="left")
-    return events[i0:i1]
+    return events[_search_left(t, t_start_us):_search_left(t, t_end_us)]
