@@ -11,11 +11,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .dvs_kernels import _log_row as log_row  # the vectorisable log of the DVS kernels
+from .kernel_math import GOLDEN, log_row, mix64
 
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_M1 = np.uint64(0xBF58476D1CE4E5B9)
-_M2 = np.uint64(0x94D049BB133111EB)
+_NORMAL_SALT = np.uint64(0x94D049BB133111EB)  # keys the read-noise streams apart from the shot-noise ones
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2**-53
 
 
@@ -41,16 +39,9 @@ def accumulate_rows(acc: np.ndarray, radiance: np.ndarray, row_weight: np.ndarra
 
 
 @njit(cache=True, inline="always")
-def _mix(z):
-    z = (z ^ (z >> np.uint64(30))) * _M1
-    z = (z ^ (z >> np.uint64(27))) * _M2
-    return z ^ (z >> np.uint64(31))
-
-
-@njit(cache=True, inline="always")
 def _uniform(stream, i):
     """Uniform in (0, 1): draw i (1, 2, ...) of the SplitMix64 stream that starts at counter `stream`."""
-    return (np.float64(_mix(stream + np.uint64(i) * _GOLDEN) >> np.uint64(11)) + 0.5) * _TO_UNIT
+    return (np.float64(mix64(stream + np.uint64(i) * GOLDEN) >> np.uint64(11)) + 0.5) * _TO_UNIT
 
 
 @njit(cache=True, inline="always")
@@ -171,7 +162,7 @@ def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, f
     _poisson_row and _normal_pairs). Every pixel draws from its own streams, so threads do not change the result.
     """
     height, width = irradiance.shape
-    normal_key = key ^ _M2  # a second family of streams for the read noise
+    normal_key = key ^ _NORMAL_SALT  # a second family of streams for the read noise
     n_pairs = (width + 1) // 2
     rows_per_block = 8  # scratch arrays are allocated per block of rows
     for blk in prange((height + rows_per_block - 1) // rows_per_block):
@@ -188,7 +179,7 @@ def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, f
                 else:
                     e = irradiance[r, c] * gain + dark_e
                 lam[c] = max(e, 0.0)
-                streams[c] = _mix(key ^ (np.uint64(r * width + c) * _GOLDEN))
+                streams[c] = mix64(key ^ (np.uint64(r * width + c) * GOLDEN))
             if noise:
                 _poisson_row(lam, streams, e_t, f, bits)
                 if read_noise_e > 0.0:
@@ -223,7 +214,7 @@ def _normal_pairs(key, first_pair, sigma, z):
     lg = np.empty(n)
     bits = np.empty(n, dtype=np.int64)
     for j in range(n):
-        s = _mix(key ^ ((first_pair + np.uint64(j)) * _GOLDEN))
+        s = mix64(key ^ ((first_pair + np.uint64(j)) * GOLDEN))
         u1[j] = _uniform(s, 1)
         z[2 * j] = _uniform(s, 2)
     log_row(u1, bits, lg)

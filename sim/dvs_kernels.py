@@ -12,35 +12,21 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .kernel_math import GOLDEN, expm1_row, log_row, mix64
+
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
 
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _PIXEL_MUL = np.uint64(0xD1B54A32D192ED03)
-_M1 = np.uint64(0xBF58476D1CE4E5B9)
-_M2 = np.uint64(0x94D049BB133111EB)
-_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_S11 = np.uint64(11)
 _ONE = np.uint64(1)
 _TWO_M53 = 2.0**-53
-_LN2 = math.log(2.0)
-_LN2_HI, _LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10  # Cody-Waite split of ln 2
-_INV_LN2 = 1.0 / _LN2
-_ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2**52: (x + M) - M rounds x to an integer
-_SQRT_HALF_BITS = np.int64(0x3FE6A09E667F3BCD)  # bit pattern of sqrt(1/2)
-
-
-@njit(cache=True, inline="always")
-def _mix64(z):
-    """splitmix64 finaliser: a bijective 64-bit hash."""
-    z = (z ^ (z >> _S30)) * _M1
-    z = (z ^ (z >> _S27)) * _M2
-    return z ^ (z >> _S31)
 
 
 @njit(cache=True, inline="always")
 def _uniform(pixel_key, counter):
     """Uniform draw in (0, 1] number `counter` of the pixel's stream."""
-    z = _mix64(pixel_key + counter * _GOLDEN)
+    z = mix64(pixel_key + counter * GOLDEN)
     return (float(z >> _S11) + 1.0) * _TWO_M53
 
 
@@ -73,62 +59,6 @@ def frames_valid(frames):
             row_ok &= (v >= 0.0) & (v < np.inf)
         ok[i] = row_ok
     return ok.all()
-
-
-@njit(cache=True, error_model="numpy")
-def _log_row(a, bits, out):
-    """out = log(a) for positive normal a (within 1e-15 absolute); written so that LLVM vectorises it."""
-    ab = a.view(np.int64)
-    for i in range(a.size):
-        e = (ab[i] - _SQRT_HALF_BITS) >> 52  # exponent that puts the mantissa in [sqrt(1/2), sqrt(2))
-        bits[i] = ab[i] - (e << 52)
-        out[i] = float(e)
-    m = bits.view(np.float64)
-    for i in range(a.size):
-        x = m[i]
-        s = (x - 1.0) / (x + 1.0)  # log(x) = 2 atanh(s), |s| <= 0.172
-        z = s * s
-        p = 2.0 / 19.0
-        p = p * z + 2.0 / 17.0
-        p = p * z + 2.0 / 15.0
-        p = p * z + 2.0 / 13.0
-        p = p * z + 2.0 / 11.0
-        p = p * z + 2.0 / 9.0
-        p = p * z + 2.0 / 7.0
-        p = p * z + 2.0 / 5.0
-        p = p * z + 2.0 / 3.0
-        p = p * z + 2.0
-        out[i] = out[i] * _LN2 + s * p
-
-
-@njit(cache=True, error_model="numpy")
-def _expm1_row(a, bits, out):
-    """out = expm1(a) for a <= 0 (relative error below 1e-15); written so that LLVM vectorises it.
-
-    Below -40 the result is -1 (e^-40 < 5e-18): this also keeps subnormal numbers (slow) out of later products.
-    """
-    for i in range(a.size):
-        x = a[i]
-        x = x if x > -40.0 else -40.0
-        k = (x * _INV_LN2 + _ROUND_MAGIC) - _ROUND_MAGIC  # nearest integer
-        r = (x - k * _LN2_HI) - k * _LN2_LO  # |r| <= ln(2) / 2
-        p = 1.0 / 6227020800.0
-        p = p * r + 1.0 / 479001600.0
-        p = p * r + 1.0 / 39916800.0
-        p = p * r + 1.0 / 3628800.0
-        p = p * r + 1.0 / 362880.0
-        p = p * r + 1.0 / 40320.0
-        p = p * r + 1.0 / 5040.0
-        p = p * r + 1.0 / 720.0
-        p = p * r + 1.0 / 120.0
-        p = p * r + 1.0 / 24.0
-        p = p * r + 1.0 / 6.0
-        p = p * r + 0.5
-        out[i] = (p * r + 1.0) * r  # expm1(r)
-        bits[i] = (np.int64(k) + 1023) << 52  # 2^k
-    two_k = bits.view(np.float64)
-    for i in range(a.size):
-        out[i] = two_k[i] * out[i] + (two_k[i] - 1.0)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -191,7 +121,7 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
         hf = float(t1 - t0)
         for x in range(w):
             c1_t[x] = float(frames[k, y, x]) + dark
-        _log_row(c1_t, bits, l1_t)
+        log_row(c1_t, bits, l1_t)
         for x in range(w):
             j_t[x] = math.sqrt(cur_y[x] * c1_t[x])  # the interval's geometric-mean photocurrent
             cur_y[x] = c1_t[x]
@@ -201,7 +131,7 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
             # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
             for x in range(w):
                 q_t[x] = -k_cut * hf * j_t[x]
-            _expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
+            expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
             for x in range(w):
                 l0 = logi_y[x]
                 l1 = l1_t[x]
@@ -334,7 +264,7 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
     con = con_y[x]
     coff = coff_y[x]
     dr = dr_y[x]
-    pkey = _mix64(key + np.uint64(pixel) * _PIXEL_MUL)
+    pkey = mix64(key + np.uint64(pixel) * _PIXEL_MUL)
     c = ctr_y[x]
     g = (f1 - f0) / hf
     s = 0.0
