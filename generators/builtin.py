@@ -14,14 +14,13 @@ of white, as the paper's original 8-bit frames), and the LDR camera sees it thro
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 
-from sim import InvalidParameterError
-
-from pathlib import Path
-
 import sim
+from sim import InvalidParameterError
 
 from .config import DatasetConfig, parse_config
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
@@ -43,7 +42,6 @@ BUILTIN_SEQUENCES = [
     {"name": "moving_edge", "scene": {"type": "moving_edge", "speed_px_per_s": 60.0}},
     {"name": "flicker", "scene": {"type": "flicker", "frequency_hz": 50.0}},
 ]
-DEMO_SEQUENCE = BUILTIN_SEQUENCES[0]
 
 
 def builtin_hdr_image(name: str = "astronaut") -> np.ndarray:

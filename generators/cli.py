@@ -15,6 +15,8 @@ from pathlib import Path
 
 import sim
 
+from .plots.cli import add_plot_parser
+
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
           "Exit codes: 0 success, 2 usage error or bad input, 1 unexpected failure.")
@@ -114,27 +116,23 @@ def _cmd_info(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    from .builtin import DEMO_SEQUENCE
-    from .config import build_scene, parse_config, to_ahdr_config
-    from .dataset import write_sequence
-
-    data = {"seed": args.seed, "defaults": {"duration_s": args.duration_s, "height": args.height,
-                                            "width": args.width, "sensor": args.sensor,
-                                            "output": {"reference_rate_hz": 40.0}},
-            "sequence": [dict(DEMO_SEQUENCE)]}
-    spec = parse_config(data, source="<demo>").sequences[0]
-    s = spec.settings
-    scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     import numpy as np
 
-    entry = write_sequence(out, "demo", scene, to_ahdr_config(s), np.random.SeedSequence(args.seed), "native",
-                           progress=not args.no_progress)
+    from .builtin import ahdr_suite, ahdr_suite_config
+    from .dataset import write_sequence
+
+    if args.duration_s <= 0 or args.height <= 0 or args.width <= 0:
+        raise sim.InvalidParameterError("--duration-s, --height and --width must be positive")
+    # The first sequence of the built-in AHDR suite (the AKF paper's construction; needs no files).
+    name, scene = ahdr_suite(args.height, args.width, args.duration_s, include_hdr=False)[0]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    entry = write_sequence(out, "demo", scene, ahdr_suite_config(args.sensor), np.random.SeedSequence(args.seed),
+                           "native", progress=not args.no_progress)
     path = out / entry["file"]
     from .info import describe, format_description
 
-    print(f"evsim demo: {spec.name} ({scene.describe()['image']}), written to {path}")
+    print(f"evsim demo: {name} ({scene.describe()['image']}), written to {path}")
     print(format_description(describe(path)))
     if args.no_reconstruct:
         return 0
@@ -300,6 +298,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")
     rc.set_defaults(func=_cmd_reconstruct)
+    add_plot_parser(sub)
     return parser
 
 

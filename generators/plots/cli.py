@@ -1,0 +1,138 @@
+"""`evsim plot pixel|events|compare|sweep`: registered on the evsim command line by add_plot_parser(subparsers).
+
+Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
+this includes a missing matplotlib (generators.plots.common.PlotDependencyError, with the pip command to fix it).
+Figures are written atomically; the format follows the --out suffix (.png, .pdf, .svg, ...).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+PLOT_EPILOG = ("Times in milliseconds (-ms) as the flag names say, pixel coordinates from 0 (x: column, y: row). "
+               "Log intensities are natural logs of the CRF's scaled irradiance plus I0. "
+               "Needs matplotlib: pip install 'evsim[plot]'. Exit codes: 0 success, 2 bad input, 1 unexpected failure.")
+
+
+def _default_out(dataset: Path, kind: str) -> Path:
+    return Path(f"{Path(dataset).stem}_{kind}.png")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return v
+
+
+def _cmd_pixel(args) -> int:
+    from .common import load_recording, prepare
+    from .pixel import check_pixel, plot_pixel
+
+    rec = load_recording(args.dataset)
+    check_pixel(rec, args.x, args.y)
+    out = args.out or _default_out(args.dataset, f"pixel_x{args.x}_y{args.y}")
+    s = plot_pixel(prepare(rec), args.x, args.y, out, n_times=args.n_times)
+    print(f"wrote {out} (pixel x={args.x}, y={args.y}: {s.event_t_us.size} events, {s.frame_log.size} frames)")
+    return 0
+
+
+def _cmd_events(args) -> int:
+    from .common import load_recording, prepare
+    from .events import plot_events
+
+    rec = load_recording(args.dataset)
+    if args.animate is not None:
+        from .animate import check_output
+
+        check_output(args.animate)
+    out = args.out or _default_out(args.dataset, "events")
+    res = plot_events(rec, out, at_ms=args.at_ms, window_ms=args.window_ms, bin_ms=args.bin_ms)
+    print(f"wrote {out} (windows ending at {', '.join(f'{t / 1e3:g}' for t in res['times_us'])} ms)")
+    if args.animate is not None:
+        from .animate import animate
+
+        animate(prepare(rec), args.animate, n_frames=args.frames, fps=args.fps)
+        print(f"wrote {args.animate} ({args.frames} frames at {args.fps:g} fps)")
+    return 0
+
+
+def _cmd_compare(args) -> int:
+    from .common import load_recording, prepare
+    from .compare import plot_compare
+
+    prep = prepare(load_recording(args.dataset), need_reference=True)
+    out = args.out or _default_out(args.dataset, "compare")
+    t_us = None if args.at_ms is None else int(round(args.at_ms * 1e3))
+    res = plot_compare(prep, out, t_us=t_us, methods=tuple(args.methods))
+    scores = ", ".join(f"{m} {v:.2f} dB" for m, v in res["pu21_psnr"].items())
+    print(f"wrote {out} (t = {res['t_us'] / 1e3:g} ms; PU21-PSNR: {scores})")
+    print(f"tone mapping: {res['tone_map'].describe()}")
+    return 0
+
+
+def _cmd_sweep(args) -> int:
+    from .sweep import METRICS_FILE, plot_sweep
+
+    out = args.out or Path(f"{Path(args.results).resolve().name}_sweep.png")
+    rows = plot_sweep(args.results, out, methods=tuple(args.methods), metric=args.metric, recompute=args.recompute,
+                      progress=not args.no_progress)
+    print(f"wrote {out} ({len(rows)} grid points; scores in {Path(args.results) / METRICS_FILE})")
+    return 0
+
+
+def add_plot_parser(subparsers) -> argparse.ArgumentParser:
+    """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
+    plot = subparsers.add_parser("plot", help="figures: one pixel over time, events, method comparison, sweeps",
+                                 epilog=PLOT_EPILOG)
+    psub = plot.add_subparsers(dest="plot_kind", required=True)
+
+    p = psub.add_parser("pixel", epilog=PLOT_EPILOG,
+                        help="one pixel over time: truth, DVS reference level and events, LDR samples, augmented "
+                             "frame, AKF +-2 sqrt(P) and complementary filter")
+    p.add_argument("dataset", type=Path, help="a dataset with events, frames and a CRF (native HDF5 from evsim)")
+    p.add_argument("--x", type=int, required=True, help="pixel column (0 .. width-1)")
+    p.add_argument("--y", type=int, required=True, help="pixel row (0 .. height-1)")
+    p.add_argument("--n-times", type=_positive_int, default=1500, help="dense sample times of the estimates "
+                                                                       "(default 1500)")
+    p.add_argument("--out", type=Path, help="figure file (default ./<dataset>_pixel_x<X>_y<Y>.png)")
+    p.set_defaults(func=_cmd_pixel)
+
+    e = psub.add_parser("events", epilog=PLOT_EPILOG,
+                        help="event frames (ON red, OFF blue), time surfaces and the event rate over time")
+    e.add_argument("dataset", type=Path, help="a dataset (any layout evsim reads)")
+    e.add_argument("--at-ms", type=float, nargs="+", help="window end times in ms (default: 3 spread over the data)")
+    e.add_argument("--window-ms", type=float, default=10.0, help="event-frame window and time-surface decay in ms "
+                                                                 "(default 10)")
+    e.add_argument("--bin-ms", type=float, help="event-rate bin in ms (default: the span / 200, at least 0.1 ms)")
+    e.add_argument("--out", type=Path, help="figure file (default ./<dataset>_events.png)")
+    e.add_argument("--animate", type=Path, metavar="FILE",
+                   help="also write an animation of events against the AKF reconstruction (.gif; .mp4 needs ffmpeg)")
+    e.add_argument("--frames", type=_positive_int, default=40, help="animation frames (default 40)")
+    e.add_argument("--fps", type=float, default=10.0, help="animation frames per second (default 10)")
+    e.set_defaults(func=_cmd_events)
+
+    c = psub.add_parser("compare", epilog=PLOT_EPILOG,
+                        help="LDR input, each method's reconstruction and the HDR reference, error and gain maps")
+    c.add_argument("dataset", type=Path, help="a dataset with events, frames, a CRF and HDR reference frames")
+    c.add_argument("--at-ms", type=float, help="time in ms; the nearest reference frame is used (default: the one "
+                                               "nearest the middle)")
+    c.add_argument("--methods", nargs="+", default=["akf", "cf", "frames"],
+                   help="akf.METHODS to show (default: akf cf frames)")
+    c.add_argument("--out", type=Path, help="figure file (default ./<dataset>_compare.png)")
+    c.set_defaults(func=_cmd_compare)
+
+    s = psub.add_parser("sweep", epilog=PLOT_EPILOG,
+                        help="reconstruction error against each swept noise parameter, per method")
+    s.add_argument("results", type=Path, help="the output folder of `evsim generate sweep`")
+    s.add_argument("--metric", default="mse", help="mse (default), psnr, ssim, pu21_psnr or pu21_ssim")
+    s.add_argument("--methods", nargs="+", default=["akf", "cf", "frames"], help="methods (default: akf cf frames)")
+    s.add_argument("--recompute", action="store_true", help="ignore the cached sweep_metrics.json")
+    s.add_argument("--no-progress", action="store_true", help="no progress messages")
+    s.add_argument("--out", type=Path, help="figure file (default ./<results folder>_sweep.png)")
+    s.set_defaults(func=_cmd_sweep)
+    return plot

@@ -1,0 +1,201 @@
+"""One pixel over time: the figure that explains the method (`evsim plot pixel`).
+
+Every curve is in the filter's log space L = log(x + I0), x the CRF's scaled irradiance and I0 = AKFParams.i0:
+- truth: the HDR reference frames at the pixel (reference radiance converted to x, see common.Prepared.to_x; not
+  drawn when the recording has no reference in known units);
+- DVS reference level: rebuilt from the pixel's events, anchor + sum of p * C_p (C_p from the threshold map),
+  anchored to the truth at the first reference time (exact for an ideal sensor: no leak, refractory or noise);
+- LDR samples: log(CRF^-1(y) + I0) of each frame, drawn over its exposure window (hollow where the frame is clipped,
+  i.e. its variance saturated);
+- augmented frame L^A(t) (section 4.1, eq. 13): the interval curves from the AKF's own augmentation (EDI deblurring,
+  contrast calibration), blended across each exposure;
+- AKF estimate with a +-2 sqrt(P) band, and the complementary-filter estimate, at dense times.
+The reconstructions run on the 3x3 neighbourhood of the pixel only: that is exact for the centre pixel (each pixel's
+filter depends on its own events and frames and on its 8 neighbours' event times) and makes dense sampling cheap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim import EvsimInputError, make_events
+
+from .common import OFF_COLOUR, ON_COLOUR, Prepared, pyplot, save_figure
+
+
+@dataclass
+class PixelSeries:
+    """What plot_pixel draws (times int64 us, log values in log(x + I0) units).
+
+    reference_t_us, true_log: the reference frames at the pixel (None when the file has none).
+    event_t_us, event_p: the pixel's events; dvs_level_t_us, dvs_level: the rebuilt DVS reference level (a step
+    function: the level holds from each time to the next).
+    frame_t_start_us, frame_t_end_us, frame_log, frame_clipped: the LDR samples and their exposure windows.
+    deblurred: (F, 2) EDI-deblurred log at each exposure's start and end.
+    t_us: the dense sample times of augmented, akf, akf_std (sqrt P, log units) and cf.
+    """
+
+    x: int
+    y: int
+    reference_t_us: np.ndarray | None
+    true_log: np.ndarray | None
+    event_t_us: np.ndarray
+    event_p: np.ndarray
+    dvs_level_t_us: np.ndarray
+    dvs_level: np.ndarray
+    frame_t_start_us: np.ndarray
+    frame_t_end_us: np.ndarray
+    frame_log: np.ndarray
+    frame_clipped: np.ndarray
+    deblurred: np.ndarray
+    t_us: np.ndarray
+    augmented: np.ndarray
+    akf: np.ndarray
+    akf_std: np.ndarray
+    cf: np.ndarray
+
+
+def check_pixel(rec, x: int, y: int) -> None:
+    """EvsimInputError unless (x, y) lies on the sensor."""
+    if not (0 <= x < rec.width and 0 <= y < rec.height):
+        raise EvsimInputError(f"pixel (x={x}, y={y}) is outside the {rec.width}x{rec.height} sensor "
+                              f"(x in 0..{rec.width - 1}, y in 0..{rec.height - 1})")
+
+
+def _neighbourhood(prep: Prepared, x: int, y: int):
+    """Events and frames of the 3x3 (or border-clipped) block around (x, y), in block coordinates, and the
+    pixel's position in the block."""
+    rec = prep.rec
+    x0, x1 = max(x - 1, 0), min(x + 2, rec.width)
+    y0, y1 = max(y - 1, 0), min(y + 2, rec.height)
+    ev = rec.events
+    keep = (ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)
+    ev = ev[keep]
+    local = make_events(ev["t"], ev["x"] - x0, ev["y"] - y0, ev["p"])
+    frames = np.ascontiguousarray(rec.frames[:, y0:y1, x0:x1])
+    return local, frames, (x - x0, y - y0)
+
+
+def _augmented(inp, crf, params, i: int, t_us: np.ndarray, ev_t: np.ndarray, ev_d: np.ndarray):
+    """L^A at times t_us for flat block pixel i, from the AKF's interval curves (see akf.kernels, eq. 13).
+
+    Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)); in frame
+    window k = [s_k, s_k+1) the measurement blends M_{k-1} into M_k across the exposure [s_k, e_k]."""
+    from akf.filter import _Frames  # the filter's own augmentation, so the plot shows exactly what it tracks
+
+    fr = _Frames(inp, crf, params)
+    nf = inp.frames.shape[0]
+    start = np.empty(nf)
+    scale = np.empty(nf)
+    for j in range(nf):
+        m, s = fr.interval(j)[:2]  # (curve value at s_j, contrast scale, ...)
+        start[j], scale[j] = m[i], s[i]
+    deblurred = np.array([[d[i] for d in fr.deblurred(k)] for k in range(nf)])
+    cum = np.concatenate([[0.0], np.cumsum(ev_d)])
+
+    def change(a, b):  # nominal event change over [a, b) (arrays of times)
+        return cum[np.searchsorted(ev_t, b, side="left")] - cum[np.searchsorted(ev_t, a, side="left")]
+
+    s_k = inp.t_start
+    k = np.clip(np.searchsorted(s_k, t_us, side="right") - 1, 0, nf - 1)
+    kp = np.maximum(k - 1, 0)
+    cur = start[k] + scale[k] * change(s_k[k], t_us)
+    prev = start[kp] + scale[kp] * change(s_k[kp], t_us)
+    w = np.clip((t_us - s_k[k]) / np.maximum(inp.t_end[k] - s_k[k], 1), 0.0, 1.0)
+    w = np.where(k == 0, 1.0, w)  # the first window has no earlier interval
+    return prev + w * (cur - prev), deblurred, fr
+
+
+def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=None) -> PixelSeries:
+    """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring); n_times dense samples
+    from the first exposure start to the end of the data."""
+    import akf
+    from akf.inputs import validate_inputs
+
+    rec = prep.rec
+    check_pixel(rec, x, y)
+    params = params or akf.AKFParams()
+    i0 = params.i0
+    events, frames, (lx, ly) = _neighbourhood(prep, x, y)
+    bw = frames.shape[2]
+    i = ly * bw + lx
+    mine = events[(events["x"] == lx) & (events["y"] == ly)]
+    ev_t = mine["t"].astype(np.int64)
+    c_on, c_off = prep.contrast
+    t_end = [int(rec.frame_t_end_us[-1])]
+    if ev_t.size:
+        t_end.append(int(ev_t[-1]) + 1)
+    if rec.reference_t_us is not None and rec.reference_t_us.size:
+        t_end.append(int(rec.reference_t_us[-1]))
+    t_us = np.unique(np.linspace(int(rec.frame_t_start_us[0]), max(t_end), n_times).astype(np.int64))
+    args = (events, frames, rec.frame_t_start_us, rec.frame_t_end_us, prep.crf, t_us)
+    opts = {"contrast": prep.contrast, "bit_depth": rec.frame_bit_depth}
+    est, var = akf.reconstruct(*args, params=params, return_variance=True, **opts)
+    cf = akf.complementary_filter(*args, i0=i0, **opts)
+
+    inp = validate_inputs(events, frames, rec.frame_t_start_us, rec.frame_t_end_us, t_us, prep.contrast,
+                          rec.frame_bit_depth)
+    nominal = np.where(mine["p"] > 0, c_on, -c_off)
+    augmented, deblurred, fr = _augmented(inp, prep.crf, params, i, t_us, ev_t, nominal)
+    frame_x = np.array([fr.measurement(k).intensity.ravel()[i] for k in range(frames.shape[0])])
+    clipped = np.array([bool(fr.measurement(k).clipped.ravel()[i]) for k in range(frames.shape[0])])
+
+    true_log = ref_t = None
+    if prep.to_x is not None:
+        ref_t = rec.reference_t_us.astype(np.int64)
+        true_log = np.log(rec.reference[:, y, x].astype(np.float64) * prep.to_x + i0)
+    thr = prep.thresholds[:, y, x]
+    steps = np.where(mine["p"] > 0, thr[0], -thr[1])
+    anchor_t = int(ref_t[0]) if ref_t is not None else int(rec.frame_t_start_us[0])
+    anchor = float(true_log[0]) if true_log is not None else float(np.log(frame_x[0] + i0))
+    return PixelSeries(
+        x=x, y=y, reference_t_us=ref_t, true_log=true_log, event_t_us=ev_t, event_p=mine["p"].astype(np.int8),
+        dvs_level_t_us=np.concatenate([[anchor_t], ev_t]), dvs_level=anchor + np.concatenate([[0.0], np.cumsum(steps)]),
+        frame_t_start_us=rec.frame_t_start_us.astype(np.int64), frame_t_end_us=rec.frame_t_end_us.astype(np.int64),
+        frame_log=np.log(frame_x + i0), frame_clipped=clipped, deblurred=deblurred, t_us=t_us, augmented=augmented,
+        akf=np.log(est[:, ly, lx].astype(np.float64) + i0), akf_std=np.sqrt(var[:, ly, lx].astype(np.float64)),
+        cf=np.log(cf[:, ly, lx].astype(np.float64) + i0),
+    )
+
+
+def plot_pixel(prep: Prepared, x: int, y: int, out, *, n_times: int = 1500, params=None) -> PixelSeries:
+    """Draw pixel (x, y) over time into the image file `out` (see the module docstring); return the series."""
+    s = pixel_series(prep, x, y, n_times=n_times, params=params)
+    plt = pyplot()
+    fig, (ax, axe) = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True, gridspec_kw={"height_ratios": [4, 1]})
+    ms = 1e-3
+    if s.true_log is not None:
+        ax.plot(s.reference_t_us * ms, s.true_log, "k-", lw=1.6, marker=".", ms=4,
+                label="true log intensity (reference)")
+    t_last = s.t_us[-1]
+    ax.step(np.append(s.dvs_level_t_us, t_last) * ms, np.append(s.dvs_level, s.dvs_level[-1]), where="post",
+            color="0.55", lw=1.0, label="DVS reference level (events x threshold)")
+    for k in range(s.frame_log.size):
+        t0, t1 = s.frame_t_start_us[k] * ms, s.frame_t_end_us[k] * ms
+        style = {"color": "tab:orange", "lw": 4, "solid_capstyle": "butt", "alpha": 0.35 if s.frame_clipped[k] else 0.9}
+        ax.plot([t0, t1], [s.frame_log[k]] * 2, **style,
+                label="LDR frame: log(CRF^-1(y) + I0) over its exposure (faint: clipped)" if k == 0 else None)
+        ax.plot([t0, t1], s.deblurred[k], "o", color="tab:orange", mfc="none", ms=5,
+                label="EDI-deblurred frame at exposure start / end" if k == 0 else None)
+    ax.plot(s.t_us * ms, s.augmented, "--", color="tab:green", lw=1.2, label="augmented frame L^A(t)")
+    ax.fill_between(s.t_us * ms, s.akf - 2 * s.akf_std, s.akf + 2 * s.akf_std, color="tab:purple", alpha=0.18,
+                    lw=0, label="AKF +-2 sqrt(P)")
+    ax.plot(s.t_us * ms, s.akf, color="tab:purple", lw=1.4, label="AKF estimate")
+    ax.plot(s.t_us * ms, s.cf, ":", color="tab:brown", lw=1.4, label="complementary filter")
+    ax.set_ylabel("log(x + I0)")
+    ax.set_title(f"pixel (x={s.x}, y={s.y}): {s.event_t_us.size} events, {s.frame_log.size} frames")
+    ax.legend(fontsize=7, loc="best", ncol=2)
+    ax.grid(alpha=0.3)
+    on = s.event_p > 0
+    axe.vlines(s.event_t_us[on] * ms, 0, 1, color=ON_COLOUR, lw=0.8, label=f"ON ({int(on.sum())})")
+    axe.vlines(s.event_t_us[~on] * ms, -1, 0, color=OFF_COLOUR, lw=0.8, label=f"OFF ({int((~on).sum())})")
+    axe.axhline(0, color="0.3", lw=0.5)
+    axe.set_ylim(-1.2, 1.2)
+    axe.set_yticks([])
+    axe.set_ylabel("events")
+    axe.set_xlabel("time (ms)")
+    axe.legend(fontsize=7, loc="upper right")
+    save_figure(fig, out)
+    return s

@@ -1,0 +1,114 @@
+"""Reconstruction error against each swept noise parameter, per method (`evsim plot sweep RESULTS`).
+
+RESULTS is a folder written by `evsim generate sweep` (generators.sweep): index.json lists one sequence per grid
+point with its parameters. Each sequence is scored with generators.evaluation.evaluate_recording (protocol
+"reference": the reference frames strictly between the first and last LDR frame, in the CRF's units) for the
+requested metric; the scores are cached per method and metric in RESULTS/sweep_metrics.json (written atomically)
+and reused. With several swept parameters, each panel shows the mean over the other parameters' values at each
+value, with min..max error bars.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sim import EvsimInputError
+
+from ..dataset import INDEX_FILE
+from ..formats.atomic import atomic_path
+from .common import load_recording, pyplot, save_figure
+
+METRICS_FILE = "sweep_metrics.json"
+DEFAULT_METHODS = ("akf", "cf", "frames")
+
+
+def read_index(results) -> dict:
+    """The sweep's index.json; EvsimInputError when the folder is not a sweep's output."""
+    path = Path(results) / INDEX_FILE
+    if not path.is_file():
+        raise EvsimInputError(f"{results}: no {INDEX_FILE}; expected the folder written by `evsim generate sweep`")
+    try:
+        index = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise EvsimInputError(f"{path}: not valid JSON: {e}") from None
+    if index.get("generator") != "sweep" or "grid" not in index:
+        raise EvsimInputError(f"{path}: not a sweep index (generator {index.get('generator')!r}); "
+                              "use the output folder of `evsim generate sweep`")
+    return index
+
+
+def score_sequence(path, methods=DEFAULT_METHODS, metrics=("mse",)) -> dict:
+    """{method: {metric: value}} of one sequence file (generators.evaluation, protocol "reference")."""
+    from ..evaluation import evaluate_recording
+
+    return evaluate_recording(load_recording(path), methods=tuple(methods), metrics=tuple(metrics))[0]
+
+
+def sweep_metrics(results, methods=DEFAULT_METHODS, metric: str = "mse", *, recompute: bool = False,
+                  progress: bool = False) -> list[dict]:
+    """Per grid point {"name", "stamp", "point", "scores": {method: {metric: value}}}; scores come from the cache
+    when it has them for the same file (name, size, modification time), the missing ones are computed and added."""
+    results = Path(results)
+    index = read_index(results)
+    cache_path = results / METRICS_FILE
+    cached = {}
+    if cache_path.is_file() and not recompute:
+        cached = {e["name"]: e for e in json.loads(cache_path.read_text())["sequences"]}
+    rows, changed = [], False
+    for n, entry in enumerate(index["sequences"]):
+        st = (results / entry["file"]).stat()
+        stamp = [entry["file"], st.st_size, st.st_mtime_ns]  # a regenerated file invalidates its scores
+        row = cached.get(entry["name"])
+        if row is None or row.get("stamp") != stamp:
+            row = {"name": entry["name"], "stamp": stamp, "point": entry["sweep_point"], "scores": {}}
+        missing = [m for m in methods if metric not in row["scores"].get(m, {})]
+        if missing:
+            if progress:
+                print(f"[{n + 1}/{len(index['sequences'])}] scoring {entry['file']}", flush=True)
+            for m, scores in score_sequence(results / entry["file"], missing, (metric,)).items():
+                row["scores"].setdefault(m, {}).update(scores)
+            changed = True
+        rows.append(row)
+    if changed:
+        with atomic_path(cache_path) as tmp:
+            tmp.write_text(json.dumps({"sequences": rows}, indent=2))
+    return rows
+
+
+def aggregate(rows: list[dict], key: str, method: str, metric: str):
+    """(values, mean, min, max) of metric over the grid points, grouped by the value of parameter `key`."""
+    values = sorted({r["point"][key] for r in rows})
+    groups = [[r["scores"][method][metric] for r in rows if r["point"][key] == v] for v in values]
+    return (np.array(values, float), np.array([np.mean(g) for g in groups]), np.array([min(g) for g in groups]),
+            np.array([max(g) for g in groups]))
+
+
+def plot_sweep(results, out, *, methods=DEFAULT_METHODS, metric: str = "mse", recompute: bool = False,
+               progress: bool = False) -> list[dict]:
+    """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows."""
+    import akf
+
+    if metric not in akf.METRICS:
+        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join(akf.METRICS)}")
+    index = read_index(results)
+    rows = sweep_metrics(results, methods, metric, recompute=recompute, progress=progress)
+    keys = list(index["grid"])
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.6), squeeze=False)
+    for ax, key in zip(axes[0], keys):
+        for method in methods:
+            v, mean, lo, hi = aggregate(rows, key, method, metric)
+            ax.errorbar(v, mean, yerr=[mean - lo, hi - mean], marker="o", capsize=3, label=method)
+        ax.set_xlabel(key)
+        ax.set_ylabel(metric + (" (lower is better)" if metric == "mse" else " (higher is better)"))
+        if metric == "mse":
+            ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    if len(keys) > 1:
+        fig.suptitle("mean over the other swept parameters (bars: min..max)", fontsize=9)
+    save_figure(fig, out)
+    return rows
