@@ -45,7 +45,8 @@ from . import scenes
 
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
-             "scale, interpolation, border, gain",
+             "scale, interpolation, border, gain, supersample (sub-samples per output pixel and axis when the "
+             "image is shrunk, so that each pixel integrates its area; default 3)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
     "builtin_image": "an image shipped with scikit-image made HDR (see generators.builtin): image, trajectory {...}",

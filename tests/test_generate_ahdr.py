@@ -114,3 +114,31 @@ def test_bad_config_is_reported():
         generate_ahdr(_scene(), "/nonexistent/x.h5", AHDRConfig(reference_times_us=(DURATION + 1,)), progress=False)
     with pytest.raises(sim.InvalidParameterError):
         dataclasses.replace(AHDRConfig(), reference_rate_hz=-1.0)
+
+
+def _frame_window_rate_ratio(supersample, tmp_path):
+    """(rate within 2 ms of a frame start / rate elsewhere, its Poisson standard deviation in log units) for an
+    ideal sensor on a 30 px/s pan of the built-in astronaut filmed at 30 fps (frame starts at whole-pixel views)."""
+    from generators.builtin import builtin_hdr_image
+
+    scene = ImageMotionScene(builtin_hdr_image("astronaut"), 300_000, Trajectory(pan_px_per_s=(30.0, 0.0)),
+                             height=45, width=60, supersample=supersample)
+    cfg = AHDRConfig(dvs=sim.DVSParams.preset("ideal"), camera=sim.CameraParams(fps=30.0), threshold_maps=False)
+    rec = load(generate_ahdr(scene, tmp_path / f"pan{supersample}.h5", cfg, progress=False).path)
+    t, starts = rec.events["t"], rec.frame_t_start_us
+    near = np.abs(t[:, None] - starts[None, :]).min(axis=1) < 2000
+    t_near = sum(min(s + 2000, 300_000) - max(s - 2000, 0) for s in starts)
+    ratio = (near.sum() / t_near) / ((~near).sum() / (300_000 - t_near))
+    return ratio, np.sqrt(1 / near.sum() + 1 / (~near).sum())
+
+
+def test_ideal_event_rate_has_no_structure_at_frame_times(tmp_path):
+    # A constant-speed pan has a constant true rate of log change, so the event rate near frame times equals the
+    # rate between them: within 4 standard deviations of a Poisson count (about 5 % here), the remainder being
+    # the content's own variation.
+    ratio, sd = _frame_window_rate_ratio(3, tmp_path)
+    assert abs(np.log(ratio)) < 4 * sd
+    # Control: point-sampling the source at one pixel per output pixel makes the rate pulse once per pixel of
+    # motion, here exactly at the frame starts (about +57 %).
+    ratio, sd = _frame_window_rate_ratio(1, tmp_path)
+    assert np.log(ratio) > 10 * sd

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,56 @@ def test_breakpoints_are_sampled_exactly():
         assert set(marks[:3]) <= set(times.tolist()) and 60_000 not in times
         assert np.all(np.diff(times) > 0) and times[-1] == 50_000
     assert np.diff(adaptive).max() <= 5000
+
+
+def _chord_time_error(delta: float) -> float:
+    """Largest time error, as a fraction of the step, of linear interpolation of L = log(a + b t) over a step in
+    which L changes by delta: max over levels l in [0, delta] of l / delta - (e^l - 1) / (e^delta - 1)."""
+    lev = np.linspace(0.0, delta, 10_001)
+    return float(np.max(lev / delta - np.expm1(lev) / np.expm1(delta)))
+
+
+def test_ideal_dvs_event_times_match_analytic_crossings_within_the_sampling_bound():
+    # Edge 0.05 -> 1.0 at 250 px/s: a pixel's radiance rises linearly over 4 ms, so L = log(I + eps) is log-linear
+    # there and its crossings of L(0) + n C have closed-form times. Breakpoints every 10 ms stand for frame times.
+    C, fraction, speed, x0, low, high = 0.2, 0.5, 250.0, 2.3, 0.05, 1.0
+    scene = MovingEdge(2, 24, 80_000, speed_px_per_s=speed, x0=x0, low=low, high=high)
+    params = dataclasses.replace(sim.DVSParams.preset("ideal"), full_illumination=1.0, pos_threshold=C,
+                                 neg_threshold=C)
+    eps = params.dark_fraction * params.full_illumination
+    sampler = AdaptiveSampler(scene, threshold=C, fraction=fraction, min_step_us=5, max_step_us=5000, log_eps=eps,
+                              breakpoints_us=np.arange(0, 80_001, 10_000))
+    samples = list(sampler)
+    times = np.array([t for t, _ in samples])
+    dvs = sim.DVSEmulator(2, 24, params, seed=0)
+    ev = dvs.feed(np.stack([img for _, img in samples]), times)
+    assert np.isin(np.arange(10_000, 80_000, 10_000), times).all() and sampler.n_at_min_step == 0
+    assert np.all(ev["p"] == 1) and np.all(ev["y"] < 2)
+
+    c = float(np.float32(C))  # thresholds are float32
+    l0, l1 = np.log(np.float32(low) + np.float32(eps)), np.log(np.float32(high) + np.float32(eps))
+    n = int(np.floor((l1 - l0) / c + 1e-6))  # crossings per pixel the edge fully passes
+    level_radiance = np.exp(l0 + c * np.arange(1, n + 1)) - eps
+    coverage = (level_radiance - low) / (high - low)
+    # Linear interpolation between samples whose max log change is <= fraction * C puts each event inside the step
+    # holding its true crossing, late by at most g(fraction * C) of the step (L is concave in t there), + 1 us (ceil).
+    g = _chord_time_error(fraction * C)
+    assert g < 0.013  # about fraction * C / 8
+    checked = 0
+    for x in range(24):
+        passed = scene.edge_x(80_000) - (x + 0.5)  # the ramp of pixel x ends when edge_x = x + 0.5
+        mine = np.sort(ev["t"][(ev["x"] == x) & (ev["y"] == 0)])
+        if x + 0.5 <= x0:  # bright from the start
+            assert mine.size == 0
+        if x - 0.5 < x0 or passed < 0:  # partly lit at t=0, or not fully crossed by the end
+            assert mine.size <= n
+            continue
+        assert mine.size == n, f"pixel {x}: {mine.size} events, {n} analytic crossings"
+        t_true = (coverage + x - 0.5 - x0) / speed * 1e6
+        k = np.searchsorted(times, t_true)  # the step (times[k-1], times[k]] holds the crossing
+        step = times[k] - times[k - 1]
+        assert np.all(mine >= np.floor(t_true) - 1)  # never early (float32 rounding: 1 us)
+        inside = times[k - 1] >= (x - 0.5 - x0) / speed * 1e6  # steps within the log-linear ramp
+        assert np.all(mine - t_true <= np.where(inside, g * step, step) + 1.0), f"pixel {x}"
+        checked += inside.sum()
+    assert checked > 100

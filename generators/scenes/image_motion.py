@@ -177,8 +177,12 @@ class ImageMotionScene(Scene):
 
     image: (H, W) linear radiance (or (H, W, C) colour, reduced with `channel` as in to_luminance).
     height, width: output size (default: the source size). scale: source pixels per output pixel at t=0
-    (default: the largest view that fits inside the source). When scale > 1 the source is first reduced with area
-    averaging so that the warp never decimates (which would alias).
+    (default: the largest view that fits inside the source). When scale > 1 the source has detail finer than an
+    output pixel, and each output pixel integrates the image over its area: the warp renders a grid `supersample`
+    times finer in each axis, which is then area-averaged (the source is first area-reduced to at most `supersample`
+    source pixels per output pixel, so the warp never decimates, which would alias). Point-sampling a source reduced
+    to one pixel per output pixel would instead give every pixel the same sub-pixel phase under a pan, and the
+    image-wide rate of log change (the DVS event rate) would pulse each time the view moves by one pixel.
     interpolation: "linear" (bilinear) or "cubic" (bicubic; negative overshoots are clipped to 0).
     border: "reflect" (mirror without repeating the edge pixel) or "constant" (border_value).
     """
@@ -186,7 +190,7 @@ class ImageMotionScene(Scene):
     def __init__(self, image: np.ndarray, duration_us: int, trajectory: Trajectory | None = None, *,
                  height: int | None = None, width: int | None = None, scale: float | None = None,
                  channel: str | int | None = None, interpolation: str = "linear", border: str = "reflect",
-                 border_value: float = 0.0, gain: float = 1.0, name: str | None = None):
+                 border_value: float = 0.0, gain: float = 1.0, supersample: int = 3, name: str | None = None):
         src = to_luminance(image, channel)
         sh, sw = src.shape
         height = sh if height is None else height
@@ -203,15 +207,21 @@ class ImageMotionScene(Scene):
         self.gain = positive("gain", gain, "ImageMotionScene")
         self.name = name
         scale = min(sh / self.height, sw / self.width) if scale is None else positive("scale", scale, "ImageMotionScene")
+        if isinstance(supersample, bool) or int(supersample) != supersample or supersample < 1:
+            raise InvalidParameterError(f"ImageMotionScene: supersample must be a positive integer, got {supersample!r}")
         self.scale = scale
-        if scale > 1:
-            nw, nh = max(1, round(sw / scale)), max(1, round(sh / scale))
+        self.supersample = int(supersample) if scale > 1 else 1
+        if scale > self.supersample:
+            nw, nh = max(1, round(sw * self.supersample / scale)), max(1, round(sh * self.supersample / scale))
             src = cv2.resize(src, (nw, nh), interpolation=cv2.INTER_AREA)
             scale = scale * nw / sw
             sh, sw = nh, nw
         self._src = src * np.float32(self.gain)
-        self._src_scale = scale
-        self._src_centre = ((sw - 1) / 2, (sh - 1) / 2)
+        # The homography maps to view units: _unit source pixels each, so that when scale > 1 the view has one unit
+        # per output pixel at t=0 whatever the supersampling.
+        self._unit = scale if scale > 1 else 1.0
+        self._src_scale = scale / self._unit
+        self._src_centre = ((sw / self._unit - 1) / 2, (sh / self._unit - 1) / 2)
 
     @classmethod
     def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
@@ -222,18 +232,27 @@ class ImageMotionScene(Scene):
         return cls(img, duration_us, trajectory, name=kwargs.pop("name", str(path)), **kwargs)
 
     def homography(self, t_us: int) -> np.ndarray:
-        """The output-to-source homography at t_us (source coordinates of the possibly pre-reduced image)."""
+        """The output-to-source homography at t_us; source coordinates in view units: pixels of the source when
+        scale <= 1, else of the source area-reduced to one pixel per output pixel at t=0."""
         return self.trajectory.homography(t_us, (self.height, self.width), self._src_centre, self._src_scale)
 
     def _render(self, t_us):
-        img = cv2.warpPerspective(self._src, self.homography(t_us), (self.width, self.height),
+        k, u = self.supersample, self._unit
+        # fine grid -> output pixels -> view units -> source pixels (pixel centres at integer coordinates)
+        fine_to_out = np.array([[1 / k, 0, (1 - k) / (2 * k)], [0, 1 / k, (1 - k) / (2 * k)], [0, 0, 1]])
+        view_to_src = np.array([[u, 0, (u - 1) / 2], [0, u, (u - 1) / 2], [0, 0, 1]])
+        img = cv2.warpPerspective(self._src, view_to_src @ self.homography(t_us) @ fine_to_out,
+                                  (k * self.width, k * self.height),
                                   flags=_INTERPOLATION[self.interpolation] | cv2.WARP_INVERSE_MAP,
                                   borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
-        return np.maximum(img, 0.0, out=img) if self.interpolation == "cubic" else img
+        if self.interpolation == "cubic":
+            np.maximum(img, 0.0, out=img)
+        return img if k == 1 else cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_AREA)
 
     def max_speed_px_per_s(self):
         return self.trajectory.max_speed_px_per_s((self.height, self.width), self.duration_us)
 
     def _params(self):
         return {"image": self.name, "trajectory": self.trajectory.describe(), "scale": self.scale,
-                "interpolation": self.interpolation, "border": self.border, "gain": self.gain}
+                "interpolation": self.interpolation, "border": self.border, "gain": self.gain,
+                "supersample": self.supersample}
