@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sim.errors import InvalidParameterError
@@ -68,6 +70,67 @@ class _Frames:
         return interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side
 
 
+@dataclass(frozen=True)
+class AugmentedMeasurement:
+    """The AKF's frame augmentation at a few pixels (log(I + I0) units; pixels flat, y * W + x).
+
+    log: (T, n) augmented frame L^A at the requested times (eq. 13), exactly the measurement the filter tracks.
+    deblurred: (N, 2, n) EDI-deblurred log at each exposure's start and end. intensity: (N, n) frame k's
+    CRF^-1 in frame 0's exposure units. clipped: (N, n) bool, frame k saturated (its variance at the cap).
+    """
+
+    log: np.ndarray
+    deblurred: np.ndarray
+    intensity: np.ndarray
+    clipped: np.ndarray
+
+
+def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf, times_us, pixels, *,
+                          contrast=0.2, params: AKFParams = AKFParams(), bit_depth: int = 8) -> AugmentedMeasurement:
+    """The augmented frame L^A(t) of reconstruct (same inputs) at times_us for the flat pixel indices `pixels`.
+
+    Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)) (m_j: its
+    value at the exposure start s_j, scale_j: its contrast calibration); in frame window k = [s_k, s_k+1) L^A
+    blends M_{k-1} into M_k across the exposure [s_k, e_k] (the first window uses M_0 alone).
+    """
+    if not isinstance(params, AKFParams):
+        raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
+    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth)
+    pixels = np.asarray(pixels, np.int64).ravel()
+    h, w = inp.shape
+    if np.any((pixels < 0) | (pixels >= h * w)):
+        raise InvalidParameterError(f"pixel indices must lie in [0, {h * w}), got {pixels.min()}..{pixels.max()}")
+    fr = _Frames(inp, crf, params)
+    nf, t = inp.frames.shape[0], inp.out_t.astype(np.int64)
+    start, scale = np.empty((nf, pixels.size)), np.empty((nf, pixels.size))
+    for j in range(nf):
+        m, sc = fr.interval(j)[:2]
+        start[j], scale[j] = m[pixels], sc[pixels]
+    s_k = inp.t_start.astype(np.int64)
+    k = np.clip(np.searchsorted(s_k, t, side="right") - 1, 0, nf - 1)
+    kp = np.maximum(k - 1, 0)
+    wt = np.clip((t - s_k[k]) / np.maximum(inp.t_end[k] - s_k[k], 1), 0.0, 1.0)
+    wt = np.where(k == 0, 1.0, wt)
+    ev = inp.events
+    ev_pix = ev["y"].astype(np.int64) * w + ev["x"]
+    out = np.empty((t.size, pixels.size))
+    for n, i in enumerate(pixels):
+        mine = ev[ev_pix == i]
+        cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
+        et = mine["t"]
+
+        def change(a, b):  # nominal event change over [a, b)
+            return cum[np.searchsorted(et, b, side="left")] - cum[np.searchsorted(et, a, side="left")]
+
+        cur = start[k, n] + scale[k, n] * change(s_k[k], t)
+        prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t)
+        out[:, n] = prev + wt * (cur - prev)
+    deb = np.array([[d[pixels] for d in fr.deblurred(j)] for j in range(nf)])
+    intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
+    clipped = np.array([fr.measurement(j).clipped.ravel()[pixels] for j in range(nf)])
+    return AugmentedMeasurement(out, deb, intensity, clipped)
+
+
 def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
                 params: AKFParams = AKFParams(), bit_depth: int = 8, return_variance: bool = False,
                 return_gain: bool = False):
@@ -85,6 +148,10 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length.
+
+    Publishing is a pure read: each pixel is brought to t with the exact between-event solution (the one-sided
+    clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)
+    without storing the result, so the image at t is the same, bit for bit, whatever other times are requested.
     """
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
@@ -123,7 +190,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
                        np.float64)
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
-            kernels.akf_publish(float(inp.t_start[k]), S, C, prev_win, strong, params.i0, none, none, none)
+            kernels.akf_bring(float(inp.t_start[k]), S, C, prev_win, strong)
             m_new, scale, side = fr.interval(k)
             S[:, kernels.SMP] = S[:, kernels.SMC]
             S[:, kernels.SMC] = m_new

@@ -8,7 +8,9 @@ differences are converted to seconds inside the equations. The filter runs windo
 where Mprev / Mcur are the current values of the interval curves that end / start at frame k (piecewise constant
 between the pixel's events), and the log-space frame variance R(t) is piecewise linear with knots at the
 mid-exposure times tau_{k-1}, tau_k, tau_{k+1} (eq. 7 applied to R of eq. 9). Between a pixel's updates both are
-linear in time on the sub-segments split at tau_k and e_k, where `propagate` is the exact solution.
+linear in time on the sub-segments split at tau_k and e_k, where `propagate` (`propagate_one_sided` for clipped
+frames, which switches the one-sided rule at the exact crossing time) is the exact solution. Publishing is a
+pure read (akf_publish stores nothing), so outputs never depend on which other times were requested.
 """
 
 from __future__ import annotations
@@ -111,15 +113,61 @@ def blend_weight(t, s, e):
 
 
 @njit(cache=True, fastmath=FAST)
+def _crossing(target, P, dt, R0, x):
+    """Time u in [0, dt] (s) solving u + P * H(u) = target (s), H(u) = integral over [0, u] of (1/P(v) - 1/P) dv
+    with R linear from R0 by the fraction x over dt (see propagate); dt when the left side stays below target.
+    The left side is increasing and convex, so Newton's method from dt descends monotonically onto the root."""
+    g = dt + P * dt * dt / R0 * _h_coef(x)
+    if g <= target:
+        return dt
+    u = dt
+    for _ in range(60):
+        xu = x * u / dt
+        step = (u + P * u * u / R0 * _h_coef(xu) - target) / (1.0 + P * u / R0 * _log1p_over_x(xu))
+        u = max(u - step, 0.0)
+        if abs(step) <= 1e-14 * dt:
+            break
+    return u
+
+
+@njit(cache=True, fastmath=FAST)
+def propagate_one_sided(L, P, dt, R0, R1, A0, A1, side, strong):
+    """propagate against a censored measurement A (side +1: the truth is at or above A, -1: at or below, 0: an
+    ordinary measurement): while the estimate is on the impossible side (side * (L - A) < 0) R is multiplied by
+    strong. Exact, with the side switched at the crossing time rather than decided once per segment:
+    (L - A) / P = e0 / P - A' * integral of 1/P (see propagate), so L - A changes sign only where A moves toward L
+    (e0 * A' > 0), at the u solving u + P * H(u) = e0 / A' (_crossing). It cannot cross back within the segment:
+    at L = A, d(L - A)/dt = -A', whose sign is fixed. Where L = A at the start, the side is that of the motion -A'.
+    """
+    if side == 0 or dt <= 0.0:
+        return propagate(L, P, dt, R0, R1, A0, A1)
+    e0 = L - A0
+    dA = A1 - A0
+    d = e0 if e0 != 0.0 else -dA
+    f, g = (strong, 1.0) if side * d < 0.0 else (1.0, strong)
+    if e0 * dA > 0.0:
+        x = (R1 - R0) / R0
+        u = _crossing(e0 * dt / dA, P, dt, R0 * f, x)
+        if u < dt:
+            v = u / dt
+            Pc = 1.0 / (1.0 / P + u / (R0 * f) * _log1p_over_x(x * v))
+            Ac = A0 + v * dA
+            return propagate(Ac, Pc, dt - u, (R0 + v * (R1 - R0)) * g, R1 * g, Ac, A1)
+    return propagate(L, P, dt, R0 * f, R1 * f, A0, A1)
+
+
+@njit(cache=True, fastmath=FAST)
 def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a, tau_b, tau_c):
     """(L, P) of a pixel last updated at a (us) brought to t (us) with no events, exact on each sub-segment
     split at tau_b and e. mp, dm: Mprev and Mcur - Mprev; Ra, Rb, Rc: its frame variances at the three taus.
 
     Clipped frames are one-sided (censored) measurements: where both frames of the interval curve in force are
-    clipped (side_p / side_c = +1 high, -1 low, 0 otherwise; the curve with the larger blend weight counts), a state
-    on the consistent side of the measurement (above it for +1) keeps the weak saturated-variance pull, while a state
-    on the impossible side is pulled with R * strong (strong = sigma_im2 / max_variance: the variance of a well-exposed
-    pixel at the clip level). The side is decided at each sub-segment start.
+    clipped (side_p / side_c = +1 high, -1 low, 0 otherwise; the curve with the larger blend weight counts, which
+    changes at tau_b = mid-exposure, a sub-segment boundary), a state on the consistent side of the measurement
+    (above it for +1) keeps the weak saturated-variance pull, while a state on the impossible side is pulled with
+    R * strong (strong = sigma_im2 / max_variance: the variance of a well-exposed pixel at the clip level). The side
+    switches exactly where the estimate crosses the measurement (propagate_one_sided), so the result does not
+    depend (beyond rounding) on where [a, t] is split: it solves the ODE, not a discretisation of it.
 
     Scalars only: numba helpers taking arrays pay reference counting per call, which dominated the per-event cost.
     """
@@ -129,15 +177,10 @@ def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a,
             b = t
         if b <= a:
             continue
-        R0 = r_at(a, Ra, Rb, Rc, tau_a, tau_b, tau_c)
-        R1 = r_at(b, Ra, Rb, Rc, tau_a, tau_b, tau_c)
         wa = blend_weight(a, s, e)
-        A0 = mp + wa * dm
-        side = side_c if wa >= 0.5 else side_p
-        if side * (L - A0) < 0.0:
-            R0 *= strong
-            R1 *= strong
-        L, P = propagate(L, P, (b - a) * US, R0, R1, A0, mp + blend_weight(b, s, e) * dm)
+        L, P = propagate_one_sided(L, P, (b - a) * US, r_at(a, Ra, Rb, Rc, tau_a, tau_b, tau_c),
+                                   r_at(b, Ra, Rb, Rc, tau_a, tau_b, tau_c), mp + wa * dm,
+                                   mp + blend_weight(b, s, e) * dm, side_c if wa >= 0.5 else side_p, strong)
         a = b
     return L, P
 
@@ -207,9 +250,8 @@ def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
 
 
 @njit(cache=True, parallel=True, fastmath=FAST)
-def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
-    """Bring every pixel to t (us) and write I = exp(L) - I0, P and K = P / R (when out_p / out_k are non-empty;
-    R without the one-sided factor of advance)."""
+def akf_bring(t, S, C, w, strong):
+    """Bring every pixel to t (us), committing the state: only at frame-window switches, which every run makes."""
     for i in prange(S.shape[0]):
         if t > S[i, ST]:
             mp = S[i, SMP]
@@ -217,12 +259,24 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
                                          S[i, SRC], C[i, CP_SIDE], C[i, CC_SIDE], strong,
                                          w[0], w[1], w[2], w[3], w[4])
             S[i, ST] = t
-        if out_i.shape[0]:
-            out_i[i] = math.exp(S[i, SL]) - i0
+
+
+@njit(cache=True, parallel=True, fastmath=FAST)
+def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
+    """Write every pixel's I = exp(L) - I0, P and K = P / R at t (us) (out_p / out_k when non-empty; R without the
+    one-sided factor of advance). A pure read: each pixel is brought to t from its last update without storing the
+    result, so the outputs at t and the later trajectory do not depend on which other times are published."""
+    for i in prange(S.shape[0]):
+        L, P = S[i, SL], S[i, SP]
+        if t > S[i, ST]:
+            mp = S[i, SMP]
+            L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
+                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
+        out_i[i] = math.exp(L) - i0
         if out_p.shape[0]:
-            out_p[i] = S[i, SP]
+            out_p[i] = P
         if out_k.shape[0]:
-            out_k[i] = S[i, SP] / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
+            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
 
 
 @njit(cache=True)
@@ -314,13 +368,17 @@ def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha):
 
 @njit(cache=True, parallel=True, fastmath=FAST)
 def cf_publish(t, X, tl, LF, alpha, i0, out_i):
-    """Bring every pixel to t (us); write I = exp(X) - I0 when out_i is non-empty."""
+    """With out_i empty (a frame switch), bring every pixel to t (us), committing the state; otherwise write
+    I = exp(X) - I0 at t as a pure read (the state is not stored, so outputs do not depend on the other times)."""
+    commit = out_i.shape[0] == 0
     for i in prange(X.shape[0]):
-        if t > tl[i]:
-            X[i] = _decay(X[i], LF[i], alpha[i], tl[i], t)
-            tl[i] = t
-        if out_i.shape[0]:
-            out_i[i] = math.exp(X[i]) - i0
+        x = _decay(X[i], LF[i], alpha[i], tl[i], t)
+        if commit:
+            if t > tl[i]:
+                X[i] = x
+                tl[i] = t
+        else:
+            out_i[i] = math.exp(x) - i0
 
 
 @njit(cache=True, fastmath=FAST)

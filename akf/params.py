@@ -33,7 +33,8 @@ class AKFParams:
             Clipped frames are also treated as one-sided (censored) measurements, which the paper does not do:
             where both frames around an interval are clipped on the same side, a state on the impossible side of
             the measurement (below it for a pixel clipped high) is pulled with R * sigma_im2 / max_variance, a
-            state on the possible side with the saturated R (see akf.kernels.advance).
+            state on the possible side with the saturated R; the rule switches exactly when the state crosses
+            the measurement (see akf.kernels.propagate_one_sided).
         i0: offset I0 (x units) in L = log(I + I0); keeps the log finite at I = 0.
         bias_max_variance: the bias correction of eq. 8 subtracts R/2 (log^2 -> log), capped at
             bias_max_variance / 2: the second-order expansion is meaningless for the huge R of clipped pixels.

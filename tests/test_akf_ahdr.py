@@ -63,3 +63,23 @@ def test_akf_beats_cf_and_frames_on_synthetic_ahdr(preset):
         assert table["akf"]["mse"] < table[other]["mse"]
         assert table["akf"]["ssim"] > table[other]["ssim"]
     assert table["akf"]["mse"] < 0.7 * table["cf"]["mse"]  # at least 30 % lower MSE than CF
+
+
+def test_publishing_is_a_pure_read():
+    """Reconstructing at sparse times and at a dense superset (inside and at the edges of exposures, at event
+    timestamps) gives bit-identical values at the common times, for the AKF (I, P and K) and for CF: publishing
+    neither changes the state nor splits the one-sided clipped-frame propagation in a way that matters."""
+    events, frames, ts, te, crf, _, _ = make_ahdr_sequence("davis346")
+    assert np.mean((frames == 0) | (frames == 255)) > 0.5
+    sparse = np.arange(60_000, 650_000, 45_000)
+    dense = np.unique(np.concatenate([sparse, np.arange(1_000, 650_000, 1_733), ts, te, (ts + te) // 2,
+                                      events["t"][::4000]]))
+    dense = dense[dense < 650_000]
+    common = np.searchsorted(dense, sparse)
+    a = akf.reconstruct(events, frames, ts, te, crf, sparse, return_variance=True, return_gain=True)
+    b = akf.reconstruct(events, frames, ts, te, crf, dense, return_variance=True, return_gain=True)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y[common])
+    cf_a = akf.complementary_filter(events, frames, ts, te, crf, sparse)
+    cf_b = akf.complementary_filter(events, frames, ts, te, crf, dense)
+    np.testing.assert_array_equal(cf_a, cf_b[common])

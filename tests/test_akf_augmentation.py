@@ -8,6 +8,7 @@ import pytest
 
 from akf.augmentation import calibrate_scale, edi_deblur, event_change, interval_start
 from akf.params import AKFParams
+from sim.errors import InvalidParameterError
 from sim.events import make_events
 
 
@@ -96,3 +97,37 @@ def test_uncalibrated_curve_anchors_to_the_reliable_frame():
     change, scale = np.array([0.2, 0.2]), np.ones(2)
     start = interval_start(d_start, d_end, change, scale, np.array([False, True]))
     np.testing.assert_allclose(start, [0.3, 0.0])  # backward from the end frame; forward where only it is clipped
+
+
+def test_augmented_measurement_follows_calibrated_events_and_blends_across_exposures():
+    """Pixel 1 of a 1x2 sensor, linear CRF, no deblurring: frames at 0.2, 0.2 e^0.75, 0.2 e^0.25 (logs d0, d1, d2),
+    ON events (nominal contrast 0.2) at 20, 30, 40 and 55 ms (inside frame 1's exposure), OFF events at 65, 70,
+    80 ms. Interval 0 spans [s_0, e_1) with change 0.8, so its calibrated scale is s0 = (d1 - d0) / 0.8 (eq. 12)
+    and its curve M0 = d0 + s0 * change; interval 1 spans [s_1, e_2) with change -0.4, s1 = (d2 - d1) / -0.4 and
+    M1 = d1 + s1 * change. Before frame 1 L^A = M0; across frame 1's exposure it blends M0 into M1 (eq. 13)."""
+    import akf
+    import crf_models
+    from akf.noise import frame_measurement
+
+    params = akf.AKFParams(deblur=False)
+    linear = crf_models.get("linear")
+    y = 0.2 * np.exp(np.array([[[0.0, 0.0]], [[0.0, 0.75]], [[0.0, 0.25]]]))
+    frames = np.round(y * 255).astype(np.uint8)
+    ts = np.array([0, 50_000, 100_000])
+    te = ts + 10_000
+    ev = make_events([20_000, 30_000, 40_000, 55_000, 65_000, 70_000, 80_000], [1] * 7, [0] * 7,
+                     [1, 1, 1, 1, -1, -1, -1])
+    t = np.array([15_000, 25_000, 35_000, 45_000, 50_000, 55_000, 57_500, 60_000])
+    aug = akf.augmented_measurement(ev, frames, ts, te, linear, t, [1], params=params)
+    d0, d1, d2 = (frame_measurement(frames[k] / 255.0, linear, params).log[0, 1] for k in range(3))
+    s0, s1 = (d1 - d0) / 0.8, (d2 - d1) / -0.4
+    m0 = d0 + s0 * np.array([0.0, 0.2, 0.4, 0.6, 0.6, 0.6, 0.8, 0.8])
+    m1 = d1 + s1 * np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.2, 0.2])
+    w = np.clip((t - 50_000) / 10_000, 0, 1) * (t >= 50_000)
+    np.testing.assert_allclose(aug.log[:, 0], m0 + w * (m1 - m0), rtol=0, atol=1e-12)
+    assert 0.9 < s0 < 0.97 and 1.2 < s1 < 1.3  # calibrated scales (ratios to nominal), clearly not 1
+    np.testing.assert_allclose(aug.intensity[:, 0], frames[:, 0, 1] / 255.0, rtol=1e-12)
+    np.testing.assert_allclose(aug.deblurred[:, :, 0], [[d0, d0], [d1, d1], [d2, d2]], rtol=0, atol=1e-12)
+    assert not aug.clipped.any()
+    with pytest.raises(InvalidParameterError, match="pixel indices"):
+        akf.augmented_measurement(ev, frames, ts, te, linear, t, [2], params=params)

@@ -4,7 +4,7 @@ integration, and the exactness property that publishing does not change the filt
 import pytest
 from scipy.integrate import solve_ivp
 
-from akf.kernels import propagate
+from akf.kernels import propagate, propagate_one_sided
 
 
 def _ode(L0, P0, dt, R0, R1, A0, A1):
@@ -55,3 +55,62 @@ def test_propagation_is_a_semigroup():
     L1, P1 = propagate(0.3, 0.09, 0.015, 0.01, Rm, -0.5, Am)
     L2, P2 = propagate(L1, P1, 0.015, Rm, 0.2, Am, 0.4)
     assert (L2, P2) == pytest.approx((L, P), rel=1e-12)
+
+
+def _ode_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong):
+    """The censored-measurement ODE integrated numerically: R * strong while side * (L - A) < 0, the switch located
+    by the integrator's event detection. Returns (L, P, crossing time or None)."""
+    R = lambda t: R0 + (R1 - R0) * t / dt
+    A = lambda t: A0 + (A1 - A0) * t / dt
+
+    def rhs(f):
+        return lambda t, z: [-(z[1] / (f * R(t))) * (z[0] - A(t)), -z[1] ** 2 / (f * R(t))]
+
+    def cross(t, z):
+        return z[0] - A(t)
+
+    cross.terminal = True
+    f = strong if side * (L0 - A0) < 0 else 1.0
+    opts = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
+    sol = solve_ivp(rhs(f), (0, dt), [L0, P0], events=cross, **opts)
+    if sol.status != 1:
+        return sol.y[0, -1], sol.y[1, -1], None
+    tc, z = sol.t_events[0][0], sol.y_events[0][0]
+    sol = solve_ivp(rhs(strong if f == 1.0 else 1.0), (tc, dt), z, **opts)
+    return sol.y[0, -1], sol.y[1, -1], tc
+
+
+ONE_SIDED = [
+    (0.5, 0.01, 0.02, 0.05, 0.05, 0.0, 1.0, 1, 0.01),  # clipped high, state above; the level overtakes it
+    (0.3, 0.05, 0.01, 0.02, 0.05, -0.2, 0.6, -1, 0.05),  # clipped low, state impossibly above; level catches up
+    (-0.1, 0.2, 0.05, 0.01, 0.3, 0.4, -0.6, 1, 0.02),  # impossible below a falling level, R rising steeply
+]
+
+
+@pytest.mark.parametrize("L0, P0, dt, R0, R1, A0, A1, side, strong", ONE_SIDED)
+def test_one_sided_propagation_switches_side_at_the_crossing(L0, P0, dt, R0, R1, A0, A1, side, strong):
+    """Against the numerical ODE with the switch at the time the estimate crosses the clip level (each case
+    crosses inside the segment); and split anywhere (before or after the crossing, as an event or a frame window
+    would), continuing gives the same state: the solution does not depend on the discretisation."""
+    L_num, P_num, tc = _ode_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong)
+    assert tc is not None and 0.05 * dt < tc < 0.95 * dt
+    L, P = propagate_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong)
+    assert P == pytest.approx(P_num, rel=1e-8)
+    assert L == pytest.approx(L_num, rel=1e-7, abs=1e-9)
+    # the rule decided once at the segment start (the former behaviour) misses the switch by far more
+    f = strong if side * (L0 - A0) < 0 else 1.0
+    assert abs(propagate(L0, P0, dt, R0 * f, R1 * f, A0, A1)[1] - P_num) > 1e-3 * P_num
+    for v in (0.2, 0.5, 0.8):
+        Rm, Am = R0 + v * (R1 - R0), A0 + v * (A1 - A0)
+        L1, P1 = propagate_one_sided(L0, P0, v * dt, R0, Rm, A0, Am, side, strong)
+        L2, P2 = propagate_one_sided(L1, P1, (1 - v) * dt, Rm, R1, Am, A1, side, strong)
+        assert (L2, P2) == pytest.approx((L, P), rel=1e-10, abs=1e-12)
+
+
+def test_one_sided_propagation_without_crossing():
+    """A state on the impossible side of a fixed clip level never reaches it: the strong pull throughout; on the
+    consistent side the ordinary R throughout; an unclipped measurement (side 0) is the plain solution."""
+    args = (0.1, 0.05, 0.02, 0.01, 0.03, 0.4, 0.4)
+    for side, L0, f in ((1, 0.1, 0.02), (1, 0.7, 1.0), (-1, 0.7, 0.02), (0, 0.1, 1.0)):
+        L, P = propagate_one_sided(L0, *args[1:], side, 0.02)
+        assert (L, P) == propagate(L0, *args[1:3], args[3] * f, args[4] * f, *args[5:])

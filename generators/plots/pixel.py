@@ -78,41 +78,10 @@ def _neighbourhood(prep: Prepared, x: int, y: int):
     return local, frames, (x - x0, y - y0)
 
 
-def _augmented(inp, crf, params, i: int, t_us: np.ndarray, ev_t: np.ndarray, ev_d: np.ndarray):
-    """L^A at times t_us for flat block pixel i, from the AKF's interval curves (see akf.kernels, eq. 13).
-
-    Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)); in frame
-    window k = [s_k, s_k+1) the measurement blends M_{k-1} into M_k across the exposure [s_k, e_k]."""
-    from akf.filter import _Frames  # the filter's own augmentation, so the plot shows exactly what it tracks
-
-    fr = _Frames(inp, crf, params)
-    nf = inp.frames.shape[0]
-    start = np.empty(nf)
-    scale = np.empty(nf)
-    for j in range(nf):
-        m, s = fr.interval(j)[:2]  # (curve value at s_j, contrast scale, ...)
-        start[j], scale[j] = m[i], s[i]
-    deblurred = np.array([[d[i] for d in fr.deblurred(k)] for k in range(nf)])
-    cum = np.concatenate([[0.0], np.cumsum(ev_d)])
-
-    def change(a, b):  # nominal event change over [a, b) (arrays of times)
-        return cum[np.searchsorted(ev_t, b, side="left")] - cum[np.searchsorted(ev_t, a, side="left")]
-
-    s_k = inp.t_start
-    k = np.clip(np.searchsorted(s_k, t_us, side="right") - 1, 0, nf - 1)
-    kp = np.maximum(k - 1, 0)
-    cur = start[k] + scale[k] * change(s_k[k], t_us)
-    prev = start[kp] + scale[kp] * change(s_k[kp], t_us)
-    w = np.clip((t_us - s_k[k]) / np.maximum(inp.t_end[k] - s_k[k], 1), 0.0, 1.0)
-    w = np.where(k == 0, 1.0, w)  # the first window has no earlier interval
-    return prev + w * (cur - prev), deblurred, fr
-
-
 def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=None) -> PixelSeries:
     """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring); n_times dense samples
     from the first exposure start to the end of the data."""
     import akf
-    from akf.inputs import validate_inputs
 
     rec = prep.rec
     check_pixel(rec, x, y)
@@ -123,7 +92,6 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=
     i = ly * bw + lx
     mine = events[(events["x"] == lx) & (events["y"] == ly)]
     ev_t = mine["t"].astype(np.int64)
-    c_on, c_off = prep.contrast
     t_end = [int(rec.frame_t_end_us[-1])]
     if ev_t.size:
         t_end.append(int(ev_t[-1]) + 1)
@@ -135,12 +103,9 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=
     est, var = akf.reconstruct(*args, params=params, return_variance=True, **opts)
     cf = akf.complementary_filter(*args, i0=i0, **opts)
 
-    inp = validate_inputs(events, frames, rec.frame_t_start_us, rec.frame_t_end_us, t_us, prep.contrast,
-                          rec.frame_bit_depth)
-    nominal = np.where(mine["p"] > 0, c_on, -c_off)
-    augmented, deblurred, fr = _augmented(inp, prep.crf, params, i, t_us, ev_t, nominal)
-    frame_x = np.array([fr.measurement(k).intensity.ravel()[i] for k in range(frames.shape[0])])
-    clipped = np.array([bool(fr.measurement(k).clipped.ravel()[i]) for k in range(frames.shape[0])])
+    aug = akf.augmented_measurement(*args, [i], params=params, **opts)  # what the filter tracks at the pixel
+    augmented, deblurred = aug.log[:, 0], aug.deblurred[:, :, 0]
+    frame_x, clipped = aug.intensity[:, 0], aug.clipped[:, 0]
 
     true_log = ref_t = None
     if prep.to_x is not None:
