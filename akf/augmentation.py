@@ -32,13 +32,6 @@ def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, wi
     return start, start + change
 
 
-def time_slice(events: np.ndarray, t_start_us: int, t_end_us: int) -> np.ndarray:
-    """The events with t_start_us <= t < t_end_us of a time-sorted array, as a view (binary search on the strided
-    t field without copying it, unlike np.searchsorted)."""
-    t = events["t"]
-    return events[kernels.first_at_or_after(t, t_start_us):kernels.first_at_or_after(t, t_end_us)]
-
-
 def event_change(events, c_on, c_off, width):
     """Per-pixel nominal event log change (sum of +c_on / -c_off, log units) and net signed event count."""
     return kernels.event_change(events["x"], events["y"], events["p"], width, c_on, c_off)

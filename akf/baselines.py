@@ -14,9 +14,10 @@ import math
 import numpy as np
 
 from sim.errors import InvalidParameterError
+from sim.events import slice_time
 
 from . import kernels
-from .augmentation import columns, time_slice
+from .augmentation import columns
 from .inputs import Inputs, validate_inputs
 from .params import AKFParams
 
@@ -43,7 +44,7 @@ def _run_log_filter(inp: Inputs, t0, switch_times, on_switch, run_events, publis
                    [(int(t), 1, j) for j, t in enumerate(inp.out_t)])
     for t, kind, idx in marks:
         if t > cursor:
-            run_events(*columns(time_slice(inp.events, cursor, t)))
+            run_events(*columns(slice_time(inp.events, cursor, t)))
             cursor = t
         if kind == 0:
             publish(t, np.empty(0, np.float32))

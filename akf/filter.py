@@ -7,9 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.errors import InvalidParameterError
+from sim.events import slice_time
 
 from . import kernels
-from .augmentation import calibrate_scale, columns, edi_deblur, event_change, interval_start, time_slice
+from .augmentation import calibrate_scale, columns, edi_deblur, event_change, interval_start
 from .inputs import Inputs, validate_inputs
 from .noise import frame_measurement
 from .params import AKFParams
@@ -45,7 +46,7 @@ class _Frames:
             inp = self.inp
             log = self.measurement(k).log.ravel()
             if self.params.deblur:
-                ev = time_slice(inp.events, int(inp.t_start[k]), int(inp.t_end[k]))
+                ev = slice_time(inp.events, int(inp.t_start[k]), int(inp.t_end[k]))
                 self._deb[k] = edi_deblur(log, ev, inp.t_start[k], inp.t_end[k], inp.c_on, inp.c_off, inp.shape[1])
             else:
                 self._deb[k] = (log, log)
@@ -60,7 +61,7 @@ class _Frames:
         if j == inp.frames.shape[0] - 1:
             return d_start.copy(), np.ones_like(d_start), self.measurement(j).side.ravel()
         d_end = self.deblurred(j + 1)[1]
-        ev = time_slice(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
+        ev = slice_time(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
         change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
         start_clipped = self.measurement(j).clipped.ravel()
         end_clipped = self.measurement(j + 1).clipped.ravel()
@@ -205,7 +206,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
                 S[:, kernels.SRC] = fr.measurement(k + 1).r.ravel()
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
-        cols = columns(time_slice(inp.events, int(inp.t_start[k]), t_hi))
+        cols = columns(slice_time(inp.events, int(inp.t_start[k]), t_hi))
         i0 = 0
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])

@@ -280,29 +280,6 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
 
 
 @njit(cache=True)
-def first_at_or_after(t, value):
-    """Index of the first element >= value of the sorted array t (np.searchsorted side="left"), without the
-    contiguous copy numpy makes of a strided field view such as events["t"]."""
-    lo, hi = 0, t.shape[0]
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if t[mid] < value:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
-@njit(cache=True)
-def first_decrease(t):
-    """Index of the first element smaller than its predecessor, or -1 (sortedness check without temporaries)."""
-    for n in range(1, t.shape[0]):
-        if t[n] < t[n - 1]:
-            return n
-    return -1
-
-
-@njit(cache=True)
 def event_change(ex, ey, ep, width, c_on, c_off):
     """Per-pixel nominal event log change (sum of +c_on / -c_off) and net signed event count."""
     change = np.zeros(c_on.shape[0])

@@ -60,7 +60,7 @@ def write_exr_sequence(directory, images: np.ndarray, t_us: np.ndarray, *, half:
     if len(images) != t_us.shape[0]:
         raise EvsimInputError(f"{len(images)} images but {t_us.shape[0]} timestamps")
     with atomic_path(directory, directory=True) as tmp:
-        lines = [f"# t_us file (int64 microseconds)\n"]
+        lines = ["# t_us file (int64 microseconds)\n"]
         for i, (img, t) in enumerate(zip(images, t_us)):
             name = f"frame_{i:06d}.exr"
             _exr_file(img, half).write(str(tmp / name))
