@@ -185,6 +185,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     te_pad = te_pad.ravel()
     tau = inp.tau
     j = 0  # next output index
+    prev_win = None  # the previous frame window (set at the end of every iteration)
     for k in range(nf):
         if j == nt:
             break
