@@ -10,7 +10,7 @@ from sim.errors import InvalidParameterError
 from sim.events import slice_time
 
 from . import kernels
-from .augmentation import calibrate_scale, columns, edi_deblur, event_change, interval_start
+from .augmentation import calibrate_scale, edi_deblur, event_change, interval_start
 from .inputs import Inputs, validate_inputs
 from .noise import frame_measurement
 from .params import AKFParams
@@ -192,22 +192,14 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
                        np.float64)
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
-            kernels.akf_bring(float(inp.t_start[k]), S, C, prev_win, strong)
             m_new, scale, side = fr.interval(k)
-            S[:, kernels.SMP] = S[:, kernels.SMC]
-            S[:, kernels.SMC] = m_new
-            C[:, [kernels.CP_ON, kernels.CP_OFF, kernels.CP_SIDE]] = \
-                C[:, [kernels.CC_ON, kernels.CC_OFF, kernels.CC_SIDE]]
-            C[:, kernels.CC_ON] = scale * inp.c_on
-            C[:, kernels.CC_OFF] = scale * inp.c_off
-            C[:, kernels.CC_SIDE] = side
-            S[:, kernels.SRA] = S[:, kernels.SRB]
-            S[:, kernels.SRB] = S[:, kernels.SRC]
-            if k + 1 < nf:
-                S[:, kernels.SRC] = fr.measurement(k + 1).r.ravel()
+            r_next = fr.measurement(k + 1).r.ravel() if k + 1 < nf else S[:, kernels.SRC].copy()
+            kernels.akf_switch(float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on,
+                               scale * inp.c_off, side.astype(np.float64), r_next)
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
-        cols = columns(slice_time(inp.events, int(inp.t_start[k]), t_hi))
+        ev = slice_time(inp.events, int(inp.t_start[k]), t_hi)
+        cols = (ev["t"], ev["x"], ev["y"], ev["p"])  # views: numba reads strided columns without copies
         i0 = 0
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])

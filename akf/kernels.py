@@ -73,6 +73,12 @@ def propagate(L, P, dt, R0, R1, A0, A1):
     1/P grows by the integral of 1/R (eq. 20; for constant R exactly the paper's dt / R). Since
     d/dt[(L - A) / P] = -A' / P, the error (L - A) decays like P (eq. 17) minus the lag of a moving A.
     """
+    return _propagate(L, P, dt, R0, R1, A0, A1)
+
+
+@njit(cache=True, inline="always", fastmath=FAST)
+def _propagate(L, P, dt, R0, R1, A0, A1):
+    """propagate, inlined into the per-pixel kernels (a call per segment cost about 10% of their time)."""
     if dt <= 0.0:
         return L, P
     x = (R1 - R0) / R0
@@ -156,7 +162,7 @@ def propagate_one_sided(L, P, dt, R0, R1, A0, A1, side, strong):
     return propagate(L, P, dt, R0 * f, R1 * f, A0, A1)
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=True, inline="always", fastmath=FAST)
 def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a, tau_b, tau_c):
     """(L, P) of a pixel last updated at a (us) brought to t (us) with no events, exact on each sub-segment
     split at tau_b and e. mp, dm: Mprev and Mcur - Mprev; Ra, Rb, Rc: its frame variances at the three taus.
@@ -171,17 +177,22 @@ def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a,
 
     Scalars only: numba helpers taking arrays pay reference counting per call, which dominated the per-event cost.
     """
+    ra = r_at(a, Ra, Rb, Rc, tau_a, tau_b, tau_c)
+    wa = blend_weight(a, s, e)
     for k in range(3):
         b = tau_b if k == 0 else (e if k == 1 else t)
         if b > t:
             b = t
         if b <= a:
             continue
-        wa = blend_weight(a, s, e)
-        L, P = propagate_one_sided(L, P, (b - a) * US, r_at(a, Ra, Rb, Rc, tau_a, tau_b, tau_c),
-                                   r_at(b, Ra, Rb, Rc, tau_a, tau_b, tau_c), mp + wa * dm,
-                                   mp + blend_weight(b, s, e) * dm, side_c if wa >= 0.5 else side_p, strong)
-        a = b
+        rb = r_at(b, Ra, Rb, Rc, tau_a, tau_b, tau_c)
+        wb = blend_weight(b, s, e)
+        side = side_c if wa >= 0.5 else side_p
+        if side == 0:
+            L, P = _propagate(L, P, (b - a) * US, ra, rb, mp + wa * dm, mp + wb * dm)
+        else:
+            L, P = propagate_one_sided(L, P, (b - a) * US, ra, rb, mp + wa * dm, mp + wb * dm, side, strong)
+        a, ra, wa = b, rb, wb
     return L, P
 
 
@@ -250,8 +261,10 @@ def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
 
 
 @njit(cache=True, parallel=True, fastmath=FAST)
-def akf_bring(t, S, C, w, strong):
-    """Bring every pixel to t (us), committing the state: only at frame-window switches, which every run makes."""
+def akf_switch(t, S, C, w, strong, m_new, on_new, off_new, side_new, r_next):
+    """Frame-window switch at t (us) = s_k: bring every pixel to t with the previous window w (committing the
+    state), then rotate the intervals (current becomes previous; m_new, on_new, off_new, side_new: the new
+    interval's curve value at s_k, calibrated contrasts and clip side) and the frame variances (r_next at tau_c)."""
     for i in prange(S.shape[0]):
         if t > S[i, ST]:
             mp = S[i, SMP]
@@ -259,6 +272,13 @@ def akf_bring(t, S, C, w, strong):
                                          S[i, SRC], C[i, CP_SIDE], C[i, CC_SIDE], strong,
                                          w[0], w[1], w[2], w[3], w[4])
             S[i, ST] = t
+        S[i, SMP] = S[i, SMC]
+        S[i, SMC] = m_new[i]
+        S[i, SRA] = S[i, SRB]
+        S[i, SRB] = S[i, SRC]
+        S[i, SRC] = r_next[i]
+        C[i, CP_ON], C[i, CP_OFF], C[i, CP_SIDE] = C[i, CC_ON], C[i, CC_OFF], C[i, CC_SIDE]
+        C[i, CC_ON], C[i, CC_OFF], C[i, CC_SIDE] = on_new[i], off_new[i], side_new[i]
 
 
 @njit(cache=True, parallel=True, fastmath=FAST)
