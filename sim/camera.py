@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera_kernels import accumulate_rows, sense
-from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
+from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_number
 from .source import RadianceSource
 
 
@@ -78,17 +78,18 @@ class CameraParams:
                 raise TimeOrderError(f"frame_times_us must increase strictly: [{i}]={t[i]} after {t[i - 1]} us")
         elif not (math.isfinite(self.fps) and self.fps > 0):
             raise InvalidParameterError(f"fps must be > 0, got {self.fps}")
-        _positive(self, "full_well_e", "reference_radiance")
+        for name in ("full_well_e", "reference_radiance", "max_px_per_subframe"):
+            check_number(name, getattr(self, name), positive=True)
         if not 0 < self.reference_fill <= 1:
             raise InvalidParameterError(f"reference_fill must lie in (0, 1], got {self.reference_fill}")
         if self.reference_exposure_us is not None and self.reference_exposure_us <= 0:
             raise InvalidParameterError(f"reference_exposure_us must be > 0, got {self.reference_exposure_us}")
-        _non_negative(self, "read_noise_e", "dark_current_e_per_s", "prnu_sigma", "dsnu_e", "rolling_shutter_line_us")
+        for name in ("read_noise_e", "dark_current_e_per_s", "prnu_sigma", "dsnu_e", "rolling_shutter_line_us"):
+            check_number(name, getattr(self, name), positive=False)
         if not (isinstance(self.bit_depth, (int, np.integer)) and 8 <= self.bit_depth <= 16):
             raise InvalidParameterError(f"bit_depth must be an integer in 8..16, got {self.bit_depth}")
         if self.n_subframes is not None and not (isinstance(self.n_subframes, (int, np.integer)) and self.n_subframes >= 1):
             raise InvalidParameterError(f"n_subframes must be None or an integer >= 1, got {self.n_subframes}")
-        _positive(self, "max_px_per_subframe")
         if not (isinstance(self.max_subframes, (int, np.integer)) and self.max_subframes >= 1):
             raise InvalidParameterError(f"max_subframes must be an integer >= 1, got {self.max_subframes}")
 
@@ -147,20 +148,6 @@ class CameraParams:
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
         return dataclasses.replace(PRESETS[name], **overrides)
-
-
-def _positive(obj, *names):
-    for name in names:
-        v = getattr(obj, name)
-        if not (math.isfinite(v) and v > 0):
-            raise InvalidParameterError(f"{name} must be a positive finite number, got {v}")
-
-
-def _non_negative(obj, *names):
-    for name in names:
-        v = getattr(obj, name)
-        if not (math.isfinite(v) and v >= 0):
-            raise InvalidParameterError(f"{name} must be a finite number >= 0, got {v}")
 
 
 # Typical values, not datasheet figures: DAVIS346 APS frames as distributed (8-bit, noticeable read noise and

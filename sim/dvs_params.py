@@ -6,10 +6,9 @@ Log units are natural logarithms of radiance; rates are per pixel; times are mic
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, check_number
 
 
 @dataclass(frozen=True)
@@ -53,10 +52,10 @@ class DVSParams:
 
     def __post_init__(self) -> None:
         for name in ("pos_threshold", "neg_threshold", "min_threshold", "full_illumination", "dark_fraction"):
-            _check(name, getattr(self, name), positive=True)
+            check_number(name, getattr(self, name), positive=True)
         for name in ("threshold_sigma", "cutoff_hz", "shot_noise_hz", "dark_shot_noise_hz", "leak_hz",
                      "leak_spread", "hot_pixel_fraction", "hot_pixel_hz"):
-            _check(name, getattr(self, name), positive=False)
+            check_number(name, getattr(self, name), positive=False)
         if self.hot_pixel_fraction > 1:
             raise InvalidParameterError(f"hot_pixel_fraction must be in [0, 1], got {self.hot_pixel_fraction}")
         r = self.refractory_us
@@ -75,15 +74,6 @@ class DVSParams:
     def replace(self, **changes) -> DVSParams:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
-
-
-def _check(name: str, value, *, positive: bool) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InvalidParameterError(f"{name} must be a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise InvalidParameterError(f"{name} must be > 0, got {value}")
-    if value < 0:
-        raise InvalidParameterError(f"{name} must be >= 0, got {value}")
 
 
 PRESETS: dict[str, DVSParams] = {

@@ -1,4 +1,8 @@
-"""Exceptions raised at evsim's boundaries. All derive from ValueError so that callers can catch broadly."""
+"""Exceptions raised at evsim's boundaries (all derive from ValueError so that callers can catch broadly), and the
+shared check of numeric parameters."""
+
+import math
+import numbers
 
 
 class EvsimInputError(ValueError):
@@ -15,3 +19,14 @@ class TimeOrderError(EvsimInputError):
 
 class UnsortedEventsError(TimeOrderError):
     """An event array is not sorted by time."""
+
+
+def check_number(name: str, value, *, positive: bool) -> None:
+    """Raise InvalidParameterError unless `value` is a finite real number (not a bool), > 0 when `positive`,
+    else >= 0. `name` is the parameter's name, quoted in the message."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise InvalidParameterError(f"{name} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise InvalidParameterError(f"{name} must be > 0, got {value}")
+    if value < 0:
+        raise InvalidParameterError(f"{name} must be >= 0, got {value}")
