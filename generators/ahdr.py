@@ -26,6 +26,7 @@ from tqdm.auto import tqdm
 import crf_models
 import sim
 from sim import InvalidParameterError
+from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .formats.native import NativeWriter
 from .sampling import make_sampler
@@ -121,16 +122,6 @@ def package_versions() -> dict:
     return out
 
 
-def child_seed(ss: np.random.SeedSequence, i: int) -> np.random.SeedSequence:
-    """The i-th child of ss, derived from its entropy and spawn key (independent of ss's spawn counter)."""
-    return np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i))
-
-
-def seed_record(ss: np.random.SeedSequence) -> dict:
-    """JSON form of a SeedSequence: SeedSequence(entropy, spawn_key=spawn_key) regenerates it."""
-    return {"entropy": int(ss.entropy), "spawn_key": [int(k) for k in ss.spawn_key]}
-
-
 def resolve_sensors(scene, config: AHDRConfig):
     """The DVS and camera parameters after auto exposure / illumination, and the CRF object."""
     try:
@@ -189,7 +180,7 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
     give bit-identical events and frames. metadata: extra keys stored with the sequence (e.g. its name).
     """
     config = config or AHDRConfig()
-    ss = sim.dvs.as_seed_sequence(seed)
+    ss = as_seed_sequence(seed)
     src = _TimedSource(scene)
     h, w, duration = scene.height, scene.width, int(scene.duration_us)
     dvs_params, cam_params, crf = resolve_sensors(scene, config)

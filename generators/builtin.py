@@ -21,6 +21,7 @@ import numpy as np
 
 import sim
 from sim import InvalidParameterError
+from sim.seeding import seed_record
 
 from .config import DatasetConfig, parse_config
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
@@ -158,7 +159,6 @@ def generate_ahdr_suite(out_dir, *, height: int = 180, width: int = 240, duratio
                         include_hdr: bool = True) -> Path:
     """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset); return
     the index path. Sequence i is seeded with child i of SeedSequence(seed)."""
-    from .ahdr import seed_record
     from .dataset import prepare_output_dir, write_index, write_sequence
 
     out = prepare_output_dir(out_dir, overwrite)

@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from sim import EvsimInputError
+from sim.seeding import seed_record
 
-from .ahdr import generate_ahdr, seed_record
+from .ahdr import generate_ahdr
 from .config import DatasetConfig, build_scene, to_ahdr_config
 from .formats import export
 from .formats.atomic import atomic_path

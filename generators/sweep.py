@@ -12,11 +12,11 @@ import dataclasses
 import itertools
 from pathlib import Path
 
-import numpy as np
 
 from sim import InvalidParameterError
+from sim.seeding import as_seed_sequence, child_seed, seed_record
 
-from .ahdr import AHDRConfig, seed_record
+from .ahdr import AHDRConfig
 from .config import SWEEP_KEYS
 from .dataset import EXPORT_SUFFIX, prepare_output_dir, write_index, write_sequence
 
@@ -46,8 +46,8 @@ def generate_sweep(scene, out_dir, grid: dict | None = None, config: AHDRConfig 
     # validate every point before writing anything
     dvs_points = [dataclasses.replace(config.dvs, **p) for p in points]
     out = prepare_output_dir(out_dir, overwrite)
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    children = np.random.SeedSequence(root.entropy, spawn_key=root.spawn_key).spawn(len(points))
+    root = as_seed_sequence(seed)
+    children = [child_seed(root, i) for i in range(len(points))]
     entries = []
     width = max(3, len(str(len(points) - 1)))
     for i, (point, dvs, child) in enumerate(zip(points, dvs_points, children)):

@@ -19,6 +19,7 @@ import numpy as np
 
 from .camera_kernels import accumulate_rows, sense
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_number
+from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
 
@@ -205,10 +206,9 @@ class LDRCamera:
             if not hasattr(crf, attr):
                 raise InvalidParameterError(f"crf must be a crf_models CRF (missing {attr!r})")
         self.height, self.width, self.params, self.crf = int(height), int(width), params, crf
-        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        self.seed_entropy = ss.entropy
-        self._spawn_key = tuple(ss.spawn_key)
-        rng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=(*self._spawn_key, 0)))
+        self._seed = as_seed_sequence(seed)
+        self.seed_entropy = self._seed.entropy
+        rng = np.random.default_rng(child_seed(self._seed, 0))
         # Fixed patterns: relative gain (PRNU) and dark offset in e- (DSNU); (1, 1) placeholders when unused.
         self._use_maps = bool(params.prnu_sigma or params.dsnu_e)
         shape = (self.height, self.width) if self._use_maps else (1, 1)
@@ -320,9 +320,7 @@ class LDRCamera:
         exposure = int(t_end - t_start)
         gain = p.electrons_per_radiance_us * exposure
         dark = p.dark_current_e_per_s * exposure * 1e-6
-        key = np.random.SeedSequence(self.seed_entropy, spawn_key=(*self._spawn_key, 1, int(k))).generate_state(
-            1, np.uint64
-        )[0]
+        key = child_seed(self._seed, 1, k).generate_state(1, np.uint64)[0]
         image = np.empty((self.height, self.width), dtype=np.uint8 if p.bit_depth == 8 else np.uint16)
         sense(irr, gain, dark, self._prnu_map, self._dsnu_map, self._use_maps, p.noise, float(p.read_noise_e), float(p.full_well_e), key,
               *self._quantiser(), image)

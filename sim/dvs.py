@@ -52,6 +52,7 @@ from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
 from .events import EVENT_DTYPE, empty_events
+from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
 EVENT_LABELS = ("signal", "shot", "leak", "hot")  # per-event label code -> name (labels are uint8 indices)
@@ -59,15 +60,6 @@ LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = K.LABEL_SIGNAL, K.LABEL_SHOT, 
 NO_EVENT_US = K.NO_EVENT_US
 
 _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
-
-
-def as_seed_sequence(seed) -> np.random.SeedSequence:
-    """An int (>= 0) or a SeedSequence as a SeedSequence."""
-    if isinstance(seed, np.random.SeedSequence):
-        return seed
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
-        return np.random.SeedSequence(int(seed))
-    raise InvalidParameterError(f"seed must be a non-negative int or a numpy SeedSequence, got {seed!r}")
 
 
 class DVSEmulator:
@@ -92,7 +84,7 @@ class DVSEmulator:
         ss = as_seed_sequence(seed)
         self.seed_sequence = ss
         self.seed_entropy = ss.entropy
-        fixed_ss, stream_ss = (np.random.SeedSequence(ss.entropy, spawn_key=ss.spawn_key + (i,)) for i in (0, 1))
+        fixed_ss, stream_ss = child_seed(ss, 0), child_seed(ss, 1)
         rng = np.random.default_rng(fixed_ss)
         shape = (self.height, self.width)
         p = params

@@ -153,3 +153,11 @@ def test_shot_noise_is_poisson_in_electrons(lam):
     observed = np.bincount(counts, minlength=k.size)[k] / n
     expected = poisson.pmf(k, lam)
     assert np.all(np.abs(observed - expected) <= 5 * np.sqrt(expected * (1 - expected) / n) + 1e-4)
+
+
+def test_bad_seed_is_rejected_with_a_clear_error():
+    import crf_models
+
+    for seed in (-1, 1.5, "0"):
+        with pytest.raises(InvalidParameterError, match="seed must be a non-negative int"):
+            LDRCamera(4, 4, CameraParams(), crf_models.get("linear"), seed=seed)
