@@ -15,6 +15,7 @@ from pathlib import Path
 
 import sim
 
+from .formats.atomic import write_text_atomic
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
@@ -148,7 +149,7 @@ def _cmd_demo(args) -> int:
 
     table, _ = evaluate_recording(load(path))
     text = format_scores(table)
-    (out / "metrics.txt").write_text(text + "\n")
+    write_text_atomic(out / "metrics.txt", text + "\n")
     print()
     print(text)
     print(f"(units: {UNITS['reference']})")

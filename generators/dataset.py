@@ -20,7 +20,7 @@ from sim.seeding import seed_record
 from .ahdr import generate_ahdr
 from .config import DatasetConfig, build_scene, to_ahdr_config
 from .formats import export
-from .formats.atomic import atomic_path
+from .formats.atomic import write_text_atomic
 
 INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat"}
@@ -56,8 +56,7 @@ def write_sequence(out: Path, name: str, scene, ahdr_config, seed, fmt: str, *, 
 def write_index(out: Path, index: dict) -> Path:
     """Write index.json atomically."""
     path = out / INDEX_FILE
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(index, indent=2))
+    write_text_atomic(path, json.dumps(index, indent=2))
     return path
 
 

@@ -30,7 +30,7 @@ from sim import EvsimInputError
 
 from .formats import detect, load
 from .formats.exr import write_exr_sequence
-from .formats.atomic import atomic_path
+from .formats.atomic import write_text_atomic
 from .recording import Recording
 
 PROTOCOLS = ("reference", "interleave")
@@ -262,5 +262,4 @@ def write_json(result: dict, path) -> None:
     """{method: {sequence: {metric: value}, "mean": {...}}} as JSON, atomically (inf as the string "inf")."""
     clean = {m: {s: {k: (str(v) if math.isinf(v) else v) for k, v in row.items()} for s, row in seqs.items()}
              for m, seqs in result.items()}
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(clean, indent=2) + "\n")
+    write_text_atomic(path, json.dumps(clean, indent=2) + "\n")

@@ -77,3 +77,9 @@ def atomic_path(path, *, directory: bool = False) -> Iterator[Path]:
     except BaseException:
         discard(tmp)
         raise
+
+
+def write_text_atomic(path, text: str) -> None:
+    """Write a text file (UTF-8) atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")

@@ -18,7 +18,7 @@ import numpy as np
 from sim import EvsimInputError
 
 from ..dataset import INDEX_FILE
-from ..formats.atomic import atomic_path
+from ..formats.atomic import write_text_atomic
 from .common import load_recording, pyplot, save_figure
 
 METRICS_FILE = "sweep_metrics.json"
@@ -73,8 +73,7 @@ def sweep_metrics(results, methods=DEFAULT_METHODS, metric: str = "mse", *, reco
             changed = True
         rows.append(row)
     if changed:
-        with atomic_path(cache_path) as tmp:
-            tmp.write_text(json.dumps({"sequences": rows}, indent=2))
+        write_text_atomic(cache_path, json.dumps({"sequences": rows}, indent=2))
     return rows
 
 
