@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.errors import InvalidParameterError
+from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
 
 from . import kernels
@@ -133,15 +133,23 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
 
 
 def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                params: AKFParams = AKFParams(), bit_depth: int = 8, return_variance: bool = False,
-                return_gain: bool = False):
+                leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(), bit_depth: int = 8,
+                return_variance: bool = False, return_gain: bool = False):
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
     [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models object (inverse, variance).
     output_times_us: non-decreasing int64 us, none before the first exposure starts; the image at t includes the
     events with timestamps < t. contrast: nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W)
-    per-pixel maps (c_off as a magnitude).
+    per-pixel maps (c_off as a magnitude). leak_rate_hz: the sensor's mean leak rate (Hz: ON events per second of a
+    static pixel, whose reference drifts down by leak_rate_hz * c_on log units per second); 0 (unknown or none)
+    gives the paper's filter. Where it is > 0, the leak part of each crossing is removed from the event's change:
+    the drift since the pixel's previous event (at most c_on), and at its first event also the drift from before
+    the start, unknown but uniform on [0, c_on) for a pixel that has been leaking (its mean is removed and its
+    variance c_on^2 / 12 added to Q). In clipped regions, where frames cannot correct it, that pre-start drift
+    otherwise leaves every pixel's estimate high by c_on / 2 on average. The event-interpolated frame curves the
+    state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
+    nominal contrasts, as in the paper.
 
     Returns float32 (T, H, W) intensity I = exp(L_hat) - I0 in the CRF's scaled-irradiance units (of frame 0's
     exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
@@ -156,6 +164,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     """
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
+    check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     nf, (h, w) = inp.frames.shape[0], inp.shape
     n, nt = h * w, inp.out_t.shape[0]
@@ -165,7 +174,8 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     none = np.empty(0, np.float32)
     fr = _Frames(inp, crf, params)
     strong = params.sigma_im2 / params.max_variance
-    noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong])
+    noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
+                      leak_rate_hz * 1e-6])
     s0 = int(inp.t_start[0])
 
     m0, scale0, side0 = fr.interval(0)
@@ -180,6 +190,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_ON, kernels.CC_ON]] = (scale0 * inp.c_on)[:, None]
     C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (scale0 * inp.c_off)[:, None]
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
+    C[:, kernels.C_FIRST] = 1.0
     te_pad = np.full((h + 2, w + 2), _OLD, np.int64)
     te_pad[1:-1, 1:-1] = s0
     te_pad = te_pad.ravel()

@@ -196,14 +196,25 @@ def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a,
     return L, P
 
 
+@njit(cache=True, inline="always")
+def leaked_before_first_event(drift, c_on):
+    """Expected leak part of a pixel's first crossing (log): the drift since the start (drift, log) plus the
+    pre-start drift u ~ uniform[0, c_on) of a pixel that has been leaking, capped at c_on (where the leak alone would
+    have fired): E[min(u + drift, c_on)] = c_on / 2 + drift - drift^2 / (2 c_on) for drift < c_on."""
+    if drift >= c_on:
+        return c_on
+    return 0.5 * c_on + drift - drift * drift / (2.0 * c_on)
+
+
 # Columns of the per-pixel state S (one 64-byte row per pixel, so an event touches one cache line):
 # log estimate, variance, last update time (us, exact in float64), the previous / current interval curves and the
 # log-space frame variances at tau_a, tau_b, tau_c.
 SL, SP, ST, SMP, SMC, SRA, SRB, SRC = 0, 1, 2, 3, 4, 5, 6, 7
 N_STATE = 8
 # Columns of C: calibrated ON / OFF contrasts of the previous and of the current interval (log units, both > 0),
-# and the clip side of each interval curve (+1 / -1 where both of its frames are clipped high / low, else 0).
-CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE = 0, 1, 2, 3, 4, 5
+# the clip side of each interval curve (+1 / -1 where both of its frames are clipped high / low, else 0), and 1 while
+# the pixel's first event (which carries the unknown leak drift from before the start) is still to come.
+CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE, C_FIRST = 0, 1, 2, 3, 4, 5, 6
 N_C = 8
 
 
@@ -213,10 +224,10 @@ def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
 
     S, C: per-pixel state and contrasts (columns above). te_pad: (H+2)*(W+2) last event time per pixel with a
     one-pixel border of very old times (for Q_iso). w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
-    noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance].
+    noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance, leak rate (1/us)].
     """
     s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
-    sp2, si2, sr2, rho, strong = noise[0], noise[1], noise[2], noise[3], noise[4]
+    sp2, si2, sr2, rho, strong, leak = noise[0], noise[1], noise[2], noise[3], noise[4], noise[5]
     wp = width + 2
     m = et.shape[0]
     for n in range(m):
@@ -250,13 +261,24 @@ def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
         q = sp2 * dts * US + si2 * (t - t_nbr) * US  # eq. 2: process + isolated-pixel noise
         if dts <= rho:
             q += sr2  # refractory noise
+        wt = blend_weight(t, s, e)
         if ep[n] > 0:
             dp, dc = C[i, CP_ON], C[i, CC_ON]
         else:
             dp, dc = -C[i, CP_OFF], -C[i, CC_OFF]
-        S[i, SL] = Li + dp + blend_weight(t, s, e) * (dc - dp)  # eq. 15 with the (blended) calibrated contrast
-        S[i, SMP] = mp + dp
-        S[i, SMC] = mc + dc
+        leaked = 0.0
+        if leak > 0.0:
+            c_on = C[i, CP_ON] + wt * (C[i, CC_ON] - C[i, CP_ON])
+            drift = leak * c_on * dts  # the reference's leak since the pixel's last event, part of this crossing
+            if C[i, C_FIRST] != 0.0:
+                leaked = leaked_before_first_event(drift, c_on)
+                q += c_on * c_on / 12.0  # the unknown pre-start drift, uniform on [0, c_on)
+                C[i, C_FIRST] = 0.0
+            else:
+                leaked = min(drift, c_on)
+        S[i, SL] = Li + dp + wt * (dc - dp) - leaked  # eq. 15 with the (blended) calibrated contrast
+        S[i, SMP] = mp + dp - leaked
+        S[i, SMC] = mc + dc - leaked
         S[i, SP] = Pi + q  # eq. 21
 
 

@@ -87,6 +87,21 @@ def recording_contrast(rec: Recording):
     return DEFAULT_CONTRAST, DEFAULT_CONTRAST
 
 
+def recording_leak_rate(rec: Recording) -> float:
+    """The DVS's mean leak rate (Hz) from the recorded configuration, else 0 (unknown: the AKF then ignores leak)."""
+    leak = rec.metadata.get("config", {}).get("dvs", {}).get("leak_hz", 0.0)
+    return float(leak) if isinstance(leak, (int, float)) and math.isfinite(leak) and leak > 0 else 0.0
+
+
+def method_options_for(rec: Recording, method_options=None) -> dict:
+    """{method: {keyword: value}}: what the recording tells a method beyond the shared inputs (the AKF's
+    leak_rate_hz), overridden by method_options."""
+    merged = {"akf": {"leak_rate_hz": recording_leak_rate(rec)}}
+    for name, options in (method_options or {}).items():
+        merged[name] = {**merged.get(name, {}), **options}
+    return merged
+
+
 def reference_to_x(rec: Recording) -> float:
     """The factor from reference radiance to the CRF's x units of frame 0's exposure: metadata
     "reference_to_crf_x" (written by generators.ahdr), else electrons_per_radiance_us * exposure_0 / full_well_e
@@ -116,6 +131,7 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=D
     """Score methods on one recording: ({method: {metric: value}}, note on assumptions or "")."""
     crf, note = recording_crf(rec)
     contrast = recording_contrast(rec)
+    method_options = method_options_for(rec, method_options)
     if protocol == "reference":
         _check_frames(rec, 2, "protocol 'reference'")
         if rec.reference is None:
@@ -131,7 +147,7 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=D
     if protocol != "interleave":
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
     _check_frames(rec, 3, "protocol 'interleave'")
-    return _interleave(rec, crf, contrast, methods, metrics, method_options or {}), note
+    return _interleave(rec, crf, contrast, methods, metrics, method_options), note
 
 
 def _interleave(rec, crf, contrast, methods, metrics, method_options) -> dict:
@@ -222,7 +238,7 @@ def reconstruct_dataset(path, out_dir, *, method: str = "akf", times: str = "ref
         crf, _ = recording_crf(rec)
         images = akf.METHODS[method](rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf, t,
                                      contrast=recording_contrast(rec), bit_depth=rec.frame_bit_depth,
-                                     **(method_options or {}))
+                                     **method_options_for(rec, {method: method_options or {}}).get(method, {}))
         folder = Path(out_dir) if len(sequences) == 1 else Path(out_dir) / name
         write_exr_sequence(folder, images, t)
         written.append((name, folder, int(t.size)))

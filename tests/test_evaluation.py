@@ -49,7 +49,8 @@ def _direct(path, methods=("akf", "cf", "frames")):
     dvs = rec.metadata["config"]["dvs"]
     return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
                                  rec.reference[inside] * to_x, rec.reference_t_us[inside], methods=methods,
-                                 metrics=METRICS, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]))
+                                 metrics=METRICS, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]),
+                                 method_options={"akf": {"leak_rate_hz": dvs["leak_hz"]}})
 
 
 def test_recorded_unit_factor_is_the_cameras_closed_form_and_the_fallback_agrees(dataset):

@@ -54,7 +54,7 @@ def animate(prep: Prepared, out, *, n_frames: int = 40, fps: float = 10.0, param
     times = np.linspace(t0, t1, n_frames + 1).astype(np.int64)[1:]
     dt = int(times[1] - times[0])
     recon = akf.reconstruct(*prep.reconstruct_args(), times, contrast=prep.contrast, bit_depth=rec.frame_bit_depth,
-                            params=params or akf.AKFParams())
+                            leak_rate_hz=prep.leak_rate_hz, params=params or akf.AKFParams())
     ref = prep.reference_x
     tone = ToneMap.from_reference(ref[ref.shape[0] // 2] if ref is not None else recon[n_frames // 2])
     plt = pyplot()

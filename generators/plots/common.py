@@ -88,7 +88,8 @@ class Prepared:
     given to the reconstructions (log units; the per-pixel maps would be an oracle). thresholds: (2, H, W) float64
     per-pixel ON / OFF thresholds for drawing the DVS reference level: the stored maps, else the nominal ones.
     to_x: factor from reference radiance to the CRF's scaled irradiance x of frame 0's exposure, or None when the
-    recording has no reference or does not say how (then reference_x is None).
+    recording has no reference or does not say how (then reference_x is None). leak_rate_hz: the recorded DVS leak
+    rate given to the AKF (0 when unknown).
     """
 
     rec: Recording
@@ -96,6 +97,7 @@ class Prepared:
     contrast: tuple[float, float]
     thresholds: np.ndarray
     to_x: float | None
+    leak_rate_hz: float = 0.0
 
     @property
     def reference_x(self) -> np.ndarray | None:
@@ -120,7 +122,7 @@ def load_recording(path) -> Recording:
 
 def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
     """Check that rec has frames (and a reference in known units when asked) and derive what akf needs."""
-    from ..evaluation import recording_contrast, recording_crf, reference_to_x
+    from ..evaluation import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
 
     if rec.frames is None or rec.frames.shape[0] == 0:
         raise EvsimInputError("the dataset has no LDR frames: this plot needs frames and events")
@@ -137,7 +139,8 @@ def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
     maps = rec.threshold_maps
     if maps is None:
         maps = np.stack([np.full((rec.height, rec.width), c) for c in contrast])
-    return Prepared(rec, recording_crf(rec)[0], contrast, np.asarray(maps, np.float64), to_x)
+    return Prepared(rec, recording_crf(rec)[0], contrast, np.asarray(maps, np.float64), to_x,
+                    recording_leak_rate(rec))
 
 
 def inner_reference_indices(rec: Recording) -> np.ndarray:

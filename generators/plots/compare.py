@@ -46,7 +46,7 @@ def compare_images(prep: Prepared, t_us: int | None = None, methods=DEFAULT_METH
     for name in methods:
         if name == "akf":
             est, gain = akf.reconstruct(*prep.reconstruct_args(), [t], params=params or akf.AKFParams(),
-                                        return_gain=True, **opts)
+                                        leak_rate_hz=prep.leak_rate_hz, return_gain=True, **opts)
             gain = gain[0]
         else:
             est = akf.METHODS[name](*prep.reconstruct_args(), [t], **opts)

@@ -100,7 +100,7 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=
     t_us = np.unique(np.linspace(int(rec.frame_t_start_us[0]), max(t_end), n_times).astype(np.int64))
     args = (events, frames, rec.frame_t_start_us, rec.frame_t_end_us, prep.crf, t_us)
     opts = {"contrast": prep.contrast, "bit_depth": rec.frame_bit_depth}
-    est, var = akf.reconstruct(*args, params=params, return_variance=True, **opts)
+    est, var = akf.reconstruct(*args, params=params, leak_rate_hz=prep.leak_rate_hz, return_variance=True, **opts)
     cf = akf.complementary_filter(*args, i0=i0, **opts)
 
     aug = akf.augmented_measurement(*args, [i], params=params, **opts)  # what the filter tracks at the pixel
