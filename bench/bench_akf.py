@@ -13,6 +13,7 @@ CPU time (the fairer figure on a shared machine), and peak memory; it is not a t
 from __future__ import annotations
 
 import argparse
+import functools
 import resource
 import time
 import tracemalloc
@@ -53,6 +54,7 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=10e6, help="event rate of the synthetic sensor (events/s)")
     ap.add_argument("--seconds", type=float, default=1.0, help="sensor time (s)")
     ap.add_argument("--threads", type=int, default=1, help="numba threads (publishing is parallel)")
+    ap.add_argument("--leak-hz", type=float, default=0.0, help="the AKF's leak_rate_hz (0: the paper's event model)")
     args = ap.parse_args()
 
     import numba
@@ -66,8 +68,10 @@ def main() -> None:
     frames, ts, te = frames_and_times(args.seconds, crf)
     out_t = np.arange(int(ts[0]) + 1, int(args.seconds * 1e6), 33_333)  # 30 Hz publishing
     print(f"{events.size:,} events over {args.seconds:g} s at {W}x{H}, {len(frames)} frames, "
-          f"{len(out_t)} published images, {args.threads} thread(s)")
-    for name, fn in (("AKF", akf.reconstruct), ("CF", akf.complementary_filter)):
+          f"{len(out_t)} published images, {args.threads} thread(s), AKF leak_rate_hz {args.leak_hz:g}")
+    methods = (("AKF", functools.partial(akf.reconstruct, leak_rate_hz=args.leak_hz)),
+               ("CF", akf.complementary_filter))
+    for name, fn in methods:
         fn(events[:1000], frames[:2], ts[:2], te[:2], crf, out_t[:1])  # compile (or load the numba cache)
         tracemalloc.start()
         t0, c0 = time.perf_counter(), time.process_time()

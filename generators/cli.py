@@ -8,6 +8,7 @@ speeds in pixels per second, angles in degrees, contrast thresholds in natural-l
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import traceback
@@ -161,7 +162,7 @@ def _cmd_evaluate(args) -> int:
     from .evaluation import evaluate_dataset, format_table, write_json
 
     result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                                     metrics=_names(args.metrics))
+                                     metrics=_names(args.metrics), method_options=_akf_options(args))
     print(format_table(result, args.protocol, notes))
     if args.json is not None:
         write_json(result, args.json)
@@ -172,9 +173,16 @@ def _cmd_evaluate(args) -> int:
 def _cmd_reconstruct(args) -> int:
     from .evaluation import reconstruct_dataset
 
-    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times):
+    options = _akf_options(args).get(args.method)
+    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times,
+                                               method_options=options):
         print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {folder}")
     return 0
+
+
+def _akf_options(args) -> dict:
+    """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
+    return {} if args.leak_hz is None else {"akf": {"leak_rate_hz": args.leak_hz}}
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -194,6 +202,22 @@ def _seed(text: str) -> int:
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
     return v
+
+
+def _non_negative(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
+    return v
+
+
+def _add_akf_flags(p) -> None:
+    p.add_argument("--leak-hz", type=_non_negative, default=None,
+                   help="the DVS's leak rate (Hz) for the AKF's leak-aware event model (default: the recorded "
+                        "one, else 0 = the paper's model)")
 
 
 def _add_output_flags(p, default_out: str) -> None:
@@ -288,6 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
     ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}}")
+    _add_akf_flags(ev)
     ev.set_defaults(func=_cmd_evaluate)
 
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
@@ -298,6 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")
+    _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
     return parser

@@ -38,8 +38,9 @@ def dataset(tmp_path_factory):
     return d
 
 
-def _direct(path, methods=("akf", "cf", "frames")):
-    """The reference protocol spelled out with akf.evaluate_sequence and the camera's closed-form exposure."""
+def _direct(path, methods=("akf", "cf", "frames"), leak_rate_hz=None):
+    """The reference protocol spelled out with akf.evaluate_sequence and the camera's closed-form exposure; the AKF
+    gets the recorded DVS leak rate unless leak_rate_hz is given."""
     rec = load(path)
     cam = sim.CameraParams(**{k: tuple(v) if isinstance(v, list) else v
                               for k, v in rec.metadata["config"]["camera"].items()})
@@ -50,7 +51,8 @@ def _direct(path, methods=("akf", "cf", "frames")):
     return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
                                  rec.reference[inside] * to_x, rec.reference_t_us[inside], methods=methods,
                                  metrics=METRICS, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]),
-                                 method_options={"akf": {"leak_rate_hz": dvs["leak_hz"]}})
+                                 method_options={"akf": {"leak_rate_hz": dvs["leak_hz"] if leak_rate_hz is None
+                                                         else leak_rate_hz}})
 
 
 def test_recorded_unit_factor_is_the_cameras_closed_form_and_the_fallback_agrees(dataset):
@@ -92,6 +94,30 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
     assert mse_block[1].split()[0] == "a"
     for method, value in row.items():
         assert value == pytest.approx(result[method]["a"]["mse"], rel=1e-3)  # printed with 4 significant digits
+
+
+def test_leak_rate_option_overrides_the_recorded_one(dataset, tmp_path):
+    assert load(dataset / "a.h5").metadata["config"]["dvs"]["leak_hz"] == 0.1  # the davis346 preset's
+    scores = {}
+    for leak in ("0", "0.5"):
+        out = tmp_path / f"leak{leak}.json"
+        assert main(["evaluate", str(dataset / "a.h5"), "--metrics", "mse,ssim", "--leak-hz", leak,
+                     "--json", str(out)]) == 0
+        scores[leak] = json.loads(out.read_text())
+        direct = _direct(dataset / "a.h5", leak_rate_hz=float(leak))
+        for method in ("akf", "cf", "frames"):
+            for metric in METRICS:
+                assert scores[leak][method]["a"][metric] == pytest.approx(direct[method][metric], rel=1e-9)
+    assert scores["0"]["akf"]["a"]["mse"] != scores["0.5"]["akf"]["a"]["mse"]
+    assert scores["0"]["cf"] == scores["0.5"]["cf"]  # only the AKF takes it
+    out = tmp_path / "rec"
+    assert main(["reconstruct", str(dataset / "a.h5"), "--out", str(out), "--times", "frames", "--leak-hz", "0"]) == 0
+    rec = load(dataset / "a.h5")
+    crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
+    dvs = rec.metadata["config"]["dvs"]
+    expected = akf.reconstruct(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
+                               rec.frame_t_mid_us, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]))
+    np.testing.assert_array_equal(read_exr_sequence(out)[0], expected)
 
 
 def test_dataset_index_folder_is_read_in_index_order(tmp_path):
@@ -166,6 +192,8 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["reconstruct", "{a}", "--out", "{out}", "--times", "sometimes"], "one of reference, frames"),
     (["reconstruct", "{a}", "--out", "{out}", "--method", "magic"], "unknown method"),
     (["reconstruct", "{a}"], "--out"),
+    (["evaluate", "{a}", "--leak-hz", "-1"], "--leak-hz"),
+    (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
 ])
 def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, message):
     rec = load(dataset / "a.h5")
