@@ -173,6 +173,8 @@ def _cmd_evaluate(args) -> int:
 def _cmd_reconstruct(args) -> int:
     from .evaluation import reconstruct_dataset
 
+    if args.leak_hz is not None and args.method != "akf":
+        raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
     options = _akf_options(args).get(args.method)
     for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times,
                                                method_options=options):

@@ -13,6 +13,9 @@ exposure (x = 1 is the full well; crf.forward(x) is the normalised response). Sc
   scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
   assumed linear (x = response).
 Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
+Every method gets the recording's nominal contrast thresholds; the AKF also gets its DVS leak rate (the recorded
+configuration's leak_hz, else 0) for its leak-aware event model (see akf.reconstruct), unless method_options say
+otherwise.
 """
 
 from __future__ import annotations

@@ -194,6 +194,7 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["reconstruct", "{a}"], "--out"),
     (["evaluate", "{a}", "--leak-hz", "-1"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
+    (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf method only"),
 ])
 def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, message):
     rec = load(dataset / "a.h5")
