@@ -124,7 +124,7 @@ def reference_to_x(rec: Recording) -> float:
 def _check_frames(rec: Recording, need: int, what: str) -> None:
     n = 0 if rec.frames is None else rec.frames.shape[0]
     if n < need:
-        raise EvsimInputError(f"{what} needs at least {need} frames, the recording has {n}")
+        raise EvsimInputError(f"{what} needs at least {need} frame{'s' * (need != 1)}, the recording has {n}")
 
 
 # ----- the two protocols -----------------------------------------------------------------------------------------

@@ -195,12 +195,16 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["evaluate", "{a}", "--leak-hz", "-1"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf method only"),
+    (["reconstruct", "{ijrr_noframes}", "--out", "{out}", "--times", "fps:10"], "at least 1 frame, the recording has 0"),
+    (["evaluate", "{ijrr_noframes}", "--protocol", "interleave"], "at least 3 frames, the recording has 0"),
 ])
 def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, message):
     rec = load(dataset / "a.h5")
     export(dataclasses.replace(rec, reference=None, reference_t_us=None), tmp_path / "noref", "ijrr")
+    export(dataclasses.replace(rec, reference=None, reference_t_us=None, frames=None, frame_t_start_us=None,
+                               frame_t_mid_us=None, frame_t_end_us=None), tmp_path / "noframes", "ijrr")
     paths = {"missing": tmp_path / "missing.h5", "a": dataset / "a.h5", "out": tmp_path / "o",
-             "ijrr_noref": tmp_path / "noref"}
+             "ijrr_noref": tmp_path / "noref", "ijrr_noframes": tmp_path / "noframes"}
     assert main([a.format(**paths) for a in argv]) == 2
     err = capsys.readouterr().err
     assert message in err
