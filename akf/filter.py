@@ -154,6 +154,10 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     Returns float32 (T, H, W) intensity I = exp(L_hat) - I0 in the CRF's scaled-irradiance units (of frame 0's
     exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
     requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
+    P is the variance under the paper's noise model, not a calibrated error bar: the model has no term for the
+    events' quantisation (between events the true level may sit up to a threshold from the reported one), so on
+    noise-free data (tests/test_akf_filter.py's moving scene) 2 sqrt(P) covers 78 % of the log errors with
+    thresholds of 0.05 and 27 % with 0.2.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length.
