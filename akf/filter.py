@@ -87,15 +87,18 @@ class AugmentedMeasurement:
 
 
 def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf, times_us, pixels, *,
-                          contrast=0.2, params: AKFParams = AKFParams(), bit_depth: int = 8) -> AugmentedMeasurement:
+                          contrast=0.2, leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(),
+                          bit_depth: int = 8) -> AugmentedMeasurement:
     """The augmented frame L^A(t) of reconstruct (same inputs) at times_us for the flat pixel indices `pixels`.
 
-    Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)) (m_j: its
-    value at the exposure start s_j, scale_j: its contrast calibration); in frame window k = [s_k, s_k+1) L^A
-    blends M_{k-1} into M_k across the exposure [s_k, e_k] (the first window uses M_0 alone).
+    Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)) - (the leak
+    part of those events, see reconstruct; 0 when leak_rate_hz = 0) (m_j: its value at the exposure start s_j,
+    scale_j: its contrast calibration); in frame window k = [s_k, s_k+1) L^A blends M_{k-1} into M_k across the
+    exposure [s_k, e_k] (the first window uses M_0 alone).
     """
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
+    check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
@@ -116,20 +119,37 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
     ev_pix = ev["y"].astype(np.int64) * w + ev["x"]
     out = np.empty((t.size, pixels.size))
     for n, i in enumerate(pixels):
-        mine = ev[ev_pix == i]
-        cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
+        mine = ev[(ev_pix == i) & (ev["t"] >= s_k[0])]  # the filter starts at the first exposure
         et = mine["t"]
+        cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
+        leaked = np.concatenate([[0.0], np.cumsum(_leaked(et, scale[:, n] * inp.c_on[i], inp, leak_rate_hz))])
 
-        def change(a, b):  # nominal event change over [a, b)
-            return cum[np.searchsorted(et, b, side="left")] - cum[np.searchsorted(et, a, side="left")]
+        def change(a, b, c):  # change of cumulative c over the events in [a, b)
+            return c[np.searchsorted(et, b, side="left")] - c[np.searchsorted(et, a, side="left")]
 
-        cur = start[k, n] + scale[k, n] * change(s_k[k], t)
-        prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t)
+        cur = start[k, n] + scale[k, n] * change(s_k[k], t, cum) - change(s_k[k], t, leaked)
+        prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t, cum) - change(s_k[kp], t, leaked)
         out[:, n] = prev + wt * (cur - prev)
     deb = np.array([[d[pixels] for d in fr.deblurred(j)] for j in range(nf)])
     intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
     clipped = np.array([fr.measurement(j).clipped.ravel()[pixels] for j in range(nf)])
     return AugmentedMeasurement(out, deb, intensity, clipped)
+
+
+def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
+    """The leak part (log) of each event of one pixel (times et, us), as akf.kernels.akf_events takes it:
+    c_on_intervals[j] is interval j's calibrated ON contrast, blended across each exposure as the events' change."""
+    if leak_rate_hz == 0 or et.size == 0:
+        return np.zeros(et.size)
+    s_k = inp.t_start.astype(np.int64)
+    k = np.clip(np.searchsorted(s_k, et, side="right") - 1, 0, s_k.size - 1)
+    wt = np.clip((et - s_k[k]) / np.maximum(inp.t_end[k] - s_k[k], 1), 0.0, 1.0)
+    c_prev, c_cur = c_on_intervals[np.maximum(k - 1, 0)], c_on_intervals[k]
+    c_on = c_prev + wt * (c_cur - c_prev)
+    drift = leak_rate_hz * 1e-6 * c_on * np.diff(et, prepend=s_k[0])
+    out = np.minimum(drift, c_on)
+    out[0] = kernels.leaked_before_first_event(drift[0], c_on[0])
+    return out
 
 
 def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,

@@ -76,3 +76,20 @@ def test_leak_rate_is_validated(bad, leaking_static_scene):
     events, frames, ts, te, _ = leaking_static_scene
     with pytest.raises(InvalidParameterError, match="leak_rate_hz"):
         akf.reconstruct(events, frames, ts, te, LINEAR, [0], leak_rate_hz=bad)
+    with pytest.raises(InvalidParameterError, match="leak_rate_hz"):
+        akf.augmented_measurement(events, frames, ts, te, LINEAR, [0], [0], leak_rate_hz=bad)
+
+
+def test_augmented_curve_is_leak_aware_too(leaking_static_scene):
+    """A pure leak event after a pixel's first carries no change in the leak-aware curve (its drift since the
+    previous event is a whole threshold), while the paper's curve steps by C."""
+    events, frames, ts, te, leak_hz = leaking_static_scene
+    x, y = int(events["x"][0]), int(events["y"][0])
+    mine = events[(events["x"] == x) & (events["y"] == y)]
+    t_second = int(mine["t"][1])
+    times = [t_second - 1, t_second + 1]
+    flat = y * 32 + x
+    for rate, step in ((0.0, C), (leak_hz, 0.0)):
+        aug = akf.augmented_measurement(events, frames, ts, te, LINEAR, times, [flat], params=PARAMS,
+                                        leak_rate_hz=rate)
+        assert aug.log[1, 0] - aug.log[0, 0] == pytest.approx(step, abs=1e-9)

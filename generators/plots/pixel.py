@@ -103,7 +103,8 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=
     est, var = akf.reconstruct(*args, params=params, leak_rate_hz=prep.leak_rate_hz, return_variance=True, **opts)
     cf = akf.complementary_filter(*args, i0=i0, **opts)
 
-    aug = akf.augmented_measurement(*args, [i], params=params, **opts)  # what the filter tracks at the pixel
+    aug = akf.augmented_measurement(*args, [i], params=params, leak_rate_hz=prep.leak_rate_hz,
+                                    **opts)  # what the filter tracks at the pixel
     augmented, deblurred = aug.log[:, 0], aug.deblurred[:, :, 0]
     frame_x, clipped = aug.intensity[:, 0], aug.clipped[:, 0]
 
