@@ -86,7 +86,8 @@ class NativeWriter:
 
     def _create_layout(self, compression) -> None:
         f, h, w = self._f, self.height, self.width
-        kw = {"compression": compression} if compression else {}
+        # byte shuffling before compression: int64 times and float32 references then compress smaller and faster
+        kw = {"compression": compression, "shuffle": True} if compression else {}
         ev = f.create_group("events")
         for name, dt in _EVENT_FIELDS.items():
             ev.create_dataset(name, (0,), dtype=dt, maxshape=(None,), chunks=(_EV_H5_CHUNK,), **kw)
