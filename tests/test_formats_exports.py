@@ -301,6 +301,32 @@ def test_export_from_native_file_equals_export_from_recording(tmp_path, fmt, nam
     assert json.loads(json.dumps(back.metadata)) == back.metadata
 
 
+@pytest.mark.parametrize("fmt,name", [("native", "b.h5"), ("e2vid", "e.h5"), ("ijrr", "ij"), ("exr", "ref")])
+def test_export_from_native_file_reads_one_image_at_a_time(tmp_path, monkeypatch, fmt, name):
+    """Memory stays flat in the sequence length: frames and reference images are read singly from the file."""
+    rec = make_recording()
+    write_native(rec, tmp_path / "n.h5")
+    reads = []
+    getitem = h5py.Dataset.__getitem__
+
+    def spy(self, key):
+        out = getitem(self, key)
+        if self.name.endswith("/images"):
+            reads.append(np.shape(out))
+        return out
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", spy)
+    export(tmp_path / "n.h5", tmp_path / name, fmt)
+    monkeypatch.undo()
+    image = (rec.height, rec.width)
+    expected = (0 if fmt == "exr" else rec.frames.shape[0]) + rec.reference.shape[0]
+    assert reads and all(shape == image for shape in reads) and len(reads) == expected
+    if fmt == "exr":
+        np.testing.assert_array_equal(read_exr_sequence(tmp_path / name)[0], rec.reference)
+    else:
+        assert_recordings_equal(rec, load(tmp_path / name), skip=("metadata",))
+
+
 def test_exr_sequence_is_atomic_at_folder_level(tmp_path):
     rec = make_recording()
     export(rec, tmp_path / "ref", "exr")

@@ -20,7 +20,7 @@ from .common import DatasetFormatError, fail, open_h5
 from .e2vid import is_e2vid, read_e2vid, write_e2vid
 from .exr import write_exr_sequence
 from .ijrr import is_ijrr, read_ijrr, write_ijrr
-from .native import NativeWriter, is_native, iter_native_events, read_native, write_native
+from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
 
 FORMATS = ("native", "e2vid", "ijrr", "akf-mat", "exr")
 
@@ -67,20 +67,25 @@ def export(recording_or_native_path, out_path, fmt: str, **options) -> None:
     if fmt not in FORMATS:
         raise EvsimInputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     src = recording_or_native_path
-    stream = None
-    if not isinstance(src, Recording):
-        src = Path(src)
-        if detect(src) != "native":
-            raise EvsimInputError(f"{src}: export reads native HDF5 files or Recordings")
-        streamed = fmt in ("native", "e2vid", "ijrr")
-        stream = iter_native_events(src) if streamed else None
-        src = read_native(src, events=not streamed)
+    if isinstance(src, Recording):
+        _write(src, out_path, fmt, options)
+        return
+    src = Path(src)
+    if detect(src) != "native":
+        raise EvsimInputError(f"{src}: export reads native HDF5 files or Recordings")
+    if fmt == "akf-mat":  # a .mat file is written in one piece
+        _write(read_native(src), out_path, fmt, options)
+        return
+    # events streamed in chunks, frames and reference read one image at a time: memory stays flat
+    with open_native_images(src) as rec:
+        _write(rec, out_path, fmt, {**options, "event_source": iter_native_events(src)} if fmt != "exr" else options)
+
+
+def _write(rec: Recording, out_path, fmt: str, options: dict) -> None:
     if fmt == "exr":
-        if src.reference is None:
+        if rec.reference is None:
             raise EvsimInputError("exr export needs reference frames: the recording has none")
-        write_exr_sequence(out_path, src.reference, src.reference_t_us, **options)
+        write_exr_sequence(out_path, rec.reference, rec.reference_t_us, **options)
         return
     writers = {"native": write_native, "e2vid": write_e2vid, "ijrr": write_ijrr, "akf-mat": write_akf_mat}
-    if stream is not None:
-        options["event_source"] = stream
-    writers[fmt](src, out_path, **options)
+    writers[fmt](rec, out_path, **options)

@@ -102,6 +102,14 @@ def polarity_pm1(p) -> np.ndarray:
     return np.where(np.asarray(p).astype(np.int64) > 0, 1, -1).astype(np.int8)
 
 
+def _shape_dtype(images) -> tuple[tuple[int, ...], np.dtype]:
+    """Shape and dtype of an image stack without reading it (an array, or an HDF5 dataset read lazily)."""
+    if hasattr(images, "shape") and hasattr(images, "dtype"):
+        return tuple(images.shape), np.dtype(images.dtype)
+    a = np.asarray(images)
+    return a.shape, a.dtype
+
+
 def check_recording(rec) -> None:
     """Raise EvsimInputError unless a Recording's arrays agree with each other (shapes, lengths, dtypes)."""
     validate_events(rec.events, name="recording events")
@@ -109,16 +117,16 @@ def check_recording(rec) -> None:
     if rec.event_labels is not None and np.shape(rec.event_labels) != rec.events.shape:
         raise EvsimInputError(f"{np.shape(rec.event_labels)} event labels for {rec.events.size} events")
     if rec.frames is not None:
-        f = np.asarray(rec.frames)
-        if f.ndim != 3 or f.shape[1:] != (h, w) or f.dtype.kind != "u":
-            raise EvsimInputError(f"frames must be unsigned (F, {h}, {w}), got {f.dtype} {f.shape}")
+        shape, dtype = _shape_dtype(rec.frames)
+        if len(shape) != 3 or shape[1:] != (h, w) or dtype.kind != "u":
+            raise EvsimInputError(f"frames must be unsigned (F, {h}, {w}), got {dtype} {shape}")
         for name in ("frame_t_start_us", "frame_t_mid_us", "frame_t_end_us"):
-            if np.shape(getattr(rec, name)) != (f.shape[0],):
-                raise EvsimInputError(f"{name} must have one entry per frame ({f.shape[0]})")
+            if np.shape(getattr(rec, name)) != (shape[0],):
+                raise EvsimInputError(f"{name} must have one entry per frame ({shape[0]})")
     if rec.reference is not None:
-        r = np.asarray(rec.reference)
-        if r.ndim != 3 or r.shape[1:] != (h, w) or np.shape(rec.reference_t_us) != (r.shape[0],):
-            raise EvsimInputError(f"reference must be (R, {h}, {w}) with R times, got {r.shape} and "
+        shape, _ = _shape_dtype(rec.reference)
+        if len(shape) != 3 or shape[1:] != (h, w) or np.shape(rec.reference_t_us) != (shape[0],):
+            raise EvsimInputError(f"reference must be (R, {h}, {w}) with R times, got {shape} and "
                                   f"{np.shape(rec.reference_t_us)} times")
     if rec.threshold_maps is not None and np.shape(rec.threshold_maps) != (2, h, w):
         raise EvsimInputError(f"threshold maps must be (2, {h}, {w}), got {np.shape(rec.threshold_maps)}")

@@ -83,7 +83,10 @@ def write_e2vid(rec: Recording, path, *, event_source: Iterator | None = None) -
         if rec.crf is not None:
             f.attrs["evsim_crf"] = to_json(rec.crf)
         if rec.reference is not None:
-            f.create_dataset("evsim/reference/images", data=rec.reference.astype(np.float32), compression="gzip")
+            refs = f.create_dataset("evsim/reference/images", (len(rec.reference), rec.height, rec.width),
+                                    dtype=np.float32, chunks=(1, rec.height, rec.width), compression="gzip")
+            for i, img in enumerate(rec.reference):  # one image at a time (the reference may be a lazy dataset)
+                refs[i] = img
             f.create_dataset("evsim/reference/t_us", data=np.asarray(rec.reference_t_us, dtype=np.int64))
         if rec.threshold_maps is not None:
             f.create_dataset("evsim/threshold_maps", data=rec.threshold_maps.astype(np.float32))

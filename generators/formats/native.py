@@ -19,6 +19,7 @@ Datasets are chunked, resizable and gzip-compressed; each add_* call appends, so
 from __future__ import annotations
 
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -289,38 +290,54 @@ def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarr
 def read_native(path, *, events: bool = True) -> Recording:
     """Read a native file into a Recording (events=False skips the event stream and labels)."""
     with open_h5(path) as f:
-        if not is_native(f):
-            raise fail(path, "not a native evsim HDF5 file")
-        require(f, path, ["events/t", "events/x", "events/y", "events/p", "frames/images", "frames/t_start_us",
-                          "frames/t_mid_us", "frames/t_end_us"])
-        h, w = _resolution(f, path)
-        ev = f["events"]
-        if events:
-            evs = events_from_columns(path, ev["t"][()] + _t_offset(f), *(ev[k][()] for k in ("x", "y", "p")))
-            labels = ev["label"][()] if "label" in ev else None
-        else:
-            evs = events_from_columns(path, [], [], [], [])
-            labels = None
-        fr = f["frames"]
-        nf = fr["images"].shape[0]
-        ref = f["reference"] if "reference" in f else None
-        rec = Recording(
-            events=evs, height=h, width=w,
-            frames=fr["images"][()] if nf else None,
-            frame_t_start_us=fr["t_start_us"][()] if nf else None,
-            frame_t_mid_us=fr["t_mid_us"][()] if nf else None,
-            frame_t_end_us=fr["t_end_us"][()] if nf else None,
-            frame_bit_depth=int(fr.attrs.get("bit_depth", 8 * fr["images"].dtype.itemsize)),
-            reference=ref["images"][()] if ref is not None and ref["images"].shape[0] else None,
-            reference_t_us=ref["t_us"][()] if ref is not None and ref["images"].shape[0] else None,
-            crf=json_attr(f, "crf"),
-            threshold_maps=f["threshold_maps"][()] if "threshold_maps" in f else None,
-            event_labels=labels,
-            metadata=json_attr(f, "metadata", {}),
-        )
-        if nf and not all(fr[k].shape[0] == nf for k in ("t_start_us", "t_mid_us", "t_end_us")):
-            raise fail(path, "frame time datasets do not have one entry per frame")
-        return rec
+        return _native_recording(f, path, events=events, lazy_images=False)
+
+
+@contextmanager
+def open_native_images(path) -> Iterator[Recording]:
+    """A Recording of a native file without its events, whose frames and reference are the file's HDF5 datasets
+    (read one image at a time when indexed or iterated, so memory does not grow with the sequence length); valid
+    inside the with block. Exporters stream the events alongside with iter_native_events."""
+    with open_h5(path) as f:
+        yield _native_recording(f, path, events=False, lazy_images=True)
+
+
+def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) -> Recording:
+    if not is_native(f):
+        raise fail(path, "not a native evsim HDF5 file")
+    require(f, path, ["events/t", "events/x", "events/y", "events/p", "frames/images", "frames/t_start_us",
+                      "frames/t_mid_us", "frames/t_end_us"])
+    h, w = _resolution(f, path)
+    ev = f["events"]
+    if events:
+        evs = events_from_columns(path, ev["t"][()] + _t_offset(f), *(ev[k][()] for k in ("x", "y", "p")))
+        labels = ev["label"][()] if "label" in ev else None
+    else:
+        evs = events_from_columns(path, [], [], [], [])
+        labels = None
+
+    def images(ds):
+        return (ds if lazy_images else ds[()]) if ds.shape[0] else None
+
+    fr = f["frames"]
+    nf = fr["images"].shape[0]
+    ref = f["reference"] if "reference" in f and f["reference/images"].shape[0] else None
+    if nf and not all(fr[k].shape[0] == nf for k in ("t_start_us", "t_mid_us", "t_end_us")):
+        raise fail(path, "frame time datasets do not have one entry per frame")
+    return Recording(
+        events=evs, height=h, width=w,
+        frames=images(fr["images"]),
+        frame_t_start_us=fr["t_start_us"][()] if nf else None,
+        frame_t_mid_us=fr["t_mid_us"][()] if nf else None,
+        frame_t_end_us=fr["t_end_us"][()] if nf else None,
+        frame_bit_depth=int(fr.attrs.get("bit_depth", 8 * fr["images"].dtype.itemsize)),
+        reference=None if ref is None else images(ref["images"]),
+        reference_t_us=None if ref is None else ref["t_us"][()],
+        crf=json_attr(f, "crf"),
+        threshold_maps=f["threshold_maps"][()] if "threshold_maps" in f else None,
+        event_labels=labels,
+        metadata=json_attr(f, "metadata", {}),
+    )
 
 
 def _t_offset(f: h5py.File) -> int:
