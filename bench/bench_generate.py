@@ -3,7 +3,8 @@
 1. Time split (scene sampling, DVS, camera, writing) for a 346x260 sequence (default 10 s) of the built-in
    astronaut image under pan and shake, with the davis346 sensor and the default camera (30 fps, window CRF).
 2. Peak resident memory of generating 640x480 sequences (default 60 s, and a quarter of it to show that memory is
-   flat in duration); each run is a fresh subprocess so that the peaks are independent.
+   flat in duration), and of exporting each file to the E2VID layout; each run is a fresh subprocess so that the
+   peaks are independent.
 
     python bench/bench_generate.py [--duration-s 10] [--memory-duration-s 60] [--skip-memory] [--compression lzf]
 
@@ -40,14 +41,31 @@ def run_once(duration_s: float, height: int, width: int, out: Path, compression:
 
 
 def _child(args) -> None:
+    if args.export_from:
+        from generators.formats import export
+
+        t0 = time.perf_counter()
+        export(args.export_from, Path(args.export_from).with_name("export_e2vid.h5"), "e2vid")
+        print(json.dumps({"wall_s": time.perf_counter() - t0,
+                          "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+        return
     with tempfile.TemporaryDirectory() as d:
         run_once(0.05, 16, 16, Path(d) / "warm.h5")  # numba compile / cache load
-        print(json.dumps(run_once(args.duration_s, args.height, args.width, Path(d) / "seq.h5", args.compression)))
+        out = Path(args.keep) if args.keep else Path(d) / "seq.h5"
+        print(json.dumps(run_once(args.duration_s, args.height, args.width, out, args.compression)))
 
 
-def _spawn(duration_s: float, height: int, width: int, compression: str) -> dict:
+def _spawn(duration_s: float, height: int, width: int, compression: str, keep: Path | None = None) -> dict:
     cmd = [sys.executable, __file__, "--child", "--duration-s", str(duration_s), "--height", str(height),
-           "--width", str(width), "--compression", compression]
+           "--width", str(width), "--compression", compression] + (["--keep", str(keep)] if keep else [])
+    return _run(cmd)
+
+
+def _spawn_export(path: Path) -> dict:
+    return _run([sys.executable, __file__, "--child", "--export-from", str(path)])
+
+
+def _run(cmd) -> dict:
     out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -61,6 +79,8 @@ def main() -> None:
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--height", type=int, default=260, help=argparse.SUPPRESS)
     p.add_argument("--width", type=int, default=346, help=argparse.SUPPRESS)
+    p.add_argument("--keep", help=argparse.SUPPRESS)
+    p.add_argument("--export-from", help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.child:
         _child(args)
@@ -75,11 +95,13 @@ def main() -> None:
           f"{r['n_events'] / t['total']:,.0f} events/s; peak RSS {r['peak_rss_mb']:.0f} MB")
     if args.skip_memory:
         return
-    print("peak memory, 640x480:")
+    print("peak memory, 640x480 (generation; export of that file to e2vid):")
     for d in (args.memory_duration_s / 4, args.memory_duration_s):
-        m = _spawn(d, 480, 640, args.compression)
+        with tempfile.TemporaryDirectory() as tmp:
+            m = _spawn(d, 480, 640, args.compression, keep=Path(tmp) / "seq.h5")
+            e = _spawn_export(Path(tmp) / "seq.h5")
         print(f"  {d:6.1f} s: peak RSS {m['peak_rss_mb']:7.0f} MB ({m['n_events']:,} events, {m['file_mb']:.0f} MB file, "
-              f"{m['timings_s']['total']:.1f} s)")
+              f"{m['timings_s']['total']:.1f} s); export {e['peak_rss_mb']:.0f} MB ({e['wall_s']:.1f} s)")
 
 
 if __name__ == "__main__":
