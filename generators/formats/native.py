@@ -13,7 +13,7 @@ Layout (all times int64 microseconds):
     /reference/images (R, H, W) f4 linear HDR radiance, /reference/t_us (R,) i8
     /threshold_maps (2, H, W) f4 (optional): ON and OFF contrast thresholds, log units
     root attrs: format="evsim-native", format_version, height, width, metadata (JSON), crf (JSON or absent)
-Datasets are chunked, resizable and gzip-compressed; each add_* call appends, so memory stays flat.
+Datasets are chunked, resizable, byte-shuffled and gzip-compressed; each add_* call appends, so memory stays flat.
 """
 
 from __future__ import annotations
