@@ -196,28 +196,24 @@ def _names(text: str) -> tuple[str, ...]:
 
 # ----- parser --------------------------------------------------------------------------------------------
 
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        v = -1
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
-    return v
+def _non_negative(kind):
+    """argparse type: a finite number >= 0 converted by kind (int for seeds, float for rates)."""
+    what = "a non-negative integer" if kind is int else "a finite number >= 0"
 
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            v = -1
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return v
 
-def _non_negative(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        v = math.nan
-    if not (math.isfinite(v) and v >= 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
-    return v
+    return parse
 
 
 def _add_akf_flags(p) -> None:
-    p.add_argument("--leak-hz", type=_non_negative, default=None,
+    p.add_argument("--leak-hz", type=_non_negative(float), default=None,
                    help="the DVS's leak rate (Hz) for the AKF's leak-aware event model (default: the recorded "
                         "one, else 0 = the paper's model)")
 
@@ -225,7 +221,7 @@ def _add_akf_flags(p) -> None:
 def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--out", default=default_out, help=f"output folder (default: {default_out})")
     p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
-    p.add_argument("--seed", type=_seed, default=None,
+    p.add_argument("--seed", type=_non_negative(int), default=None,
                    help="root seed (non-negative integer, numpy SeedSequence entropy; default: the config's, or 0)")
     p.add_argument("--format", choices=("native", "e2vid", "ijrr", "akf-mat"), default=None,
                    help="also export every sequence to this layout (the native HDF5 file is always written)")
@@ -269,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
                           epilog=EPILOG)
     demo.add_argument("--out", default="evsim_demo", help="output folder (default ./evsim_demo); demo.h5 and "
                                                           "metrics.txt in it are replaced")
-    demo.add_argument("--seed", type=_seed, default=0, help="root seed (non-negative integer; default 0)")
+    demo.add_argument("--seed", type=_non_negative(int), default=0, help="root seed (non-negative integer; default 0)")
     demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
     demo.add_argument("--height", type=int, default=DEMO_SIZE[0], help=f"height in pixels (default {DEMO_SIZE[0]})")
     demo.add_argument("--width", type=int, default=DEMO_SIZE[1], help=f"width in pixels (default {DEMO_SIZE[1]})")
