@@ -26,7 +26,7 @@ from pathlib import Path
 
 def run_once(duration_s: float, height: int, width: int, out: Path, compression: str = "gzip") -> dict:
     from generators.ahdr import AHDRConfig, generate_ahdr
-    from generators.builtin import builtin_image_scene
+    from generators.scenes import builtin_image_scene
     from generators.scenes import Trajectory
 
     scene = builtin_image_scene(height, width, int(duration_s * 1e6),

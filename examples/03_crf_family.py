@@ -11,7 +11,7 @@ import numpy as np
 
 import crf_models
 from _shared import output_dir
-from generators.builtin import builtin_hdr_image
+from generators.scenes import builtin_hdr_image
 from generators.plots import ToneMap, plot_crfs
 from generators.plots.common import pyplot, save_figure
 

@@ -1,10 +1,7 @@
 """The built-in default dataset: needs no files (procedural scenes and a photo that ships with scikit-image).
 
-builtin_hdr_image(name) turns a scikit-image sample photo into an HDR radiance map: the 8-bit sRGB values are
-linearised with the inverse sRGB curve (crf_models "srgb"), reduced to Rec. 709 luminance, and given a synthetic
-HDR boost: a bright "window" region (x 8, soft edges), a "sun" disk (radiance 30 with a soft halo) and a
-shadowed corner (x 0.02), over a floor of 1e-3. The photo's own range is about 1e-3..1, so the result spans
-more than 1e4:1, of which the AHDR window CRF keeps only a narrow band.
+BUILTIN_SEQUENCES is the default dataset in the configuration-file schema; its photo scenes are
+generators.scenes.builtin_images (a scikit-image photo made HDR).
 
 ahdr_suite() is the benchmark of the AKF paper's AHDR construction (section 4.2): the HDR reference is what a
 well-exposed linear camera sees (ahdr_reference_image: white at the 98th percentile of the radiance, black at 1/255
@@ -16,18 +13,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 import sim
 from sim import InvalidParameterError
 from sim.seeding import seed_record
 
+from .ahdr import AHDRConfig
 from .config import DatasetConfig, parse_config
+from .dataset import prepare_output_dir, write_index, write_sequence
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
-
-BUILTIN_IMAGES = ("astronaut", "camera", "coffee", "chelsea")
-WINDOW_GAIN, SUN_RADIANCE, SHADOW_GAIN, FLOOR = 8.0, 30.0, 0.02, 1e-3
 
 # The default dataset, in the configuration-file schema (see generators.config).
 BUILTIN_SEQUENCES = [
@@ -43,38 +38,6 @@ BUILTIN_SEQUENCES = [
     {"name": "moving_edge", "scene": {"type": "moving_edge", "speed_px_per_s": 60.0}},
     {"name": "flicker", "scene": {"type": "flicker", "frequency_hz": 50.0}},
 ]
-
-
-def builtin_hdr_image(name: str = "astronaut") -> np.ndarray:
-    """float32 (H, W) linear radiance made from skimage.data.<name>() (see the module docstring)."""
-    if name not in BUILTIN_IMAGES:
-        raise InvalidParameterError(f"unknown built-in image {name!r}; one of {', '.join(BUILTIN_IMAGES)}")
-    import skimage.data
-
-    img = getattr(skimage.data, name)()
-    y = to_luminance(linearise_ldr(img, "srgb"))
-    h, w = y.shape
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-
-    def soft_box(x0, y0, x1, y1, soft):
-        fx = np.clip((xx - x0) / soft, 0, 1) * np.clip((x1 - xx) / soft, 0, 1)
-        fy = np.clip((yy - y0) / soft, 0, 1) * np.clip((y1 - yy) / soft, 0, 1)
-        return fx * fy
-
-    window = soft_box(0.62 * w, 0.05 * h, 0.95 * w, 0.40 * h, 0.02 * w)
-    shadow = soft_box(-w, 0.70 * h, 0.35 * w, 2 * h, 0.05 * w)
-    y = y * (1 + (WINDOW_GAIN - 1) * window) * (1 - (1 - SHADOW_GAIN) * shadow)
-    r = np.hypot(xx - 0.80 * w, yy - 0.18 * h)
-    sun = np.clip(1.0 - (r - 0.03 * w) / 3.0, 0, 1) + 0.05 * np.exp(-(r / (0.08 * w)) ** 2)
-    y = y + SUN_RADIANCE * sun.astype(np.float32) + FLOOR
-    return cv2.GaussianBlur(y, (0, 0), 0.5)  # the hard sun edge would alias under sub-pixel motion
-
-
-def builtin_image_scene(height: int, width: int, duration_us: int, trajectory: Trajectory | None = None, *,
-                        image: str = "astronaut", **kwargs) -> ImageMotionScene:
-    """An ImageMotionScene of builtin_hdr_image(image) at the requested output size."""
-    return ImageMotionScene(builtin_hdr_image(image), duration_us, trajectory, height=height, width=width,
-                            name=f"skimage.data.{image} (HDR boosted)", **kwargs)
 
 
 def builtin_dataset(*, duration_s: float = 1.0, height: int = 180, width: int = 240, seed: int = 0,
@@ -147,8 +110,6 @@ def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, 
 def ahdr_suite_config(sensor: str = "davis346"):
     """generators.ahdr.AHDRConfig of the suite: the sensor preset, the window CRF, x = reference radiance
     (reference_fill = reference_radiance = 1, no auto exposure), one reference per frame."""
-    from .ahdr import AHDRConfig
-
     return AHDRConfig(dvs=sim.DVSParams.preset(sensor), camera=sim.CameraParams(reference_radiance=1.0,
                                                                                 reference_fill=1.0),
                       crf="window", auto_exposure=False)
@@ -159,8 +120,6 @@ def generate_ahdr_suite(out_dir, *, height: int = 180, width: int = 240, duratio
                         include_hdr: bool = True) -> Path:
     """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset); return
     the index path. Sequence i is seeded with child i of SeedSequence(seed)."""
-    from .dataset import prepare_output_dir, write_index, write_sequence
-
     out = prepare_output_dir(out_dir, overwrite)
     scenes = ahdr_suite(height, width, duration_s, include_hdr=include_hdr)
     root = np.random.SeedSequence(seed)

@@ -42,6 +42,7 @@ import sim
 from sim import EvsimInputError, InvalidParameterError
 
 from . import scenes
+from .ahdr import AHDRConfig
 
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
@@ -49,7 +50,7 @@ SCENE_TYPES = {
              "image is shrunk, so that each pixel integrates its area; default 3)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
-    "builtin_image": "an image shipped with scikit-image made HDR (see generators.builtin): image, trajectory {...}",
+    "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",
     "rotating_disk": "RotatingDisk", "flicker": "FlickeringLight", "sun": "SunPatch",
 }
@@ -272,9 +273,7 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
             if kind == "image":
                 return scenes.ImageMotionScene.from_file(params.pop("path"), duration_us, traj, height=height,
                                                          width=width, **params)
-            from .builtin import builtin_image_scene
-
-            return builtin_image_scene(height, width, duration_us, traj, **params)
+            return scenes.builtin_image_scene(height, width, duration_us, traj, **params)
         if kind == "frames":
             src = scenes.FrameSequenceScene.from_folder(params.pop("path"), **params)
             if (src.height, src.width) != (height, width):
@@ -288,8 +287,6 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
 
 def to_ahdr_config(settings: dict, *, where: str = "settings"):
     """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS)."""
-    from .ahdr import AHDRConfig
-
     dvs_over = dict(settings["dvs"])
     cam_over = dict(settings["camera"])
     cam_preset = cam_over.pop("preset", None)

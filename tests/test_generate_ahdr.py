@@ -119,7 +119,7 @@ def test_bad_config_is_reported():
 def _frame_window_rate_ratio(supersample, tmp_path):
     """(rate within 2 ms of a frame start / rate elsewhere, its Poisson standard deviation in log units) for an
     ideal sensor on a 30 px/s pan of the built-in astronaut filmed at 30 fps (frame starts at whole-pixel views)."""
-    from generators.builtin import builtin_hdr_image
+    from generators.scenes import builtin_hdr_image
 
     scene = ImageMotionScene(builtin_hdr_image("astronaut"), 300_000, Trajectory(pan_px_per_s=(30.0, 0.0)),
                              height=45, width=60, supersample=supersample)

@@ -160,7 +160,7 @@ def test_pan_rate_of_log_change_does_not_pulse_at_the_pixel_period():
     # the image-wide rate of log change (the DVS event rate) is about constant. Point-sampling a source reduced to
     # one pixel per output pixel puts every pixel at the same sub-pixel phase, and that rate then peaks each time
     # the view crosses a pixel (the control below: 1.4-1.6 max / min on this image).
-    from generators.builtin import builtin_hdr_image
+    from generators.scenes import builtin_hdr_image
 
     img = builtin_hdr_image("astronaut")  # 512 x 512: scale 8.5 for a 45 x 60 output
     traj = Trajectory(pan_px_per_s=(100.0, 0.0))

@@ -2,13 +2,14 @@
 radiance(t_us) -> float32 (H, W) linear radiance >= 0, max_speed_px_per_s()."""
 
 from .base import Scene
+from .builtin_images import BUILTIN_IMAGES, builtin_hdr_image, builtin_image_scene
 from .frame_sequence import FrameSequenceScene
 from .image_motion import ImageMotionScene, Trajectory, linearise_ldr, load_image
 from .luminance import REC709_WEIGHTS, to_luminance
 from .procedural import Checkerboard, FlickeringLight, MovingEdge, RotatingBar, RotatingDisk, SunPatch
 
 __all__ = [
-    "Scene", "FrameSequenceScene", "ImageMotionScene", "Trajectory", "linearise_ldr", "load_image",
+    "Scene", "BUILTIN_IMAGES", "builtin_hdr_image", "builtin_image_scene", "FrameSequenceScene", "ImageMotionScene", "Trajectory", "linearise_ldr", "load_image",
     "REC709_WEIGHTS", "to_luminance", "Checkerboard", "FlickeringLight", "MovingEdge", "RotatingBar",
     "RotatingDisk", "SunPatch",
 ]
