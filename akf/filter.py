@@ -11,7 +11,7 @@ from sim.events import slice_time
 
 from . import kernels
 from .augmentation import calibrate_scale, edi_deblur, event_change, interval_start
-from .inputs import Inputs, validate_inputs
+from .inputs import Inputs, as_crf, validate_inputs
 from .noise import frame_measurement
 from .params import AKFParams
 
@@ -100,6 +100,7 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
     if np.any((pixels < 0) | (pixels >= h * w)):
@@ -158,7 +159,8 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
-    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models object (inverse, variance).
+    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models curve or its name
+    (e.g. "window": crf_models.get(name) with default parameters).
     output_times_us: non-decreasing int64 us, none before the first exposure starts; the image at t includes the
     events with timestamps < t. contrast: nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W)
     per-pixel maps (c_off as a magnitude). leak_rate_hz: the sensor's mean leak rate (Hz: ON events per second of a
@@ -171,7 +173,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
     nominal contrasts, as in the paper.
 
-    Returns float32 (T, H, W) intensity I = exp(L_hat) - I0 in the CRF's scaled-irradiance units (of frame 0's
+    Returns float32 (T, H, W) intensity I = max(exp(L_hat) - I0, 0) (radiance is never negative) in the CRF's scaled-irradiance units (of frame 0's
     exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
     requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
     P is the variance under the paper's noise model, not a calibrated error bar: the model has no term for the
@@ -190,6 +192,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     nf, (h, w) = inp.frames.shape[0], inp.shape
     n, nt = h * w, inp.out_t.shape[0]
     out_i = np.zeros((nt, h, w), np.float32)
@@ -247,5 +250,6 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
             j += 1
         if j < nt:
             kernels.akf_events(*(c[i0:] for c in cols), w, S, C, te_pad, win, noise)
+    np.maximum(out_i, 0.0, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import crf_models
 from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError
 from sim.events import validate_events
 
@@ -37,6 +38,19 @@ class Inputs:
     def response(self, k: int) -> np.ndarray:
         """Frame k as normalised response y = DN / (2^bit_depth - 1), float64 (H, W)."""
         return self.frames[k].astype(np.float64) / self.full_scale
+
+
+def as_crf(crf):
+    """A crf_models curve from a curve object or a registered name ("window", "linear", ...: crf_models.get(name)
+    with its default parameters)."""
+    if isinstance(crf, str):
+        try:
+            return crf_models.get(crf)
+        except crf_models.CRFError as e:
+            raise InvalidParameterError(f"crf: {e}") from None
+    if not (hasattr(crf, "inverse") and hasattr(crf, "variance")):
+        raise InvalidParameterError(f"crf must be a crf_models curve or its name, got {type(crf).__name__}")
+    return crf
 
 
 def _times(a, name: str, n: int | None = None) -> np.ndarray:
