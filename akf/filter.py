@@ -10,7 +10,7 @@ from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
 
 from . import kernels
-from .augmentation import calibrate_scale, edi_deblur, event_change, interval_start
+from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .inputs import Inputs, as_crf, validate_inputs
 from .noise import frame_measurement
 from .params import AKFParams
@@ -31,6 +31,8 @@ class _Frames:
     def __init__(self, inp: Inputs, crf, params: AKFParams):
         self.inp, self.crf, self.params = inp, crf, params
         self._meas, self._deb = {}, {}
+        self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
+        self._next = 0  # intervals must be taken in order (the calibration accumulates)
 
     def measurement(self, k):
         if k not in self._meas:
@@ -55,17 +57,21 @@ class _Frames:
     def interval(self, j):
         """(curve value at s_j, contrast scale, clip side) of the interval from frame j to frame j + 1; the side is
         +1 / -1 where both frames are clipped high / low. The last frame's interval is open-ended: forward
-        integration from its deblurred start with the nominal contrast, side of that frame."""
+        integration from its deblurred start with the carried contrast calibration, side of that frame.
+        Intervals are taken once each, in order (see akf.augmentation.ContrastCalibration)."""
+        if j != self._next:
+            raise AssertionError(f"interval {j} taken out of order (expected {self._next})")
+        self._next += 1
         inp = self.inp
         d_start = self.deblurred(j)[0]
         if j == inp.frames.shape[0] - 1:
-            return d_start.copy(), np.ones_like(d_start), self.measurement(j).side.ravel()
+            return d_start.copy(), self._calibration.carried(), self.measurement(j).side.ravel()
         d_end = self.deblurred(j + 1)[1]
         ev = slice_time(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
         change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
         start_clipped = self.measurement(j).clipped.ravel()
         end_clipped = self.measurement(j + 1).clipped.ravel()
-        scale = calibrate_scale(d_start, d_end, change, net, start_clipped | end_clipped, self.params)
+        scale = self._calibration.interval(d_start, d_end, change, net, start_clipped | end_clipped)
         side_a, side_b = self.measurement(j).side.ravel(), self.measurement(j + 1).side.ravel()
         side = np.where(side_a == side_b, side_b, 0)
         return interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side
