@@ -6,7 +6,8 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
 - reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
 - threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
   spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
-  reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output).
+  reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
+  reference_white_radiance: the radiance the evaluation's [0, 1] protocol maps to 1 (98th percentile at t = 0).
 Memory stays flat in the sequence length: one chunk of samples and one frame are alive at a time.
 """
 
@@ -33,6 +34,7 @@ from .sampling import make_sampler
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
              "scikit-image", "tqdm")
+REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
 _CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
 
 
@@ -211,6 +213,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
         "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
                                / cam_params.full_well_e) if len(schedule) else None,
+        # the paper's [0, 1] protocol: the radiance that maps to 1 (the AHDR rule: the 98th percentile at t = 0)
+        "reference_white_radiance": float(np.percentile(scene.radiance(0), REFERENCE_WHITE_PERCENTILE)),
         "packages": package_versions(),
         **(metadata or {}),
     }

@@ -161,11 +161,17 @@ def _cmd_demo(args) -> int:
 def _cmd_evaluate(args) -> int:
     from .evaluation import evaluate_dataset, format_table, write_json
 
+    if not 0 < args.tune_fraction < 1:
+        raise sim.EvsimInputError(f"--tune-fraction must lie in (0, 1), got {args.tune_fraction}")
+    tuning = {}
     result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                                     metrics=_names(args.metrics), method_options=_akf_options(args))
+                                     metrics=_names(args.metrics), method_options=_akf_options(args),
+                                     tune=args.tune, tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
+                                     tuning_out=tuning,
+                                     progress=None if args.no_progress else lambda t: print(t, file=sys.stderr))
     print(format_table(result, args.protocol, notes))
     if args.json is not None:
-        write_json(result, args.json)
+        write_json(result, args.json, tuning)
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -304,12 +310,24 @@ def build_parser() -> argparse.ArgumentParser:
                                                "an IJRR folder or an AKF .mat")
     ev.add_argument("--methods", default="akf,cf,frames", help="comma-separated methods (akf.METHODS; default "
                                                                "akf,cf,frames)")
-    ev.add_argument("--metrics", default="mse,psnr,ssim,pu21_psnr,pu21_ssim", help="comma-separated metrics "
-                                                                                   "(akf.METRICS)")
+    ev.add_argument("--metrics", default="mse01,ssim01,mse,log_mse,pu21_ssim",
+                    help="comma-separated metrics (akf.METRICS; default mse01,ssim01,mse,log_mse,pu21_ssim: the "
+                         "paper's [0, 1] protocol, raw MSE, log-domain MSE, PU21 SSIM; each table states its "
+                         "normalisation)")
     ev.add_argument("--protocol", choices=("reference", "interleave"), default="reference",
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
-    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}}")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
+                                              "tuning: {method: setting} with --tune)")
+    ev.add_argument("--tune", action="store_true",
+                    help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
+                         "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
+                         "every sequence's scored frames; all methods are then scored on the rest")
+    ev.add_argument("--tune-fraction", type=float, default=1 / 3,
+                    help="fraction of each sequence's scored frames that tunes (default 1/3)")
+    ev.add_argument("--tune-metric", default="mse01", help="metric the tuning minimises (maximises for "
+                                                           "SSIM/PSNR; default mse01)")
+    ev.add_argument("--no-progress", action="store_true", help="do not print the tuning progress (stderr)")
     _add_akf_flags(ev)
     ev.set_defaults(func=_cmd_evaluate)
 
