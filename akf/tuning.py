@@ -25,12 +25,14 @@ from sim.errors import InvalidParameterError
 
 from .params import AKFParams
 
+_CONTRAST = (0.67, 0.8, 1.0, 1.25, 1.5)
+_ALPHA = (1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0)
+_NOISE = (1 / 16, 0.25, 1.0, 4.0, 16.0)
 SEARCH_SPACES = {
-    "akf": {"contrast_scale": (0.8, 1.0, 1.25), "event_noise_scale": (0.25, 1.0, 4.0),
-            "frame_noise_scale": (0.25, 1.0, 4.0)},
-    "cf": {"alpha": (2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0), "contrast_scale": (0.8, 1.0, 1.25)},
-    "cf_adaptive": {"alpha": (2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0), "contrast_scale": (0.8, 1.0, 1.25)},
-    "direct": {"contrast_scale": (0.8, 1.0, 1.25)},
+    "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE},
+    "cf": {"alpha": _ALPHA, "contrast_scale": _CONTRAST},
+    "cf_adaptive": {"alpha": _ALPHA, "contrast_scale": _CONTRAST},
+    "direct": {"contrast_scale": _CONTRAST},
     "frames": {},
     "frames_linear": {},
 }
