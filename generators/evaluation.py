@@ -44,7 +44,7 @@ from .recording import Recording
 
 PROTOCOLS = ("reference", "interleave")
 DEFAULT_METHODS = ("akf", "cf", "frames")
-DEFAULT_METRICS = ("mse01", "ssim01", "mse", "log_mse", "pu21_ssim")
+DEFAULT_METRICS = ("mse", "mse01", "ssim01", "log_mse", "pu21_ssim")
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
 TUNE_FRACTION = 1 / 3  # the tuning split: the first third of every sequence's scored frames
 TUNE_METRIC = "mse01"
