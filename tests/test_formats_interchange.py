@@ -4,6 +4,7 @@ EVT 3.0 / EVT 2.0 .raw and .dat (evlib, expelliarmus, Prophesee's toolbox), AEDA
 from __future__ import annotations
 
 import io
+import tracemalloc
 import warnings
 import zipfile
 
@@ -177,6 +178,26 @@ def test_prophesee_export_from_a_native_file_streams_chunks_exactly(tmp_path):
                 w.add_events(rec.events[i : i + 777])
         assert _strip_date(path.read_bytes()) == _strip_date(whole.read_bytes()), fmt
         np.testing.assert_array_equal(load(path).events, rec.events)
+
+
+def test_prophesee_writer_memory_does_not_grow_with_the_stream(tmp_path):
+    chunk = long_stream(50_000)
+
+    def peak(n_chunks, fmt):
+        tracemalloc.start()
+        with PropheseeWriter(tmp_path / f"{fmt}{n_chunks}.raw", fmt, 260, 346) as w:
+            for k in range(n_chunks):
+                shifted = chunk.copy()
+                shifted["t"] += k * 60_000_000
+                w.add_events(shifted)
+                del shifted
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        return top
+
+    for fmt in ("evt3", "evt2"):
+        short, long = peak(2, fmt), peak(8, fmt)
+        assert long < 1.2 * short, (fmt, short, long)
 
 
 def _strip_date(data: bytes) -> bytes:

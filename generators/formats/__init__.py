@@ -29,6 +29,8 @@ from .native import NativeWriter, is_native, iter_native_events, open_native_ima
 from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
 
 FORMATS = ("native", "e2vid", "ijrr", "akf-mat", "exr", "e2vid-txt", "aedat4", "evt3", "evt2", "dat")
+# the formats a dataset generator can write per sequence (exr holds only the reference frames)
+EXPORT_FORMATS = tuple(f for f in FORMATS if f != "exr")
 
 _ALL_PARTS = ("events", "frames", "reference", "threshold_maps", "event_labels", "crf", "metadata")
 # What each export format can hold, of a Recording's parts (every format also holds the sensor size).
@@ -40,8 +42,8 @@ HOLDS = {
     **{fmt: ("events",) for fmt in PROPHESEE_FORMATS},
 }
 
-__all__ = ["FORMATS", "HOLDS", "DatasetFormatError", "ExportDropWarning", "NativeWriter", "detect", "export",
-           "from_tonic", "load", "to_tonic"]
+__all__ = ["EXPORT_FORMATS", "FORMATS", "HOLDS", "DatasetFormatError", "ExportDropWarning", "NativeWriter",
+           "detect", "export", "from_tonic", "load", "to_tonic"]
 
 
 class ExportDropWarning(UserWarning):

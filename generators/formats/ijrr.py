@@ -267,5 +267,7 @@ def read_e2vid_txt(path) -> Recording:
     events = events_from_columns(path, _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2], polarity_pm1(ev[:, 3]))
     if events.size and (events["x"].max() >= width or events["y"].max() >= height):
         raise fail(path, f"event coordinates exceed the header's sensor size {width}x{height}")
-    return Recording(events=events, height=height, width=width,
-                     metadata={"source": {"format": "e2vid-txt", "path": str(path)}})
+    rec = Recording(events=events, height=height, width=width,
+                    metadata={"source": {"format": "e2vid-txt", "path": str(path)}})
+    check_recording(rec)
+    return rec

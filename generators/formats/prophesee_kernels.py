@@ -23,8 +23,9 @@ TIME_HIGH_MAX_STEP = 8  # TIME_HIGH steps (of 4096 us) in a silence: Metavision 
 @njit(cache=True)
 def encode_evt3(t, x, y, p, state, out):
     """Encode events (t relative us, non-decreasing; x, y < 2048; p > 0 = ON) into out (uint16, large enough:
-    4 words per event plus (t_gap >> 12) // TIME_HIGH_MAX_STEP at most). state = [time_high (unwrapped t >> 12), time, y] of
-    the previous word written, -1 before the first; updated in place. Returns the number of words written."""
+    4 words per event plus (t_gap >> 12) // TIME_HIGH_MAX_STEP at most). state = [time_high (unwrapped
+    t >> 12), time, y] of the previous word written, -1 before the first; updated in place. Returns the number
+    of words written."""
     k = 0
     th_prev, t_prev, y_prev = state[0], state[1], state[2]
     for i in range(t.size):
