@@ -201,6 +201,13 @@ def test_akf_mat_vectors_are_the_columns_the_authors_code_indexes(tmp_path):
         assert m["time_image"][i - 1, 0] == rec.frame_t_mid_us[i - 1]
     assert m["evsim_event_labels"].shape == (rec.events.size, 1)
     assert m["evsim_reference_t_us"].shape == (rec.reference.shape[0], 1)
+    # files written before (1 x F rows) still read the same
+    rows = {k: (v.T if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 1 and k != "events" else v)
+            for k, v in m.items() if not k.startswith("__")}
+    scipy.io.savemat(tmp_path / "old.mat", rows)
+    old, new = read_akf_mat(tmp_path / "old.mat"), read_akf_mat(tmp_path / "a.mat")
+    assert old.metadata == new.metadata
+    assert_recordings_equal(new, old, skip=("metadata",))
 
 
 def test_akf_mat_round_trip_is_exact(tmp_path):
