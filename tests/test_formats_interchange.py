@@ -253,3 +253,20 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path):
     np.testing.assert_array_equal(back.frames, rec.frames)
     np.testing.assert_array_equal(back.frame_t_start_us, rec.frame_t_start_us)
     np.testing.assert_array_equal(back.frame_t_mid_us, rec.frame_t_mid_us)
+
+
+def test_evt3_reader_decodes_vector_words_as_metavision_cameras_write_them(tmp_path):
+    # Cameras pack runs of pixels of one row and polarity in VECT_BASE_X + VECT_12 / VECT_8 words (Prophesee's
+    # EVT 3.0 spec; expelliarmus src/evt3.c decodes them the same way): base x advances by 12 / 8 per word.
+    words = [0x8000, 0x8001, 0x6005, 0x0007,  # time 4096 + 5 us, y = 7
+             0x3800 | 100, 0x4000 | 0b100000000101, 0x5000 | 0b10000001,  # ON at x 100, 102, 111; 112, 119
+             0x2000 | 3, 0x0008, 0x6009, 0x3000 | 20, 0x5000 | 0b1]  # OFF (3, 7); then OFF (20, 8) at 4096+9
+    header = b"% evt 3.0\n% format EVT3;height=10;width=128\n% end\n"
+    (tmp_path / "v.raw").write_bytes(header + np.array(words, "<u2").tobytes())
+    rec = load(tmp_path / "v.raw")
+    ev = rec.events
+    np.testing.assert_array_equal(ev["x"], [100, 102, 111, 112, 119, 3, 20])
+    np.testing.assert_array_equal(ev["y"], [7, 7, 7, 7, 7, 7, 8])
+    np.testing.assert_array_equal(ev["p"], [1, 1, 1, 1, 1, -1, -1])
+    np.testing.assert_array_equal(ev["t"], [4101] * 6 + [4105])
+    _assert_same(_expelliarmus_events(tmp_path / "v.raw", "evt3"), ev)

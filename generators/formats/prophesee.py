@@ -44,6 +44,7 @@ _MAX_COORD = {"evt3": 2048, "evt2": 2048, "dat": 1 << 14}
 _WORD = {"evt3": np.dtype("<u2"), "evt2": np.dtype("<u4")}
 _DAT_EVENT = np.dtype([("t", "<u4"), ("xyp", "<u4")])
 LAYOUT_VERSION = 1
+_POPCOUNT = np.array([bin(i).count("1") for i in range(4096)], np.int64)  # set bits of 12-bit vector masks
 
 
 class PropheseeWriter:
@@ -304,7 +305,9 @@ def _evt3_chunks(path, f, offset, size):
         w = _words(path, f, _WORD["evt3"], per_read)
         if w.size == 0:
             return
-        n_max = 12 * w.size
+        typ = w >> 12
+        n_max = int(np.count_nonzero(typ == 0x2) + _POPCOUNT[w[typ == 0x4] & 0xFFF].sum() +
+                    _POPCOUNT[w[typ == 0x5] & 0xFF].sum())
         t, x, y, p = np.empty(n_max, np.int64), np.empty(n_max, np.uint16), np.empty(n_max, np.uint16), \
             np.empty(n_max, np.int8)
         n = decode_evt3(w, state, t, x, y, p)

@@ -59,8 +59,9 @@ def encode_evt3(t, x, y, p, state, out):
 @njit(cache=True)
 def decode_evt3(words, state, t, x, y, p):
     """Decode EVT 3.0 words into t (int64 us, from the unwrapped 24-bit time), x, y (uint16), p (int8 -1/+1),
-    each at least 12 * words.size long. state = [time_high (unwrapped), time_low, y, base_x, polarity, seen
-    time_high] carried between chunks. Returns the number of events decoded."""
+    each as long as the words' events (ADDR_X words plus the set bits of vector words). state = [time_high
+    (unwrapped), time_low, y, base_x, polarity, seen time_high] carried between chunks. Returns the number of
+    events decoded."""
     th, tl, yy, base, pol, seen = state[0], state[1], state[2], state[3], state[4], state[5]
     n = 0
     for i in range(words.size):
