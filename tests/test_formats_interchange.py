@@ -133,6 +133,12 @@ def _assert_same(cols, ev, offset=0):
 
 @pytest.mark.parametrize("fmt,name", [("evt3", "e.raw"), ("evt2", "e.raw"), ("dat", "e.dat")])
 def test_prophesee_exports_read_back_exactly_by_independent_readers(tmp_path, fmt, name):
+    # Word layouts as Prophesee's EVT 2.0 / EVT 3.0 format specs and the open-source Metavision decoder
+    # (github.com/prophesee-ai/openeb, its evt3 decoder: a TIME_HIGH drop of >= 4085 steps is a 24-bit wrap) and
+    # .dat as prophesee-automotive-dataset-toolbox src/io/dat_events_tools.py. The 60 s stream crosses three EVT 3.0
+    # wraps and a 25 s silence. expelliarmus reads EVT 2.0 and .dat; its EVT 3.0 decoder
+    # (open-neuromorphic/expelliarmus src/evt3.c) also counts every TIME_LOW decrease as one more TIME_HIGH step,
+    # which disagrees with the spec on any stream longer than 4096 us, so EVT 3.0 is checked with evlib.
     rec = long_recording()
     ev = rec.events
     with pytest.warns(ExportDropWarning, match="leaves out threshold_maps, event_labels, crf, metadata"):
@@ -221,6 +227,8 @@ def test_prophesee_bad_files_are_clear_errors(tmp_path):
 
 # -- AEDAT4 -------------------------------------------------------------------------------------------------------
 def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path):
+    # iniVation's convention (dv-processing's dv::Frame): a frame's timestamp is its exposure start and exposure
+    # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t.
     dv = pytest.importorskip("dv_processing")
     aedat = pytest.importorskip("aedat")
     rec = make_recording()
