@@ -7,6 +7,7 @@ import io
 import tracemalloc
 import warnings
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -279,3 +280,24 @@ def test_evt3_reader_decodes_vector_words_as_metavision_cameras_write_them(tmp_p
     np.testing.assert_array_equal(ev["p"], [1, 1, 1, 1, 1, -1, -1])
     np.testing.assert_array_equal(ev["t"], [4101] * 6 + [4105])
     _assert_same(_expelliarmus_events(tmp_path / "v.raw", "evt3"), ev)
+
+
+REAL_AEDAT4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "events" / "tonic_sample_dvxplorer.aedat4"
+
+
+@pytest.mark.parametrize("fmt,name", [("evt3", "r.raw"), ("evt2", "r.raw"), ("dat", "r.dat"), ("aedat4", "r.aedat4")])
+def test_a_real_dvxplorer_recording_survives_every_event_export(tmp_path, fmt, name):
+    # A real camera stream (Unix-time microseconds, bursts and ties) rather than a synthetic one.
+    if not REAL_AEDAT4.is_file():
+        pytest.skip("shared real data absent")
+    pytest.importorskip("aedat")
+    if fmt == "aedat4":
+        pytest.importorskip("dv_processing")
+    real = load(REAL_AEDAT4)
+    export_quietly(real, tmp_path / name, fmt)
+    back = load(tmp_path / name)
+    np.testing.assert_array_equal(back.events, real.events)
+    assert (back.height, back.width) == (real.height, real.width)
+    if fmt in ("evt3", "evt2"):
+        offset = int(real.events["t"][0]) // 1000 * 1000  # Unix time is past both ranges
+        _assert_same(_evlib_events(tmp_path / name), real.events, offset)
