@@ -16,6 +16,7 @@ from pathlib import Path
 
 import sim
 
+from .formats import EXPORT_FORMATS
 from .formats.atomic import write_text_atomic
 from .plots.cli import add_plot_parser
 
@@ -229,7 +230,7 @@ def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
     p.add_argument("--seed", type=_non_negative(int), default=None,
                    help="root seed (non-negative integer, numpy SeedSequence entropy; default: the config's, or 0)")
-    p.add_argument("--format", choices=("native", "e2vid", "ijrr", "akf-mat"), default=None,
+    p.add_argument("--format", choices=EXPORT_FORMATS, default=None,
                    help="also export every sequence to this layout (the native HDF5 file is always written)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 

@@ -3,7 +3,8 @@
 A configuration describes a dataset of sequences. Every key is optional except [[sequence]].scene.type:
 
     seed = 0                      # root seed (numpy SeedSequence entropy); sequence i gets its i-th child
-    format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat
+    format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat | e2vid-txt |
+                                  # aedat4 | evt3 | evt2 | dat
 
     [defaults]                    # applies to every sequence; a sequence may override any of these keys
     duration_s = 1.0              # seconds
@@ -43,6 +44,7 @@ from sim import EvsimInputError, InvalidParameterError
 
 from . import scenes
 from .ahdr import AHDRConfig
+from .formats import EXPORT_FORMATS
 
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
@@ -201,8 +203,8 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
     if seed < 0:
         raise _fail(f"{source}: seed", f"must be >= 0, got {seed}")
     fmt = _check_type(f"{source}: format", data.get("format", "native"), str)
-    if fmt not in ("native", "e2vid", "ijrr", "akf-mat"):
-        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of native, e2vid, ijrr, akf-mat")
+    if fmt not in EXPORT_FORMATS:
+        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of {', '.join(EXPORT_FORMATS)}")
     defaults_table = _check_type(f"{source}: defaults", data.get("defaults", {}), dict)
     for key in defaults_table:
         if key not in SEQUENCE_KEYS:

@@ -23,7 +23,8 @@ from .formats import export
 from .formats.atomic import write_text_atomic
 
 INDEX_FILE = "index.json"
-EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat"}
+EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
+                 "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 
 
 def prepare_output_dir(out_dir, overwrite: bool) -> Path:

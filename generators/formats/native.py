@@ -3,7 +3,8 @@
 Layout (all times int64 microseconds):
     /t_offset (i8)    as in DSEC, stored event times are relative: absolute t = events/t + t_offset. It is the
                       first event's time floored to a whole millisecond (0 for a sequence starting at 0).
-    /events/t (i8, relative), /events/x, /events/y (u2), /events/p (i1, -1/+1)   time-sorted events
+    /events/t (i8, relative), /events/x, /events/y (u2), /events/p (u1, 1 = ON, 0 = OFF, as DSEC stores it)
+                      time-sorted events; the Python API (sim.EVENT_DTYPE) keeps p = -1/+1
     /events/label (u1, optional)                                      0 signal, 1 shot, 2 leak, 3 hot
     /ms_to_idx (u8)   ms_to_idx[k] = index of the first event with events/t >= k * 1000 (i.e. absolute
                       t >= t_offset + k * 1000 us), for k = 0 .. events/t[-1] // 1000 + 1; the last entry is
@@ -13,6 +14,8 @@ Layout (all times int64 microseconds):
     /reference/images (R, H, W) f4 linear HDR radiance, /reference/t_us (R,) i8
     /threshold_maps (2, H, W) f4 (optional): ON and OFF contrast thresholds, log units
     root attrs: format="evsim-native", format_version, height, width, metadata (JSON), crf (JSON or absent)
+Layout versions: 2 stores events/p as u1 0/1 (DSEC's convention); 1 (files written before) stored i1 -1/+1.
+Readers decode p by the file's version; DSEC-like files without the format attribute are read as 0/1.
 Datasets are chunked, resizable, byte-shuffled and gzip-compressed; each add_* call appends, so memory stays flat.
 """
 
@@ -44,8 +47,8 @@ from .common import (
 )
 
 FORMAT_NAME = "evsim-native"
-FORMAT_VERSION = 1
-_EVENT_FIELDS = {"t": np.int64, "x": np.uint16, "y": np.uint16, "p": np.int8}
+FORMAT_VERSION = 2  # 2: events/p stored 0/1 (DSEC); 1: stored -1/+1
+_EVENT_FIELDS = {"t": np.int64, "x": np.uint16, "y": np.uint16, "p": np.uint8}
 _EV_H5_CHUNK = 1 << 16
 
 
@@ -135,8 +138,9 @@ class NativeWriter:
             self._t_offset = int(events["t"][0]) // 1000 * 1000
         t = events["t"] - self._t_offset
         ev = self._f["events"]
+        stored = {"t": t, "x": events["x"], "y": events["y"], "p": (events["p"] > 0).astype(np.uint8)}
         for name in _EVENT_FIELDS:
-            append_rows(ev[name], t if name == "t" else events[name])
+            append_rows(ev[name], stored[name])
         if labels is not None:
             append_rows(ev["label"], labels)
         # ms_to_idx entries whose millisecond starts at or before this chunk's last event are now known.
@@ -279,10 +283,11 @@ def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarr
     with open_h5(path) as f:
         require(f, path, ["events/t", "events/x", "events/y", "events/p"])
         ev = f["events"]
-        n, t_offset = ev["t"].shape[0], _t_offset(f)
+        n, t_offset, version = ev["t"].shape[0], _t_offset(f), _layout_version(f)
         for i in range(0, n, size):
             cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
             cols[0] += t_offset
+            cols[3] = _decode_polarity(path, cols[3], version)
             labels = ev["label"][i : i + size] if "label" in ev else None
             yield events_from_columns(path, *cols), labels
 
@@ -310,7 +315,8 @@ def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) ->
     h, w = _resolution(f, path)
     ev = f["events"]
     if events:
-        evs = events_from_columns(path, ev["t"][()] + _t_offset(f), *(ev[k][()] for k in ("x", "y", "p")))
+        evs = events_from_columns(path, ev["t"][()] + _t_offset(f), ev["x"][()], ev["y"][()],
+                                  _decode_polarity(path, ev["p"][()], _layout_version(f)))
         labels = ev["label"][()] if "label" in ev else None
     else:
         evs = events_from_columns(path, [], [], [], [])
@@ -338,6 +344,25 @@ def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) ->
         event_labels=labels,
         metadata=json_attr(f, "metadata", {}),
     )
+
+
+def _layout_version(f: h5py.File) -> int:
+    """The file's layout version: its format_version attribute for evsim files; DSEC-like foreign files count
+    as the current version (p stored 0/1)."""
+    fmt = f.attrs.get("format")
+    if (fmt.decode() if isinstance(fmt, bytes) else fmt) == FORMAT_NAME:
+        return int(f.attrs.get("format_version", 1))
+    return FORMAT_VERSION
+
+
+def _decode_polarity(path, p: np.ndarray, version: int) -> np.ndarray:
+    """Stored polarity -> int8 -1/+1: version >= 2 (and DSEC) stores 0/1, version 1 stored -1/+1."""
+    p = np.asarray(p)
+    if version >= 2:
+        if p.size and p.max() > 1:
+            raise fail(path, f"events/p must hold 0/1 (layout version {version}), found {int(p.max())}")
+        return (p.astype(np.int8) * 2 - 1).astype(np.int8)
+    return p.astype(np.int8)
 
 
 def _t_offset(f: h5py.File) -> int:
