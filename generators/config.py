@@ -185,6 +185,14 @@ def _has_speed(scene: dict) -> bool:
         isinstance(traj, dict) and any(k in traj for k in _TRAJECTORY_SPEED_KEYS))
 
 
+def _check_speed_values(where: str, scene: dict) -> None:
+    traj = scene.get("trajectory") if isinstance(scene.get("trajectory"), dict) else {}
+    for key, v in [*((k, scene[k]) for k in _SPEED_KEYS if k in scene),
+                   *((f"trajectory.{k}", traj[k]) for k in _TRAJECTORY_SPEED_KEYS if k in traj)]:
+        for x in v if isinstance(v, list) else [v]:
+            _check_type(f"{where}.scene.{key}", x, float)
+
+
 def _scale_speeds(scene: dict, k: float) -> dict:
     scene = copy.deepcopy(scene)
     for key in _SPEED_KEYS:
@@ -205,7 +213,7 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
         raise _fail(where, "expected a table with at least 'type'")
     if "type" not in scene:
         raise _fail(f"{where}.type", f"missing; one of {', '.join(SCENE_TYPES)}")
-    if scene["type"] not in SCENE_TYPES:
+    if not isinstance(scene["type"], str) or scene["type"] not in SCENE_TYPES:
         raise _fail(f"{where}.type", f"unknown scene type {scene['type']!r}; one of {', '.join(SCENE_TYPES)}")
     scene = dict(scene)
     if "path" in scene:
@@ -253,6 +261,7 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
         if "speeds" in table:
             if not speeds:
                 raise _fail(f"{where}.speeds", "expected a non-empty list of speed factors")
+            _check_speed_values(where, scene)
             if not _has_speed(scene):
                 raise _fail(f"{where}.speeds", "would be ignored: the scene sets none of "
                                                f"{', '.join(_SPEED_KEYS)} or trajectory.{{{', '.join(_TRAJECTORY_SPEED_KEYS)}}}")
@@ -315,7 +324,9 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
             return src
         cls = getattr(scenes, SCENE_TYPES[kind])
         return cls(height, width, duration_us, **params)
-    except TypeError as e:  # an unexpected keyword argument: name it
+    except EvsimInputError:
+        raise
+    except (TypeError, ValueError) as e:  # an unexpected keyword argument, or a value of the wrong kind: name it
         raise _fail(where, f"bad parameter for scene type {kind!r}: {e}") from None
 
 
