@@ -1,0 +1,102 @@
+"""Interrupted runs: SIGTERM and kill -9 at seeded random points of `evsim generate` (also --overwrite) and
+`evsim reconstruct`, run as subprocesses of this worktree's CLI.
+
+After SIGTERM no temporary file remains (the writers' cleanup runs: exit 143). After either signal, every file at
+a final path is whole: each native .h5 loads as a valid Recording, each EXR folder reads back, and a native
+temporary file left by kill -9 is refused by the reader (it lacks the completion attribute set on close).
+EVSIM_KILL_RUNS (default 1) repeats each scenario with further kill points.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from generators.formats import DatasetFormatError, load
+from generators.formats.exr import read_exr_sequence
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNS = int(os.environ.get("EVSIM_KILL_RUNS", "1"))
+SMALL = ["--duration-s", "0.3", "--height", "24", "--width", "32", "--no-progress"]
+
+
+def cli(*args) -> list[str]:
+    return [sys.executable, "-m", "generators.cli", *map(str, args)]
+
+
+def start_and_kill(cmd, watch: Path, sig: int, rng) -> int:
+    """Start cmd, wait until a temporary file appears under `watch` (writing has begun), wait a random further
+    0..1.5 s, send `sig`; return the exit code (0 when it finished first)."""
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and time.monotonic() < deadline and not list(watch.rglob(".*.tmp")):
+        time.sleep(0.01)
+    time.sleep(float(rng.uniform(0, 1.5)))
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode in (0, 128 + sig, -sig), err.decode()[-2000:]
+    return proc.returncode
+
+
+def temporaries(folder: Path) -> list[Path]:
+    return sorted(folder.rglob(".*.tmp"))
+
+
+def assert_final_paths_whole(folder: Path) -> None:
+    for p in folder.rglob("*.h5"):
+        if not p.name.startswith("."):
+            rec = load(p)  # raises if the file is incomplete or invalid
+            assert rec.height == 24 and rec.width == 32
+    for ts in folder.rglob("timestamps.txt"):
+        if not any(part.startswith(".") for part in ts.relative_to(folder).parts):
+            images, t = read_exr_sequence(ts.parent)
+            assert images.shape[0] == t.size > 0 and np.isfinite(images).all()
+
+
+def assert_leftover_natives_refused(folder: Path) -> None:
+    for tmp in temporaries(folder):
+        if tmp.is_file() and ".h5." in tmp.name and "_e2vid" not in tmp.name:
+            with pytest.raises(DatasetFormatError):
+                load(tmp)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["sigterm", "kill9"])
+def test_interrupted_generate_leaves_nothing_that_looks_complete(tmp_path, sig):
+    for run in range(RUNS):
+        rng = np.random.default_rng([int(sig), run])
+        out = tmp_path / f"d{run}"
+        code = start_and_kill(cli("generate", "ahdr", "--scene", "astronaut_pan", "--out", out, "--format", "e2vid",
+                                  *SMALL), tmp_path, sig, rng)
+        print(f"{signal.Signals(sig).name} run {run}: exit {code}")
+        if sig == signal.SIGTERM:
+            assert temporaries(tmp_path) == [], f"exit {code}"
+        assert_final_paths_whole(out)
+        assert_leftover_natives_refused(out)
+        if code != 0:
+            assert not (out / "index.json").exists()  # index.json is written last
+
+
+def test_sigterm_during_overwrite_and_reconstruct_removes_temporaries(tmp_path):
+    out, rec_out = tmp_path / "d", tmp_path / "r"
+    subprocess.run(cli("generate", "ahdr", "--scene", "checkerboard", "--out", out, *SMALL), cwd=ROOT, check=True,
+                   capture_output=True)
+    for run in range(RUNS):
+        rng = np.random.default_rng([99, run])
+        code = start_and_kill(cli("generate", "ahdr", "--scene", "checkerboard", "--out", out, "--overwrite",
+                                  "--seed", run + 1, *SMALL), tmp_path, signal.SIGTERM, rng)
+        print(f"overwrite run {run}: exit {code}")
+        assert temporaries(tmp_path) == []
+        assert_final_paths_whole(out)
+        code = start_and_kill(cli("reconstruct", out, "--out", rec_out, "--overwrite", "--times", "fps:200"),
+                              tmp_path, signal.SIGTERM, rng)
+        print(f"reconstruct run {run}: exit {code}")
+        assert temporaries(tmp_path) == []
+        assert_final_paths_whole(rec_out)
