@@ -78,8 +78,8 @@ def mutate_h5(path: Path, rng: np.random.Generator) -> str:
             v = hostile_value(rng) if rng.random() < 0.6 else hostile_text(rng)
             try:
                 f[obj].attrs[key] = v
-            except (TypeError, OverflowError, ValueError):
-                f[obj].attrs[key] = str(v)
+            except (TypeError, OverflowError, ValueError):  # e.g. HDF5 strings cannot hold NUL
+                f[obj].attrs[key] = np.bytes_(str(v).encode())
             return f"attr {obj}:{key} = {v!r}"
         if kind == 1 and attrs:  # delete an attribute
             obj, key = attrs[rng.integers(len(attrs))]

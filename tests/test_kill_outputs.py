@@ -100,3 +100,20 @@ def test_sigterm_during_overwrite_and_reconstruct_removes_temporaries(tmp_path):
         print(f"reconstruct run {run}: exit {code}")
         assert temporaries(tmp_path) == []
         assert_final_paths_whole(rec_out)
+
+
+def test_full_disk_is_a_clear_error_with_nothing_left(tmp_path):
+    """A file-size limit (RLIMIT_FSIZE, EFBIG: how a full disk looks to the writer without one) makes the native
+    writer fail mid-file: exit 2 with a message, no traceback-and-segfault, no temporary or partial file."""
+    import resource
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    out = tmp_path / "d"
+    r = subprocess.run(cli("generate", "ahdr", "--scene", "astronaut_pan", "--out", out, *SMALL), cwd=ROOT,
+                       preexec_fn=limit, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, r.stderr[-2000:]
+    assert "evsim: error: disk full or file too large" in r.stderr
+    assert temporaries(tmp_path) == [] and list(out.iterdir()) == []
