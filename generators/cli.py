@@ -19,7 +19,7 @@ from pathlib import Path
 
 import sim
 
-from .formats.atomic import write_text_atomic
+from .formats.atomic import atomic_path, write_text_atomic
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
@@ -184,9 +184,11 @@ def _cmd_reconstruct(args) -> int:
         raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
                                   "replace it")
     options = _akf_options(args).get(args.method)
-    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times,
-                                               method_options=options):
-        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {folder}")
+    with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
+        written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
+                                      method_options=options)
+    for name, folder, n in written:
+        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {out / folder.relative_to(tmp)}")
     return 0
 
 
@@ -325,7 +327,8 @@ def build_parser() -> argparse.ArgumentParser:
                         epilog=EPILOG)
     rc.add_argument("dataset", type=Path, help="as for evaluate")
     rc.add_argument("--out", type=Path, required=True, help="output folder (one sub-folder per sequence when the "
-                                                            "dataset has several)")
+                                                            "dataset has several), written atomically: it "
+                                                            "appears whole")
     rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.events import MAX_TIME_US  # |t| bound of every time: 2**62 us, so differences never overflow int64
+
 
 @dataclass
 class Recording:
@@ -41,7 +43,6 @@ class Recording:
 
 # ----- validation ----------------------------------------------------------------------------------------------
 
-MAX_TIME_US = 1 << 62  # |t| bound for every time (about 146,000 years): differences of two times never overflow int64
 MAX_SENSOR_PX = 1 << 16  # event coordinates are uint16: a sensor side is at most 65536 pixels
 N_EVENT_LABELS = 4  # 0 signal, 1 shot, 2 leak, 3 hot
 
