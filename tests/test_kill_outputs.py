@@ -3,7 +3,8 @@
 
 After SIGTERM no temporary file remains (the writers' cleanup runs: exit 143). After either signal, every file at
 a final path is whole: each native .h5 loads as a valid Recording, each EXR folder reads back, and a native
-temporary file left by kill -9 is refused by the reader (it lacks the completion attribute set on close).
+temporary file left by kill -9 is refused by the reader (it lacks the completion attribute set on close); the
+next run over the same folder removes the dead run's temporaries.
 EVSIM_KILL_RUNS (default 1) repeats each scenario with further kill points.
 """
 
@@ -82,6 +83,11 @@ def test_interrupted_generate_leaves_nothing_that_looks_complete(tmp_path, sig):
         assert_leftover_natives_refused(out)
         if code != 0:
             assert not (out / "index.json").exists()  # index.json is written last
+    if sig == signal.SIGKILL:  # the next run over the same folder completes and sweeps the dead run's temporaries
+        subprocess.run(cli("generate", "ahdr", "--scene", "astronaut_pan", "--out", out, "--format", "e2vid",
+                           "--overwrite", *SMALL), cwd=ROOT, check=True, capture_output=True)
+        assert temporaries(out) == [] and (out / "index.json").is_file()
+        assert_final_paths_whole(out)
 
 
 def test_sigterm_during_overwrite_and_reconstruct_removes_temporaries(tmp_path):
