@@ -99,7 +99,7 @@ def mutate_h5(path: Path, rng: np.random.Generator) -> str:
             v = hostile_value(rng)
             flat = a.reshape(-1)
             i = int(rng.integers(flat.size))
-            if a.dtype.kind in "iub":
+            if a.dtype.kind in "iub":  # (float stores may overflow on purpose: float16 and friends)
                 a = a.astype(np.float64) if (isinstance(v, float) and not float(v).is_integer()) else a
                 try:
                     flat = a.reshape(-1)
@@ -108,7 +108,8 @@ def mutate_h5(path: Path, rng: np.random.Generator) -> str:
                     a = a.astype(np.float64)
                     a.reshape(-1)[i] = v
             else:
-                flat[i] = v
+                with np.errstate(over="ignore"):
+                    flat[i] = v
             desc = f"{name}[{i}] = {v!r} ({a.dtype})"
         elif kind == 4:  # a different dtype
             dt = [np.float64, np.int8, np.int16, np.uint64, np.int64, np.float16, "S4"][rng.integers(7)]
