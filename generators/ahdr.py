@@ -35,6 +35,9 @@ from .sampling import make_sampler
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
              "scikit-image", "tqdm")
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
+MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
+MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
+MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
 _CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
 
 
@@ -49,9 +52,9 @@ class AHDRConfig:
         t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
         radiance units; the resolved values are recorded in the metadata.
     sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample, min/max step in microseconds)
-        or "fixed" (rate_hz samples per second).
+        or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
-        regular grid (0: none).
+        regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
     compression: of the HDF5 datasets: "gzip" (default, smallest), "lzf" (faster to write) or None.
     """
@@ -77,8 +80,11 @@ class AHDRConfig:
         if not isinstance(self.dvs, sim.DVSParams) or not isinstance(self.camera, sim.CameraParams):
             raise InvalidParameterError("AHDRConfig: dvs must be a sim.DVSParams and camera a sim.CameraParams")
         object.__setattr__(self, "reference_times_us", tuple(int(t) for t in self.reference_times_us))
-        if not (math.isfinite(self.reference_rate_hz) and self.reference_rate_hz >= 0):
-            raise InvalidParameterError(f"reference_rate_hz must be >= 0, got {self.reference_rate_hz}")
+        if not (math.isfinite(self.reference_rate_hz) and 0 <= self.reference_rate_hz <= MAX_RATE_HZ):
+            raise InvalidParameterError(f"reference_rate_hz must be in [0, {MAX_RATE_HZ:g}] Hz, got "
+                                        f"{self.reference_rate_hz}")
+        if not (math.isfinite(self.rate_hz) and 0 < self.rate_hz <= MAX_RATE_HZ):
+            raise InvalidParameterError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate_hz}")
         if self.compression not in ("gzip", "lzf", None):
             raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {self.compression!r}")
         if self.sampling not in ("adaptive", "fixed"):
@@ -165,6 +171,11 @@ class _TimedSource:
 
 def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     times = set(config.reference_times_us)
+    n = len(times) + duration_us * 1e-6 * config.reference_rate_hz
+    if n > MAX_REFERENCE_FRAMES:
+        raise InvalidParameterError(f"{n:.3g} reference frames requested (reference_rate_hz "
+                                    f"{config.reference_rate_hz:g} over {duration_us} us): at most "
+                                    f"{MAX_REFERENCE_FRAMES}")
     if config.reference_rate_hz > 0:
         step = 1e6 / config.reference_rate_hz
         times.update(int(round(k * step)) for k in range(int(duration_us / step) + 1))
@@ -199,6 +210,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                                log_eps=dvs_params.dark_fraction * dvs_params.full_illumination,
                                breakpoints_us=breakpoints)
     else:
+        if duration * 1e-6 * config.rate_hz > MAX_FIXED_SAMPLES:
+            raise InvalidParameterError(f"fixed sampling at {config.rate_hz:g} Hz over {duration} us needs more "
+                                        f"than {MAX_FIXED_SAMPLES} DVS input frames")
         sampler = make_sampler(src, config.sampling, rate_hz=config.rate_hz, breakpoints_us=breakpoints)
     resolved = config.to_dict()
     resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))

@@ -1,6 +1,7 @@
 """The `evsim` command line. Each subcommand is a thin layer over the public Python API.
 
-Exit codes: 0 success, 2 usage error or bad input (message "evsim: error: ..."), 1 unexpected failure.
+Exit codes: 0 success, 2 usage error, bad input or a full disk (message "evsim: error: ..."), 1 unexpected
+failure, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); temporary files are removed on every exit path.
 Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz,
 speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units.
 """
@@ -8,8 +9,10 @@ speeds in pixels per second, angles in degrees, contrast thresholds in natural-l
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
+import signal
 import sys
 import traceback
 from pathlib import Path
@@ -17,12 +20,13 @@ from pathlib import Path
 import sim
 
 from .formats import EXPORT_FORMATS
-from .formats.atomic import write_text_atomic
+from .formats.atomic import atomic_path, write_text_atomic
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
-          "Exit codes: 0 success, 2 usage error or bad input, 1 unexpected failure.")
+          "Exit codes: 0 success, 2 usage error, bad input or full disk, 1 unexpected failure, "
+          "130 Ctrl-C, 143 SIGTERM.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
 
 
@@ -182,10 +186,16 @@ def _cmd_reconstruct(args) -> int:
 
     if args.leak_hz is not None and args.method != "akf":
         raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
+        raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
+                                  "replace it")
     options = _akf_options(args).get(args.method)
-    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times,
-                                               method_options=options):
-        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {folder}")
+    with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
+        written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
+                                      method_options=options)
+    for name, folder, n in written:
+        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {out / folder.relative_to(tmp)}")
     return 0
 
 
@@ -336,14 +346,34 @@ def build_parser() -> argparse.ArgumentParser:
                         epilog=EPILOG)
     rc.add_argument("dataset", type=Path, help="as for evaluate")
     rc.add_argument("--out", type=Path, required=True, help="output folder (one sub-folder per sequence when the "
-                                                            "dataset has several)")
+                                                            "dataset has several), written atomically: it "
+                                                            "appears whole")
     rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")
+    rc.add_argument("--overwrite", action="store_true", help="replace an existing, non-empty --out (refused "
+                                                            "otherwise)")
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
     return parser
+
+
+class Terminated(BaseException):
+    """Raised in the main thread on SIGTERM, so that every writer's cleanup (temporary files) runs as on Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def _disk_full(e: OSError) -> bool:
+    """True for "no space left" / "quota" / "file too large" errors (h5py reports them in the message only)."""
+    text = str(e)
+    return e.errno in _DISK_FULL or any(os.strerror(n) in text for n in _DISK_FULL) or "errno = 28" in text
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -351,6 +381,7 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
     except SystemExit as e:  # argparse: --help (0) or a usage error (2), message already printed
         return int(e.code or 0)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
     except sim.EvsimInputError as e:
@@ -359,13 +390,26 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("evsim: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("evsim: terminated (SIGTERM); temporary files removed", file=sys.stderr)
+        return 128 + signal.SIGTERM
+
     except BrokenPipeError:  # the reader of our output went away (e.g. `evsim info f | head`): not a failure
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except Exception:
+    except Exception as e:
+        if isinstance(e, OSError) and _disk_full(e):
+            print(f"evsim: error: disk full or file too large, nothing written in its place: {e}", file=sys.stderr)
+            # HDF5 keeps the failed file's ids and can crash (SIGSEGV) when they are freed at interpreter exit:
+            # the temporary files are already removed, so leave now, skipping that teardown.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(2)
         traceback.print_exc()
         print("evsim: unexpected error (a bug: please report it with the traceback above)", file=sys.stderr)
         return 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -51,7 +51,7 @@ import numpy as np
 from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
-from .events import EVENT_DTYPE, empty_events
+from .events import EVENT_DTYPE, check_times_us, empty_events
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -59,6 +59,8 @@ EVENT_LABELS = ("signal", "shot", "leak", "hot")  # per-event label code -> name
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = K.LABEL_SIGNAL, K.LABEL_SHOT, K.LABEL_LEAK, K.LABEL_HOT
 NO_EVENT_US = K.NO_EVENT_US
 
+MAX_TIME_GAP_US = 3_600_000_000  # one hour: consecutive input times further apart are refused (noise is simulated
+# over every gap, so a gap of days would mean billions of noise events; split such a recording instead)
 _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
 
 
@@ -201,12 +203,16 @@ class DVSEmulator:
             raise EvsimInputError("no frames given")
         if frames.shape[1:] != hw:
             raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
-        times = times.astype(np.int64)
+        times = check_times_us(times)
         if len(times) and np.any(np.diff(times) <= 0):
             i = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
             raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
         if len(times) and self._t is not None and times[0] <= self._t:
             raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
+        gaps = np.diff(times) if self._t is None else np.diff(times, prepend=self._t)
+        if gaps.size and int(gaps.max()) > MAX_TIME_GAP_US:
+            raise InvalidParameterError(f"input times {int(gaps.max())} us apart: at most MAX_TIME_GAP_US = "
+                                        f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
         if frames.size and not K.frames_valid(frames):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):

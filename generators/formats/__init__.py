@@ -20,7 +20,7 @@ from sim import EvsimInputError
 from ..recording import Recording
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
-from .common import DatasetFormatError, fail, open_h5
+from .common import DatasetFormatError, fail, open_h5, reading, validated
 from .e2vid import is_e2vid, read_e2vid, write_e2vid
 from .exr import write_exr_sequence
 from .ijrr import is_e2vid_txt, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_txt, write_ijrr
@@ -72,7 +72,7 @@ def detect(path) -> str:
     if path.suffix.lower() == ".aedat4":
         return "aedat4"
     if h5py.is_hdf5(path):
-        with open_h5(path) as f:
+        with reading(path), open_h5(path) as f:
             if is_native(f):
                 return "native"
             if is_e2vid(f):
@@ -84,11 +84,18 @@ def detect(path) -> str:
 
 def load(path) -> Recording:
     """Read a dataset in any readable layout into a Recording (events, frames with exposure times, reference
-    frames with times, threshold maps, labels, CRF and metadata, where the layout holds them)."""
+    frames with times, threshold maps, labels, CRF and metadata, where the layout holds them).
+
+    What a reader returns is checked by generators.recording.validate_recording; every problem (an invalid
+    recording, or what h5py, zlib, json, scipy.io or numpy raise on malformed content) is a DatasetFormatError
+    naming the file."""
     readers = {"native": read_native, "e2vid": read_e2vid, "ijrr": read_ijrr, "akf-mat": read_akf_mat,
                "aedat4": read_aedat4, "e2vid-txt": read_e2vid_txt,
                **{fmt: read_prophesee for fmt in PROPHESEE_FORMATS}}
-    return readers[detect(path)](path)
+    kind = detect(path)
+    with reading(path):
+        rec = readers[kind](path)
+    return validated(path, rec)
 
 
 def export(recording_or_native_path, out_path, fmt: str, **options) -> list[str]:

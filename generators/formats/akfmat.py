@@ -30,7 +30,7 @@ from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
-from ..recording import Recording
+from ..recording import MAX_TIME_US, Recording
 from .atomic import atomic_path
 from .common import check_recording, events_from_columns, fail, open_h5, polarity_pm1, to_json
 
@@ -131,6 +131,16 @@ def _load_mat(path: Path) -> dict:
         raise fail(path, f"not a readable MATLAB .mat file (truncated or corrupt?): {e}") from e
 
 
+def _us(path, name: str, v) -> np.ndarray:
+    """A MATLAB time vector (double or integer microseconds) as int64, refusing NaN and overflowing values."""
+    a = np.asarray(v).ravel()
+    if a.dtype.kind not in "iuf" or (a.dtype.kind == "f" and not np.isfinite(a).all()):
+        raise fail(path, f"{name} must hold finite numbers, got {a.dtype}")
+    if a.size and np.abs(a.astype(np.float64)).max() > MAX_TIME_US:
+        raise fail(path, f"{name} outside +-2**62 us")
+    return np.rint(a).astype(np.int64)
+
+
 def _text(v) -> str:
     return str(np.asarray(v).ravel()[0]) if np.asarray(v).size else ""
 
@@ -157,18 +167,20 @@ def read_akf_mat(path) -> Recording:
         image = image[:, :, None]
     if image.ndim != 3 or image.shape[:2] != (h, w):
         raise fail(path, f"image must be {h} x {w} x F, got shape {image.shape}")
-    frames = np.ascontiguousarray(np.clip(np.rint(image), 0, 255).astype(np.uint8).transpose(2, 0, 1))
+    if image.dtype.kind not in "biuf" or (image.dtype.kind == "f" and not np.isfinite(image).all()):
+        raise fail(path, f"image must hold finite numbers, got {image.dtype}")
+    if image.size and (image.min() < 0 or image.max() > 255):
+        raise fail(path, f"image values must be 8-bit (0..255), got {image.min()}..{image.max()}")
+    frames = np.ascontiguousarray(np.rint(image).astype(np.uint8).transpose(2, 0, 1))
     nf = frames.shape[0]
-    t_mid = np.rint(np.asarray(m["time_image"], np.float64).ravel()).astype(np.int64)
-    exposure = np.rint(np.asarray(m["exposure"], np.float64).ravel()).astype(np.int64)
+    t_mid, exposure = (_us(path, k, m[k]) for k in ("time_image", "exposure"))
     if exposure.size == 1:
         exposure = np.full(nf, exposure[0])
     if t_mid.size != nf or exposure.size < nf:
         raise fail(path, f"{nf} images but {t_mid.size} time_image and {exposure.size} exposure entries")
     exposure = exposure[:nf]  # the authors' sample files sometimes carry a longer exposure vector
     if "evsim_frame_t_start_us" in m:
-        t_start = np.asarray(m["evsim_frame_t_start_us"]).ravel().astype(np.int64)
-        t_end = np.asarray(m["evsim_frame_t_end_us"]).ravel().astype(np.int64)
+        t_start, t_end = (_us(path, k, m[k]) for k in ("evsim_frame_t_start_us", "evsim_frame_t_end_us"))
     else:
         t_start = t_mid - exposure // 2
         t_end = t_start + exposure
@@ -182,7 +194,7 @@ def read_akf_mat(path) -> Recording:
         events=events, height=h, width=w, frames=frames, frame_t_start_us=t_start, frame_t_mid_us=t_mid,
         frame_t_end_us=t_end, frame_bit_depth=8,
         reference=None if ref is None else np.ascontiguousarray(np.atleast_3d(ref).transpose(2, 0, 1)),
-        reference_t_us=None if ref is None else np.asarray(m["evsim_reference_t_us"]).ravel().astype(np.int64),
+        reference_t_us=None if ref is None else _us(path, "evsim_reference_t_us", m["evsim_reference_t_us"]),
         crf=json.loads(_text(m["evsim_crf"])) if "evsim_crf" in m else None,
         threshold_maps=None if thr is None else np.ascontiguousarray(thr.transpose(2, 0, 1)),
         event_labels=None if "evsim_event_labels" not in m else np.asarray(m["evsim_event_labels"]).ravel(),

@@ -145,7 +145,10 @@ def read_ijrr(directory) -> Recording:
         raise fail(d, "sensor size unknown: no evsim.json, no images and no events")
     labels = None
     if (d / "event_labels.txt").is_file():
-        labels = _load_table(d / "event_labels.txt", 1, dtype=np.int64)[:, 0].astype(np.uint8)
+        labels = _load_table(d / "event_labels.txt", 1, dtype=np.int64)[:, 0]
+        if labels.size and (labels.min() < 0 or labels.max() > 255):
+            raise fail(d / "event_labels.txt", f"labels must be 0..3, got {labels.min()}..{labels.max()}")
+        labels = labels.astype(np.uint8)
         if labels.shape[0] != events.size:
             raise fail(d / "event_labels.txt", f"{labels.shape[0]} labels for {events.size} events")
     reference = reference_t = None

@@ -35,6 +35,7 @@ from .atomic import commit, discard, temp_sibling
 from .common import (
     EVENT_CHUNK,
     append_rows,
+    add_offset,
     check_recording,
     event_chunks,
     events_from_columns,
@@ -42,8 +43,10 @@ from .common import (
     frame_times_check,
     json_attr,
     open_h5,
+    reading,
     require,
     to_json,
+    validated,
 )
 
 FORMAT_NAME = "evsim-native"
@@ -279,23 +282,34 @@ def is_native(f: h5py.File) -> bool:
 
 
 def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
-    """Stream (events, labels) chunks from a native file without loading the whole stream."""
+    """Stream (events, labels) chunks from a native file without loading the whole stream. Each chunk is checked
+    as load() checks a whole recording (coordinates inside the sensor, sorted across chunks, labels in range)."""
     with open_h5(path) as f:
-        require(f, path, ["events/t", "events/x", "events/y", "events/p"])
-        ev = f["events"]
-        n, t_offset, version = ev["t"].shape[0], _t_offset(f), _layout_version(f)
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, ["events/t", "events/x", "events/y", "events/p"])
+            ev = f["events"]
+            n, t_offset, version = ev["t"].shape[0], _t_offset(f), _layout_version(f)
+            h, w = _resolution(f, path)
+        t_last = None
         for i in range(0, n, size):
-            cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
-            cols[0] += t_offset
-            cols[3] = _decode_polarity(path, cols[3], version)
-            labels = ev["label"][i : i + size] if "label" in ev else None
-            yield events_from_columns(path, *cols), labels
+            with reading(path):
+                cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
+                cols[0] = add_offset(path, cols[0], t_offset)
+                cols[3] = _decode_polarity(path, cols[3], version)
+                labels = ev["label"][i : i + size] if "label" in ev else None
+                chunk = events_from_columns(path, *cols)
+                if t_last is not None and chunk.size and chunk["t"][0] < t_last:
+                    raise fail(path, f"events are not sorted by time across chunks (at event {i})")
+                t_last = int(chunk["t"][-1]) if chunk.size else t_last
+                validated(path, Recording(events=chunk, height=h, width=w, event_labels=labels))
+            yield chunk, labels
 
 
 def read_native(path, *, events: bool = True) -> Recording:
     """Read a native file into a Recording (events=False skips the event stream and labels)."""
-    with open_h5(path) as f:
-        return _native_recording(f, path, events=events, lazy_images=False)
+    with open_h5(path) as f, reading(path):
+        return validated(path, _native_recording(f, path, events=events, lazy_images=False))
 
 
 @contextmanager
@@ -304,18 +318,21 @@ def open_native_images(path) -> Iterator[Recording]:
     (read one image at a time when indexed or iterated, so memory does not grow with the sequence length); valid
     inside the with block. Exporters stream the events alongside with iter_native_events."""
     with open_h5(path) as f:
-        yield _native_recording(f, path, events=False, lazy_images=True)
+        with reading(path):
+            rec = validated(path, _native_recording(f, path, events=False, lazy_images=True))
+        yield rec
 
 
 def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) -> Recording:
     if not is_native(f):
         raise fail(path, "not a native evsim HDF5 file")
+    _require_complete(f, path)
     require(f, path, ["events/t", "events/x", "events/y", "events/p", "frames/images", "frames/t_start_us",
                       "frames/t_mid_us", "frames/t_end_us"])
     h, w = _resolution(f, path)
     ev = f["events"]
     if events:
-        evs = events_from_columns(path, ev["t"][()] + _t_offset(f), ev["x"][()], ev["y"][()],
+        evs = events_from_columns(path, add_offset(path, ev["t"][()], _t_offset(f)), ev["x"][()], ev["y"][()],
                                   _decode_polarity(path, ev["p"][()], _layout_version(f)))
         labels = ev["label"][()] if "label" in ev else None
     else:
@@ -347,12 +364,8 @@ def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) ->
 
 
 def _layout_version(f: h5py.File) -> int:
-    """The file's layout version: its format_version attribute for evsim files; DSEC-like foreign files count
-    as the current version (p stored 0/1)."""
-    fmt = f.attrs.get("format")
-    if (fmt.decode() if isinstance(fmt, bytes) else fmt) == FORMAT_NAME:
-        return int(f.attrs.get("format_version", 1))
-    return FORMAT_VERSION
+    """The layout version of a complete native file (see _require_complete): its format_version attribute."""
+    return int(f.attrs.get("format_version", 1))
 
 
 def _decode_polarity(path, p: np.ndarray, version: int) -> np.ndarray:
@@ -363,6 +376,14 @@ def _decode_polarity(path, p: np.ndarray, version: int) -> np.ndarray:
             raise fail(path, f"events/p must hold 0/1 (layout version {version}), found {int(p.max())}")
         return (p.astype(np.int8) * 2 - 1).astype(np.int8)
     return p.astype(np.int8)
+
+
+def _require_complete(f: h5py.File, path) -> None:
+    """NativeWriter sets the root attribute format="evsim-native" only when it closes the file: a file without it
+    is an interrupted write (e.g. a leftover temporary file), never read as a valid recording."""
+    fmt = f.attrs.get("format")
+    if (fmt.decode() if isinstance(fmt, bytes) else fmt) != FORMAT_NAME:
+        raise fail(path, f"no format={FORMAT_NAME!r} attribute: an incomplete (interrupted) or foreign file")
 
 
 def _t_offset(f: h5py.File) -> int:
