@@ -1,4 +1,4 @@
-"""`evsim plot pixel|events|compare|sweep`: registered on the evsim command line by add_plot_parser(subparsers).
+"""`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
 this includes a missing matplotlib (generators.plots.common.PlotDependencyError, with the pip command to fix it).
@@ -85,6 +85,17 @@ def _cmd_sweep(args) -> int:
     return 0
 
 
+def _cmd_roc(args) -> int:
+    from .roc import load_roc_result, plot_roc
+
+    filters = None if args.filters is None else tuple(args.filters)
+    out = args.out or Path(f"{Path(args.source).stem}_roc.png")
+    aucs = plot_roc(load_roc_result(args.source, filters), out)
+    scores = ", ".join(f"{name} {a['all']:.3f}" for name, a in aucs.items())
+    print(f"wrote {out} (AUC over all noise: {scores})")
+    return 0
+
+
 def add_plot_parser(subparsers) -> argparse.ArgumentParser:
     """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
     plot = subparsers.add_parser("plot", help="figures: one pixel over time, events, method comparison, sweeps",
@@ -135,4 +146,13 @@ def add_plot_parser(subparsers) -> argparse.ArgumentParser:
     s.add_argument("--no-progress", action="store_true", help="no progress messages")
     s.add_argument("--out", type=Path, help="figure file (default ./<results folder>_sweep.png)")
     s.set_defaults(func=_cmd_sweep)
+
+    r = psub.add_parser("roc", epilog=PLOT_EPILOG,
+                        help="ROC curves of event denoisers (TPR on signal against FPR per noise type) with AUCs")
+    r.add_argument("source", type=Path, help="a dataset written with --labels, or the --json of `evsim evaluate "
+                                             "DATASET --task denoise`")
+    r.add_argument("--filters", nargs="+", help="filters to draw (akf.denoise.FILTERS; default: all installed, or "
+                                                "all in the JSON)")
+    r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
+    r.set_defaults(func=_cmd_roc)
     return plot
