@@ -204,7 +204,7 @@ def pooled_points(result: dict, name: str) -> list[dict]:
     per_seq = [s["roc"][name]["points"] for s in result["sequences"].values()]
     pooled = []
     for group in zip(*per_seq):
-        counts = {k: sum(p[k] for p in group) for k in group[0] if k not in ("value",) and not k.startswith(("tpr", "fpr"))}
+        counts = {k: sum(p[k] for p in group) for k in group[0] if k != "value" and not k.startswith(("tpr", "fpr"))}
         point = {"value": group[0]["value"], **counts, "tpr": _ratio(counts["kept_signal"], counts["signal"]),
                  "fpr": _ratio(counts["kept_noise"], counts["noise"])}
         point.update({f"fpr_{t}": _ratio(counts[f"kept_{t}"], counts[t]) for t in NOISE_TYPES})

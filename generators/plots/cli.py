@@ -76,10 +76,11 @@ def _cmd_compare(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from .sweep import METRICS_FILE, plot_sweep
+    from .sweep import AUC_METRICS, DEFAULT_FILTERS, DEFAULT_METHODS, METRICS_FILE, plot_sweep
 
     out = args.out or Path(f"{Path(args.results).resolve().name}_sweep.png")
-    rows = plot_sweep(args.results, out, methods=tuple(args.methods), metric=args.metric, recompute=args.recompute,
+    methods = args.methods or (DEFAULT_FILTERS if args.metric in AUC_METRICS else DEFAULT_METHODS)
+    rows = plot_sweep(args.results, out, methods=tuple(methods), metric=args.metric, recompute=args.recompute,
                       progress=not args.no_progress)
     print(f"wrote {out} ({len(rows)} grid points; scores in {Path(args.results) / METRICS_FILE})")
     return 0
@@ -138,10 +139,13 @@ def add_plot_parser(subparsers) -> argparse.ArgumentParser:
     c.set_defaults(func=_cmd_compare)
 
     s = psub.add_parser("sweep", epilog=PLOT_EPILOG,
-                        help="reconstruction error against each swept noise parameter, per method")
+                        help="reconstruction error, or a denoiser's ROC AUC, against each swept noise parameter")
     s.add_argument("results", type=Path, help="the output folder of `evsim generate sweep`")
-    s.add_argument("--metric", default="mse", help="mse (default), psnr, ssim, pu21_psnr or pu21_ssim")
-    s.add_argument("--methods", nargs="+", default=["akf", "cf", "frames"], help="methods (default: akf cf frames)")
+    s.add_argument("--metric", default="mse", help="mse (default), psnr, ssim, pu21_psnr or pu21_ssim; or a "
+                                                   "denoiser's ROC AUC: auc (all noise), auc_shot, auc_leak, auc_hot "
+                                                   "(sweeps written with --labels)")
+    s.add_argument("--methods", nargs="+", help="methods (default: akf cf frames), or with an AUC metric the "
+                                                "akf.denoise filters (default: correlation hot_pixel)")
     s.add_argument("--recompute", action="store_true", help="ignore the cached sweep_metrics.json")
     s.add_argument("--no-progress", action="store_true", help="no progress messages")
     s.add_argument("--out", type=Path, help="figure file (default ./<results folder>_sweep.png)")
