@@ -166,6 +166,8 @@ def _cmd_demo(args) -> int:
 def _cmd_evaluate(args) -> int:
     from .evaluation import evaluate_dataset, format_table, write_json
 
+    if args.task == "denoise":
+        return _evaluate_denoise(args)
     if not 0 < args.tune_fraction < 1:
         raise sim.EvsimInputError(f"--tune-fraction must lie in (0, 1), got {args.tune_fraction}")
     tuning = {}
@@ -177,6 +179,21 @@ def _cmd_evaluate(args) -> int:
     print(format_table(result, args.protocol, notes))
     if args.json is not None:
         write_json(result, args.json, tuning)
+        print(f"\nscores written to {args.json}")
+    return 0
+
+
+def _evaluate_denoise(args) -> int:
+    from .denoising import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
+
+    filters = None if args.filters is None else _names(args.filters)
+    result, notes = evaluate_denoise_dataset(args.dataset, filters=filters, reconstruct=not args.no_reconstruct,
+                                             protocol=args.protocol, methods=_names(args.methods),
+                                             metrics=_names(args.metrics), method_options=_akf_options(args),
+                                             progress=not args.no_progress)
+    print(format_denoise_table(result, notes))
+    if args.json is not None:
+        write_denoise_json(result, args.json)
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -338,8 +355,18 @@ def build_parser() -> argparse.ArgumentParser:
                     help="fraction of each sequence's scored frames that tunes (default 1/3)")
     ev.add_argument("--tune-metric", default="mse01", help="metric the tuning minimises (maximises for "
                                                            "SSIM/PSNR; default mse01)")
-    ev.add_argument("--no-progress", action="store_true", help="do not print the tuning progress (stderr)")
+    ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     _add_akf_flags(ev)
+    dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
+    dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",
+                    help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
+                         "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
+                         "methods on events denoised at each filter's default (needs files written with --labels; "
+                         "--json then writes generators.denoising's result)")
+    dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
+                                      "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
+                                      "installed)")
+    dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
     ev.set_defaults(func=_cmd_evaluate)
 
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
