@@ -4,7 +4,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
 
 - Log response. The photocurrent is I + I_d, with I the input radiance and I_d = dark_fraction *
   full_illumination the dark current expressed as radiance; the pixel responds to L = log(I + I_d), which is
-  logarithmic above I_d and linear below it (black stays finite).
+  logarithmic above I_d and linear below it (black stays finite). L is rounded to a multiple of 2^-32 (as v2e
+  rounds its log) and so are the thresholds: the reference arithmetic is then exact, and a pixel that returns
+  exactly to a level it left fires the event of that tie as the rule says.
 - Input between samples. L is interpolated linearly in time between two consecutive frames of a pixel. The first
   frame only initialises the pixels: photoreceptor settled, reference = L, no event.
 - Photoreceptor. A first-order low-pass on L with time constant tau = 1 / (2 pi f_c),
@@ -15,8 +17,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
   Lf is again interpolated linearly, which gives the crossing times.
 - Events. A pixel compares Lf with its reference level R and fires ON when Lf - R reaches +C_on and OFF when it
   reaches -C_off (per-pixel thresholds, see DVSParams). Every crossing gets its own time, so an interval with several
-  crossings gives several events spread over it (not clumped at frame times); an event is stamped at the first integer microsecond at or
-  after its crossing (ceil), so stamps are never early and lie within 1 us of the exact crossing. Without
+  crossings gives several events spread over it (not clumped at frame times); an event is stamped at the first
+  integer microsecond at or after its crossing (ceil), so stamps are never early and lie within 1 us of the exact
+  crossing (a crossing reached at a frame's end is stamped at that frame's time). Without
   refractory the reference moves by exactly +C_on / -C_off per event.
 - Refractory (IEBCS-style physical reset). After an event stamped t_e the pixel is blind until t_e + refractory_us;
   crossings in that time are lost (not deferred as in v2e), and at t_e + refractory_us the reference is reset to
@@ -27,7 +30,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
 - Leak. The reference drifts down at drift = leak_rate * C_on log units per second, so a static pixel fires ON leak
   events at its leak_rate (log-normal over pixels with mean leak_hz; with refractory the period is
   1 / leak_rate + refractory_us); the initial drift phase is uniform random.
-  An ON crossing is labelled leak when the drift since the last reset supplied at least half of C_on.
+  An ON crossing is labelled leak when the drift since the last reset supplied at least half of C_on. Every
+  event resets the drift, so with shot noise a static pixel shows fewer leak events than leak_rate
+  (DVSParams.observed_leak_hz; DVSParams.with_observed_leak sets leak_hz from a measured rate).
 - Shot noise: a Poisson process per pixel of rate shot_noise_hz + dark_shot_noise_hz * I_d / J (J as above),
   polarity +-1 with equal odds. Hot pixels (a fixed random set) add a Poisson process of rate hot_pixel_hz, also
   with random polarity. Both have continuous arrival times (stamped by ceil like crossings).
@@ -91,7 +96,9 @@ class DVSEmulator:
 
         def threshold(mean):
             c = np.maximum(mean + p.threshold_sigma * rng.standard_normal(shape), p.min_threshold)
-            return c.astype(np.float32).astype(np.float64)  # exactly what threshold_map reports
+            c = c.astype(np.float32).astype(np.float64)  # exactly what threshold_map reports
+            # on the log response's grid (a no-op above 2**-9, where float32 values are multiples of it)
+            return np.maximum(np.round(c / K.LOG_GRID), 1.0) * K.LOG_GRID
 
         c_on, c_off = threshold(p.pos_threshold), threshold(p.neg_threshold)
         s = p.leak_spread
@@ -219,7 +226,8 @@ class DVSEmulator:
     def _initialise(self, frame: np.ndarray, t: int) -> None:
         shape = (self.height, self.width)
         cur = frame.astype(np.float64) + self._scal[2]
-        logi = np.log(cur)
+        logi = np.empty(shape)  # the kernels' log response, so that a pixel back at its first level is at it
+        K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))
         # random leak phase: as if the reference had been reset a uniform fraction of a leak period ago
         drift = self._fixed[2]
         since = np.divide(self._leak_phase * self._fixed[0], drift, out=np.zeros(shape), where=drift > 0)

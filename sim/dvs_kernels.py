@@ -21,6 +21,21 @@ _PIXEL_MUL = np.uint64(0xD1B54A32D192ED03)
 _S11 = np.uint64(11)
 _ONE = np.uint64(1)
 _TWO_M53 = 2.0**-53
+LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
+_LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+
+
+@njit(cache=True, error_model="numpy")
+def log_response(a, bits, out):
+    """out = log(a) rounded to a multiple of LOG_GRID (2**-32), for positive normal a.
+
+    On this grid, as on v2e's rounded log, the reference arithmetic is exact: thresholds are multiples of it too, so
+    a pixel that returns exactly to a level it left has Lf - reference exactly -C_off (or +C_on) and fires as the
+    rule says, instead of missing the tie by a rounding error.
+    """
+    log_row(a, bits, out)
+    for i in range(a.size):
+        out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
 
 
 @njit(cache=True, inline="always")
@@ -121,7 +136,7 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
         hf = float(t1 - t0)
         for x in range(w):
             c1_t[x] = float(frames[k, y, x]) + dark
-        log_row(c1_t, bits, l1_t)
+        log_response(c1_t, bits, l1_t)
         for x in range(w):
             j_t[x] = math.sqrt(cur_y[x] * c1_t[x])  # the interval's geometric-mean photocurrent
             cur_y[x] = c1_t[x]
@@ -212,6 +227,9 @@ def _row_events(todo, t0, hf, f0_t, f1_t, lam_t, hot_y, y, refractory, key, ref_
         sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
         sc = sc if sc > 0.0 else 0.0
         sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+        d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
+        at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
+        sc = hf if at_end & (sc > hf) else sc
         te = t0 + np.int64(math.ceil(sc))
         te = te if te > t0 else t0 + 1
         sb = float(te + refractory - t0)
@@ -289,6 +307,9 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
     while not done:
         d = f0 + g * s - r + dr * ((t0 - tr) + s)
         sc = max(s, s + (target - d) * inv_m) if m != 0.0 else np.inf
+        d_hf = f1 - r + dr * ((t0 - tr) + hf)
+        if sc > hf and m != 0.0 and ((d_hf >= con) if m > 0.0 else (d_hf <= -coff)):
+            sc = hf  # a crossing reached at the interval's end is inside it, whatever the rounding of sc
         pol = 1 if m > 0.0 else -1
         sn = s + es * inv_ls if lam_s > 0.0 else np.inf
         sh = s + eh * inv_lh if lam_h > 0.0 else np.inf
