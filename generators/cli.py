@@ -16,7 +16,6 @@ from pathlib import Path
 
 import sim
 
-from .formats.atomic import write_text_atomic
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
@@ -43,7 +42,7 @@ def _settings_from_flags(args) -> dict:
 
 def _scene_sequences(args) -> list[dict]:
     """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     if args.image is not None:
         traj = {"pan_px_per_s": list(args.pan), "zoom_per_s": args.zoom, "rotation_deg_per_s": args.rotation,
@@ -147,6 +146,7 @@ def _cmd_demo(args) -> int:
         return 0
     from .evaluation import UNITS, evaluate_recording, format_scores
     from .formats import load
+    from .formats.atomic import write_text_atomic
 
     table, _ = evaluate_recording(load(path))
     text = format_scores(table)
@@ -229,7 +229,7 @@ def _add_output_flags(p, default_out: str) -> None:
 
 
 def _add_scene_flags(p) -> None:
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
     p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")

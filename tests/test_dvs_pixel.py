@@ -5,6 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import sim
+from sim import dvs_kernels
 
 IDEAL = sim.DVSParams.preset("ideal")
 DARK = IDEAL.dark_fraction * IDEAL.full_illumination
@@ -177,7 +178,7 @@ def test_8bit_level_pairs_return_ties_fire_as_the_esim_rule_says():
     events = emu.feed(np.stack([fa, fb, fa, fa]), times)
     c = float(emu.threshold_map[0, 0, 0])
     # the rule, in units of the log response's grid (where the emulator's arithmetic is exact)
-    grid = sim.dvs.K.LOG_GRID
+    grid = dvs_kernels.LOG_GRID
     q = np.round(np.log(levels.astype(np.float32) / 255 + DARK) / grid).astype(np.int64)
     n_rule = np.abs(q[b - 1] - q[a - 1]) // int(round(c / grid))
     pix = events["y"].astype(np.int64) * w + events["x"]
