@@ -242,6 +242,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             writer.set_threshold_maps(dvs.threshold_map)
         chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
         with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+            # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
+            bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
             stack, times = [], []
             samples = iter(sampler)
             while True:
@@ -255,6 +257,7 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 times.append(t)
                 if len(stack) == chunk:
                     feed(stack, times)
+                    bar.set_postfix_str("", refresh=False)
                     bar.update(t - bar.n)
                     stack, times = [], []
             if stack:
@@ -263,6 +266,7 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         rendered_for_dvs = src.seconds
         with tqdm(total=len(schedule), unit="frame", desc="frames",
                   disable=not progress, leave=False) as bar:
+            bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
             frames = camera.capture(src, irradiance=False, clean_response=False)
             while True:
                 t0, s0 = time.perf_counter(), src.seconds
@@ -278,6 +282,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 write("add_frame", frame.image, int(frame.t_start_us), mid, int(frame.t_end_us))
                 reference(mid)
                 counts["frames"] += 1
+                if counts["frames"] == 1:
+                    bar.set_postfix_str("", refresh=False)
                 bar.update(1)
         writer.update_metadata({"n_dvs_samples": sampler.n_samples,
                                 "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),

@@ -73,7 +73,10 @@ def frames_valid(frames):
             v = frames[k, y, x]
             row_ok &= (v >= 0.0) & (v < np.inf)
         ok[i] = row_ok
-    return ok.all()
+    n_bad = 0
+    for i in range(n * h):
+        n_bad += not ok[i]
+    return n_bad == 0
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -90,24 +93,25 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
     c_on, c_off, drift, hot_rate = fixed
     refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
+    w = cur.shape[1]
     for i in prange(rows.size):
         y = rows[i]
-        saved = (cur[y].copy(), logi[y].copy(), lf[y].copy(), ref[y].copy(), tref[y].copy(),
-                 e_shot[y].copy(), e_hot[y].copy(), last_t[y].copy(), ctr[y].copy())
+        # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
+        # shape-mismatch error path, seconds of compilation for nothing)
+        saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
+        for x in range(w):
+            saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
+            saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
+            saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
         cnt = _advance_row(frames, times, t_prev, y, i * cap, cap, cur[y], logi[y], lf[y], ref[y], tref[y],
                            e_shot[y], e_hot[y], last_t[y], ctr[y], c_on[y], c_off[y], drift[y], hot_rate[y],
                            refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x, out_p, out_lab,
                            ends[i])
         if cnt > cap:
-            cur[y] = saved[0]
-            logi[y] = saved[1]
-            lf[y] = saved[2]
-            ref[y] = saved[3]
-            tref[y] = saved[4]
-            e_shot[y] = saved[5]
-            e_hot[y] = saved[6]
-            last_t[y] = saved[7]
-            ctr[y] = saved[8]
+            for x in range(w):
+                cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
+                tref[y, x], e_shot[y, x], e_hot[y, x] = saved_f[4, x], saved_f[5, x], saved_f[6, x]
+                last_t[y, x], ctr[y, x] = saved_i[x], saved_u[x]
 
 
 @njit(cache=True, error_model="numpy")
@@ -402,10 +406,13 @@ def _interval_plan(ends):
     """starts[i, k]: row i's first buffered event of interval k; first_out[k]: interval k's first output index."""
     n_rows, n = ends.shape
     starts = np.zeros((n_rows, n + 1), dtype=np.int64)
-    starts[:, 1:] = ends
     first_out = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n_rows):  # element loops: array expressions would compile numba's shape-error path
+        for k in range(n):
+            starts[i, k + 1] = ends[i, k]
+            first_out[k + 1] += ends[i, k] - (ends[i, k - 1] if k > 0 else 0)
     for k in range(n):
-        first_out[k + 1] = first_out[k] + (starts[:, k + 1] - starts[:, k]).sum()
+        first_out[k + 1] += first_out[k]
     return starts, first_out
 
 
