@@ -233,8 +233,11 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             write("add_events", events, labels)
             counts["events"] += events.size
 
-        def reference(t):
-            write("add_reference", src.radiance(t), t)
+        # every reference time is a sampler breakpoint: the DVS pass writes the image it rendered there (once)
+        ref_times = set(refs) | set(schedule[:, 1].tolist())
+
+        def reference(img, t):
+            write("add_reference", img, t)
             counts["references"] += 1
 
         writer.set_crf(meta["crf"])
@@ -253,6 +256,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 if item is None:
                     break
                 t, img = item
+                if t in ref_times:
+                    reference(img, t)
                 stack.append(img)
                 times.append(t)
                 if len(stack) == chunk:
@@ -272,15 +277,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 t0, s0 = time.perf_counter(), src.seconds
                 frame = next(frames, None)
                 timings["camera"] += (time.perf_counter() - t0) - (src.seconds - s0)
-                mid = None if frame is None else int(frame.t_mid_us)
-                while refs and (mid is None or refs[0] < mid):
-                    reference(refs.pop(0))
                 if frame is None:
                     break
-                if refs and refs[0] == mid:
-                    refs.pop(0)
-                write("add_frame", frame.image, int(frame.t_start_us), mid, int(frame.t_end_us))
-                reference(mid)
+                write("add_frame", frame.image, int(frame.t_start_us), int(frame.t_mid_us), int(frame.t_end_us))
                 counts["frames"] += 1
                 if counts["frames"] == 1:
                     bar.set_postfix_str("", refresh=False)

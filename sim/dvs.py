@@ -44,13 +44,16 @@ Determinism: fixed patterns (thresholds, leak rates, hot pixels, initial phases)
 SeedSequence; every later draw comes from a per-pixel counter-based stream kept in the state. The events are
 bit-identical for the same seed, whatever the chunking of the frames into calls and the numba thread count.
 
-Speed: rows run in parallel (numba); feed stacks of frames where possible, since every call has a fixed cost.
+Speed: blocks of rows run in parallel on numba.get_num_threads() threads (serial kernels that release the GIL, run
+from a thread pool); feed stacks of frames where possible, since every call has a fixed cost.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 
 from . import dvs_kernels as K
@@ -215,7 +218,14 @@ class DVSEmulator:
         if len(times) and self._t is not None and times[0] <= self._t:
             raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
         frames = np.ascontiguousarray(frames)
-        if frames.size and not K.frames_valid(frames):
+        valid = [True]
+
+        def check(a, b):
+            valid.append(K.frames_valid(frames[a:b]))
+
+        if frames.size:
+            _in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
+        if not all(valid):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
                 idx = np.argwhere(bad(frames))
                 if idx.size:
@@ -245,29 +255,64 @@ class DVSEmulator:
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        K.emulate_rows(frames, times, t_prev, rows, cap, self._state, self._fixed, self._scal, *bufs_a, ends)
+        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends)
         over = np.flatnonzero(ends[:, -1] > cap)
         offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
         if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
             cap_b = int(ends[over, -1].max())
             bufs_b, ends_b = _new_buffers(over.size * cap_b), np.zeros((over.size, n), dtype=np.int64)
-            K.emulate_rows(frames, times, t_prev, over, cap_b, self._state, self._fixed, self._scal, *bufs_b, ends_b)
+            self._emulate(frames, times, t_prev, over, cap_b, bufs_b, ends_b)
             ends[over] = ends_b
             src_b[over] = True
             offsets[over] = np.arange(over.size) * cap_b
         total = int(ends[:, -1].sum())
         events, labels = empty_events(total), np.empty(total, dtype=np.uint8)
-        gather = K.gather_sorted if n >= 4 else K.gather_sorted_serial
-        gather(rows, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels)
+        starts, first_out = K.interval_plan(ends)
+
+        def gather(k0, k1):
+            K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
+                            labels)
+
+        _in_parallel(gather, n, 4)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
+
+    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends) -> None:
+        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:])."""
+
+        def block(a, b):
+            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal,
+                           *(buf[a * cap:b * cap] for buf in bufs), ends[a:b])
+
+        _in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
         if self._bufs is None or self._bufs[0].size < n:
             self._bufs = _new_buffers(n)
         return self._bufs
+
+
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _in_parallel(fn, n: int, min_part: int) -> None:
+    """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
+    numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
+    global _POOL
+    parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
+    bounds = [n * i // parts for i in range(parts + 1)]
+    if parts == 1:
+        fn(0, n)
+        return
+    if _POOL is None or _POOL._max_workers < parts - 1:
+        _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
+                                   thread_name_prefix="evsim-dvs")
+    futures = [_POOL.submit(fn, bounds[i], bounds[i + 1]) for i in range(1, parts)]
+    fn(bounds[0], bounds[1])
+    for f in futures:
+        f.result()
 
 
 def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,8 @@
 """Numba kernels of the DVS emulator (see sim.dvs for the model they implement).
 
-Rows are independent and processed in parallel. Every random number a pixel draws comes from a counter-based
+Rows are independent: the caller runs blocks of rows (and of frame intervals when gathering) on its own threads,
+the kernels releasing the GIL (nogil). Serial kernels compile several times faster than numba's parallel ones and
+a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel draws comes from a counter-based
 generator (splitmix64 of the pixel's key and its own draw counter, kept in the state), so the output does not
 depend on the number of threads nor on how the frames are split into calls.
 """
@@ -10,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .kernel_math import GOLDEN, expm1_row, log_row, mix64
 
@@ -61,12 +63,12 @@ def _drop_arrivals(budget, rate, duration, pixel_key, counter):
     return budget - used, counter
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def frames_valid(frames):
     """True when every sample is finite and >= 0 (NaN fails both comparisons)."""
     n, h, w = frames.shape
     ok = np.empty(n * h, dtype=np.bool_)
-    for i in prange(n * h):
+    for i in range(n * h):
         k, y = i // h, i % h
         row_ok = True
         for x in range(w):
@@ -79,7 +81,7 @@ def frames_valid(frames):
     return n_bad == 0
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, out_x, out_p, out_lab, ends):
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
@@ -94,7 +96,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     c_on, c_off, drift, hot_rate = fixed
     refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
     w = cur.shape[1]
-    for i in prange(rows.size):
+    for i in range(rows.size):
         y = rows[i]
         # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
         # shape-mismatch error path, seconds of compilation for nothing)
@@ -377,32 +379,23 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
     return cnt
 
 
-@njit(cache=True, parallel=True)
-def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels):
-    """Merge per-row event buffers into `events` (EVENT_DTYPE) and `labels`, sorted by (t, y, x).
+@njit(cache=True, nogil=True)
+def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events, labels):
+    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE) and `labels`,
+    sorted by (t, y, x).
 
     Row i of row_ids (ascending y) has its events at offsets[i] in bufs_b if src_b[i] else bufs_a (each a tuple
-    (t, x, p, label)), ends[i, k] of them up to frame k. Frame intervals are independent (in parallel), and in
-    each the events are stably sorted by t: rows arrive in y order and a row's events of one interval in x order,
-    so the result is in (t, y, x) order.
+    (t, x, p, label)); starts, first_out come from interval_plan. Frame intervals are independent (callers may
+    run ranges of them on several threads), and in each the events are stably sorted by t: rows arrive in y order
+    and a row's events of one interval in x order, so the result is in (t, y, x) order.
     """
-    starts, first_out = _interval_plan(ends)
-    for k in prange(ends.shape[1]):
+    for k in range(k0, k1):
         _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events,
                          labels)
 
 
 @njit(cache=True)
-def gather_sorted_serial(row_ids, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels):
-    """gather_sorted on one thread (cheaper for a few frame intervals: no thread wake-up)."""
-    starts, first_out = _interval_plan(ends)
-    for k in range(ends.shape[1]):
-        _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events,
-                         labels)
-
-
-@njit(cache=True)
-def _interval_plan(ends):
+def interval_plan(ends):
     """starts[i, k]: row i's first buffered event of interval k; first_out[k]: interval k's first output index."""
     n_rows, n = ends.shape
     starts = np.zeros((n_rows, n + 1), dtype=np.int64)
