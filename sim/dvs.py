@@ -50,6 +50,7 @@ from a thread pool); feed stacks of frames where possible, since every call has 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 
@@ -295,18 +296,20 @@ class DVSEmulator:
 
 
 _POOL: ThreadPoolExecutor | None = None
+_POOL_PID = 0  # the process that made _POOL: a forked child has its object but not its threads
 
 
 def _in_parallel(fn, n: int, min_part: int) -> None:
     """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
     numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
-    global _POOL
+    global _POOL, _POOL_PID
     parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
     bounds = [n * i // parts for i in range(parts + 1)]
     if parts == 1:
         fn(0, n)
         return
-    if _POOL is None or _POOL._max_workers < parts - 1:
+    if _POOL is None or _POOL._max_workers < parts - 1 or _POOL_PID != os.getpid():
+        _POOL_PID = os.getpid()
         _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
                                    thread_name_prefix="evsim-dvs")
     futures = [_POOL.submit(fn, bounds[i], bounds[i + 1]) for i in range(1, parts)]
