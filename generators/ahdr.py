@@ -251,8 +251,11 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             write("add_events", events, labels)
             counts["events"] += events.size
 
-        def reference(t):
-            write("add_reference", src.radiance(t), t)
+        # every reference time is a sampler breakpoint: the DVS pass writes the image it rendered there (once)
+        ref_times = set(refs) | set(schedule[:, 1].tolist())
+
+        def reference(img, t):
+            write("add_reference", img, t)
             counts["references"] += 1
 
         writer.set_crf(meta["crf"])
@@ -260,6 +263,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             writer.set_threshold_maps(dvs.threshold_map)
         chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
         with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+            # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
+            bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
             stack, times = [], []
             samples = iter(sampler)
             while True:
@@ -269,10 +274,13 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 if item is None:
                     break
                 t, img = item
+                if t in ref_times:
+                    reference(img, t)
                 stack.append(img)
                 times.append(t)
                 if len(stack) == chunk:
                     feed(stack, times)
+                    bar.set_postfix_str("", refresh=False)
                     bar.update(t - bar.n)
                     stack, times = [], []
             if stack:
@@ -281,21 +289,18 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         rendered_for_dvs = src.seconds
         with tqdm(total=len(schedule), unit="frame", desc="frames",
                   disable=not progress, leave=False) as bar:
+            bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
             frames = camera.capture(src, irradiance=False, clean_response=False)
             while True:
                 t0, s0 = time.perf_counter(), src.seconds
                 frame = next(frames, None)
                 timings["camera"] += (time.perf_counter() - t0) - (src.seconds - s0)
-                mid = None if frame is None else int(frame.t_mid_us)
-                while refs and (mid is None or refs[0] < mid):
-                    reference(refs.pop(0))
                 if frame is None:
                     break
-                if refs and refs[0] == mid:
-                    refs.pop(0)
-                write("add_frame", frame.image, int(frame.t_start_us), mid, int(frame.t_end_us))
-                reference(mid)
+                write("add_frame", frame.image, int(frame.t_start_us), int(frame.t_mid_us), int(frame.t_end_us))
                 counts["frames"] += 1
+                if counts["frames"] == 1:
+                    bar.set_postfix_str("", refresh=False)
                 bar.update(1)
         writer.update_metadata({"n_dvs_samples": sampler.n_samples,
                                 "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),

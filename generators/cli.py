@@ -19,8 +19,7 @@ from pathlib import Path
 
 import sim
 
-from .formats import EXPORT_FORMATS
-from .formats.atomic import atomic_path, write_text_atomic
+from .format_names import EXPORT_FORMATS
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
@@ -48,7 +47,7 @@ def _settings_from_flags(args) -> dict:
 
 def _scene_sequences(args) -> list[dict]:
     """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     if args.image is not None:
         traj = {"pan_px_per_s": list(args.pan), "zoom_per_s": args.zoom, "rotation_deg_per_s": args.rotation,
@@ -152,6 +151,7 @@ def _cmd_demo(args) -> int:
         return 0
     from .evaluation import UNITS, evaluate_recording, format_scores
     from .formats import load
+    from .formats.atomic import write_text_atomic
 
     table, _ = evaluate_recording(load(path))
     text = format_scores(table)
@@ -208,6 +208,8 @@ def _cmd_reconstruct(args) -> int:
         raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
                                   "replace it")
     options = _akf_options(args).get(args.method)
+    from .formats.atomic import atomic_path
+
     with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
         written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
                                       method_options=options)
@@ -263,7 +265,7 @@ def _add_output_flags(p, default_out: str) -> None:
 
 
 def _add_scene_flags(p) -> None:
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
     p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")

@@ -17,6 +17,7 @@ import h5py
 
 from sim import EvsimInputError
 
+from ..format_names import EXPORT_FORMATS, FORMATS
 from ..recording import Recording
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
@@ -28,9 +29,6 @@ from .interop import from_tonic, to_tonic
 from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
 from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
 
-FORMATS = ("native", "e2vid", "ijrr", "akf-mat", "exr", "e2vid-txt", "aedat4", "evt3", "evt2", "dat")
-# the formats a dataset generator can write per sequence (exr holds only the reference frames)
-EXPORT_FORMATS = tuple(f for f in FORMATS if f != "exr")
 
 _ALL_PARTS = ("events", "frames", "reference", "threshold_maps", "event_labels", "crf", "metadata")
 # What each export format can hold, of a Recording's parts (every format also holds the sensor size).
