@@ -1,6 +1,7 @@
 """The `evsim` command line. Each subcommand is a thin layer over the public Python API.
 
-Exit codes: 0 success, 2 usage error or bad input (message "evsim: error: ..."), 1 unexpected failure.
+Exit codes: 0 success, 2 usage error or bad input (message "evsim: error: ..."), 3 some sequences failed (each
+listed with its error at the end; the others were written or scored: rerun with --resume), 1 unexpected failure.
 Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz,
 speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units.
 """
@@ -18,10 +19,12 @@ import sim
 
 from .formats.atomic import write_text_atomic
 from .plots.cli import add_plot_parser
+from .runner import TasksFailed, raise_failures
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
-          "Exit codes: 0 success, 2 usage error or bad input, 1 unexpected failure.")
+          "Exit codes: 0 success, 2 usage error or bad input, 3 some sequences failed (listed at the end; the others "
+          "were done), 1 unexpected failure.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
 
 
@@ -86,7 +89,7 @@ def _cmd_generate_ahdr(args) -> int:
 
     cfg = _dataset_config(args)
     index = generate_dataset(cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress,
-                             fmt=args.format, seed=args.seed)
+                             fmt=args.format, seed=args.seed, **_run_options(args))
     print(f"wrote {len(cfg.sequences)} sequence(s) to {index.parent} (index: {index.name})")
     return 0
 
@@ -105,7 +108,8 @@ def _cmd_generate_sweep(args) -> int:
     s = spec.settings
     scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us, where=f"sequence {spec.name!r}")
     index = generate_sweep(scene, args.out, grid, to_ahdr_config(s), cfg.seed if args.seed is None else args.seed,
-                           overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format)
+                           overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format,
+                           **_run_options(args))
     print(f"wrote the sweep over {', '.join(grid)} for {spec.name!r} to {index.parent} (index: {index.name})")
     return 0
 
@@ -159,11 +163,17 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from .evaluation import evaluate_dataset, format_table, write_json
+    from .evaluation import format_table, write_json
+    from .evaluation_tasks import evaluate_dataset_tasks
 
-    result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                                     metrics=_names(args.metrics), method_options=_akf_options(args))
-    print(format_table(result, args.protocol, notes))
+    result, notes, failures = evaluate_dataset_tasks(args.dataset, protocol=args.protocol,
+                                                     methods=_names(args.methods), metrics=_names(args.metrics),
+                                                     method_options=_akf_options(args), **_run_options(args))
+    scored = [s for s in next(iter(result.values()), {}) if s != "mean"]
+    if scored:
+        print(format_table(result, args.protocol, notes))
+    raise_failures("sequences", failures, len(failures) + len(scored),
+                   "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
     if args.json is not None:
         write_json(result, args.json)
         print(f"\nscores written to {args.json}")
@@ -210,6 +220,36 @@ def _non_negative(kind):
         return v
 
     return parse
+
+
+def _add_run_flags(p, *, resume: bool = True) -> None:
+    """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
+    g = p.add_argument_group("running the sequences (default: one after the other in this process)")
+    where = g.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, metavar="N",
+                       help="run them in parallel on a local Dask cluster of N worker processes")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run them on an existing Dask cluster (e.g. tcp://host:8786; its workers need evsim and "
+                            "the same input and output paths)")
+    if resume:
+        g.add_argument("--resume", action="store_true",
+                       help="complete an earlier run into --out: keep the sequences whose file is complete and "
+                            "records the same configuration and seed (hash), generate the others")
+
+
+def _run_options(args) -> dict:
+    """workers, scheduler (and resume) keyword arguments from the flags of _add_run_flags."""
+    return {k: getattr(args, k) for k in ("workers", "scheduler", "resume") if hasattr(args, k)}
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return v
 
 
 def _add_akf_flags(p) -> None:
@@ -280,10 +320,12 @@ def build_parser() -> argparse.ArgumentParser:
                            epilog=EPILOG)
     _add_scene_flags(ahdr)
     _add_output_flags(ahdr, "evsim_dataset")
+    _add_run_flags(ahdr)
     ahdr.set_defaults(func=_cmd_generate_ahdr)
     sweep = gsub.add_parser("sweep", help="one scene over a grid of DVS noise/threshold parameters", epilog=EPILOG)
     _add_scene_flags(sweep)
     _add_output_flags(sweep, "evsim_sweep")
+    _add_run_flags(sweep)
     grid = sweep.add_argument_group("grid (lists of values; default threshold_sigma 0 0.05 x shot_noise_hz 0 2)")
     grid.add_argument("--threshold-sigma", type=float, nargs="+", help="threshold mismatch std (log units)")
     grid.add_argument("--shot-noise-hz", type=float, nargs="+", help="shot-noise rate per pixel (Hz)")
@@ -311,6 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "score on the frames in between (real data; paper supplementary Table 2)")
     ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}}")
     _add_akf_flags(ev)
+    _add_run_flags(ev, resume=False)
     ev.set_defaults(func=_cmd_evaluate)
 
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
@@ -337,6 +380,12 @@ def main(argv: list[str] | None = None) -> int:
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)
         return 2
+    except TasksFailed as e:
+        for f in e.failures:
+            if f.kind == "bug":  # show where
+                print(f"{f.name}:\n{f.traceback}", file=sys.stderr)
+        print(f"evsim: error: {e}", file=sys.stderr)
+        return 3
     except KeyboardInterrupt:
         print("evsim: interrupted", file=sys.stderr)
         return 130
