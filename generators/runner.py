@@ -18,6 +18,7 @@ Arguments shared by several tasks (the same object, e.g. one scene for a whole s
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import time
@@ -153,13 +154,15 @@ def _peak_rss_mb() -> float | None:
 def local_cluster(workers: int):
     """A dask.distributed LocalCluster of `workers` processes of one thread each, whose numba/OpenCV/BLAS pools
     share the cores (cores // workers threads each); yields the cluster."""
+
+    import dask
     from distributed import LocalCluster
 
     threads = str(max(1, usable_cores() // workers))
-    import logging
-
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR, env={k: threads for k in _THREAD_ENV}) as cluster:
+    # worker-saturation 1: a worker holds only the task it runs, so a worker that dies costs that task alone
+    with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                         silence_logs=logging.ERROR, env={k: threads for k in _THREAD_ENV}) as cluster:
         yield cluster
 
 
@@ -194,18 +197,28 @@ def _worker_threads(client) -> int:
 
 
 def _run_on(client, fn, tasks, done) -> list[TaskOutcome]:
+    """Submit the tasks, no more at a time than the cluster has threads (so a worker holds only the task it runs,
+    and a worker that dies costs that task alone), and collect them as they finish."""
     from distributed import as_completed
 
     threads = _worker_threads(client)
     scattered = _scatter_shared(client, tasks)
     run = uuid.uuid4().hex[:8]
+    outcomes: list[TaskOutcome | None] = [None] * len(tasks)
     futures = {}
-    for i, (name, args, kwargs) in enumerate(tasks):
+
+    def submit(i: int) -> None:
+        name, args, kwargs = tasks[i]
         args = tuple(scattered.get(id(a), a) for a in args)
         future = client.submit(run_one, name, fn, args, kwargs, threads, key=f"evsim-{run}-{i}-{name}", pure=False)
         futures[future] = i
-    outcomes: list[TaskOutcome | None] = [None] * len(tasks)
-    for future in as_completed(futures):
+        running.add(future)
+
+    pending = iter(range(len(tasks)))
+    running = as_completed()
+    for i in range(min(len(tasks), max(1, sum(client.nthreads().values())))):
+        submit(next(pending))
+    for future in running:
         i = futures.pop(future)
         try:
             outcome = future.result()
@@ -213,6 +226,11 @@ def _run_on(client, fn, tasks, done) -> list[TaskOutcome]:
             outcome = TaskOutcome(tasks[i][0], error=f"{type(e).__name__}: {e}", kind="lost")
         outcomes[i] = done(outcome)
         future.release()
+        while len(futures) < max(1, sum(client.nthreads().values())):  # workers may have joined or left
+            nxt = next(pending, None)
+            if nxt is None:
+                break
+            submit(nxt)
     return outcomes
 
 
