@@ -8,7 +8,8 @@ which order it runs does not change its result.
   stopped here;
 - scheduler=ADDRESS: an existing Dask cluster (e.g. "tcp://host:8786"); its workers need evsim installed and the
   same files (inputs and output folder) at the same paths.
-One progress bar counts the finished tasks. A task that raises does not stop the others: its error comes back in
+On a cluster, no more tasks are submitted at a time than it has worker threads (results come back in task order
+whatever order they finish in). One progress bar counts the finished tasks. A task that raises does not stop the others: its error comes back in
 its TaskOutcome (callers raise TasksFailed at the end). A task whose worker process dies is retried by Dask on
 another worker (distributed.scheduler.allowed-failures, default 3), then reported as failed (KilledWorker).
 Threads: in each worker, numba and OpenCV get cores // (dask threads on that host) threads (at least 1), so that
