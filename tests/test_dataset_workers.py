@@ -228,3 +228,13 @@ def test_resume_redoes_what_changed_or_is_unreadable(tmp_path, capsys):
     assert load(out / "edge.h5").metadata["scene"]["speed_px_per_s"] == 60.0
     with pytest.raises(sim.EvsimInputError, match="not empty"):
         generate_dataset(load_config(tmp_path / "c.toml"), out, progress=False)
+
+
+def test_run_flags_are_checked_before_anything_is_written(config_file, tmp_path, capsys):
+    args = ["generate", "ahdr", "--config", str(config_file), "--out", str(tmp_path / "d")]
+    assert main(args + ["--workers", "0"]) == 2
+    assert main(args + ["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    assert "not allowed with argument" in capsys.readouterr().err
+    with pytest.raises(sim.EvsimInputError, match="positive"):
+        generate_dataset(load_config(config_file), tmp_path / "d", workers=0)
+    assert not (tmp_path / "d").exists()
