@@ -226,8 +226,8 @@ def _add_run_flags(p, *, resume: bool = True) -> None:
     """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
     g = p.add_argument_group("running the sequences (default: one after the other in this process)")
     where = g.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, metavar="N",
-                       help="run them in parallel on a local Dask cluster of N worker processes")
+    where.add_argument("--workers", type=_non_negative(int), metavar="N",
+                       help="run them in parallel on a local Dask cluster of N (>= 1) worker processes")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="run them on an existing Dask cluster (e.g. tcp://host:8786; its workers need evsim and "
                             "the same input and output paths)")
@@ -240,16 +240,6 @@ def _add_run_flags(p, *, resume: bool = True) -> None:
 def _run_options(args) -> dict:
     """workers, scheduler (and resume) keyword arguments from the flags of _add_run_flags."""
     return {k: getattr(args, k) for k in ("workers", "scheduler", "resume") if hasattr(args, k)}
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        v = 0
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return v
 
 
 def _add_akf_flags(p) -> None:
