@@ -1,6 +1,6 @@
 """Benchmark of dataset generation on Dask workers (not a test): sequences per second serially and on local
 clusters of 1 and 2 worker processes, and each worker's peak resident memory over the run (flat in the number of
-sequences: memory does not grow from one sequence to the next).
+sequences: resident memory after the first, the middle and the last of its tasks, and its peak).
 
     python bench/bench_workers.py [--sequences 50] [--duration-s 0.5] [--height 90] [--width 120] [--workers 1 2]
 
@@ -53,13 +53,15 @@ def run(config, out: Path, scheduler: str | None) -> dict:
     failed = [o.name for o in outcomes if not o.ok]
     if failed:
         raise SystemExit(f"failed: {failed}: {outcomes[0].error}")
-    per_pid: dict[int, list[float]] = {}
+    per_pid: dict[int, list[tuple[float, float]]] = {}
     for o in outcomes:
-        per_pid.setdefault(o.stats["pid"], []).append(o.stats["peak_rss_mb"])
-    memory = {pid: {"tasks": len(r), "first_mb": round(r[0], 1), "half_mb": round(r[len(r) // 2], 1),
-                    "last_mb": round(r[-1], 1)} for pid, r in per_pid.items()}
+        per_pid.setdefault(o.stats["pid"], []).append((o.stats["rss_mb"], o.stats["peak_rss_mb"]))
+    memory = {pid: {"tasks": len(r), "rss_after_first_mb": round(r[0][0], 1),
+                    "rss_after_half_mb": round(r[len(r) // 2][0], 1), "rss_after_last_mb": round(r[-1][0], 1),
+                    "peak_after_first_mb": round(r[0][1], 1), "peak_after_last_mb": round(r[-1][1], 1)}
+              for pid, r in per_pid.items()}
     return {"sequences": len(outcomes), "wall_s": round(wall, 2), "seq_per_s": round(len(outcomes) / wall, 3),
-            "task_s_sum": round(sum(o.stats["seconds"] for o in outcomes), 2), "peak_rss_per_process": memory}
+            "task_s_sum": round(sum(o.stats["seconds"] for o in outcomes), 2), "memory_per_process": memory}
 
 
 def main() -> None:

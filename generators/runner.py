@@ -40,7 +40,8 @@ _SIMPLE = (str, bytes, int, float, bool, type(None), os.PathLike)
 @dataclass
 class TaskOutcome:
     """What one task gave: its value, or its error ("Type: message") and traceback. stats: pid (the process that
-    ran it), seconds (wall clock), peak_rss_mb (peak resident memory of that process after the task)."""
+    ran it), seconds (wall clock), rss_mb and peak_rss_mb (resident memory of that process after the task, and its
+    peak so far; MB)."""
 
     name: str
     value: object = None
@@ -122,7 +123,8 @@ def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | N
     except Exception as e:  # reported with the others at the end; KeyboardInterrupt and SystemExit go through
         outcome = TaskOutcome(name, error=f"{type(e).__name__}: {e}", traceback=traceback.format_exc(),
                               kind="input" if isinstance(e, EvsimInputError) else "bug")
-    outcome.stats = {"pid": os.getpid(), "seconds": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb()}
+    outcome.stats = {"pid": os.getpid(), "seconds": time.perf_counter() - t0, "rss_mb": _rss_mb(),
+                     "peak_rss_mb": _peak_rss_mb()}
     return outcome
 
 
@@ -149,6 +151,15 @@ def _peak_rss_mb() -> float | None:
     except ImportError:  # Windows
         return None
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+def _rss_mb() -> float | None:
+    """Resident memory of this process now (Linux /proc; None elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
 
 
 @contextmanager
