@@ -173,7 +173,7 @@ def local_cluster(workers: int):
     threads = str(max(1, usable_cores() // workers))
     # worker-saturation 1: a worker holds only the task it runs, so a worker that dies costs that task alone
     with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}), \
-            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                          silence_logs=logging.ERROR, env={k: threads for k in _THREAD_ENV}) as cluster:
         yield cluster
 
