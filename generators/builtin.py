@@ -22,7 +22,7 @@ from sim.seeding import seed_record
 from .ahdr import AHDRConfig
 from .builtin_sequences import BUILTIN_SEQUENCES
 from .config import DatasetConfig, parse_config
-from .dataset import prepare_output_dir, write_index, write_sequence
+from .dataset import SequenceTask, run_sequences
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
 
 
@@ -103,14 +103,16 @@ def ahdr_suite_config(sensor: str = "davis346"):
 
 def generate_ahdr_suite(out_dir, *, height: int = 180, width: int = 240, duration_s: float = 1.0, seed: int = 0,
                         sensor: str = "davis346", overwrite: bool = False, progress: bool = False,
-                        include_hdr: bool = True) -> Path:
-    """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset); return
-    the index path. Sequence i is seeded with child i of SeedSequence(seed)."""
-    out = prepare_output_dir(out_dir, overwrite)
+                        include_hdr: bool = True, workers: int | None = None, scheduler: str | None = None,
+                        resume: bool = False) -> Path:
+    """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset, with the
+    same workers, scheduler and resume options); return the index path. Sequence i is seeded with child i of
+    SeedSequence(seed)."""
     scenes = ahdr_suite(height, width, duration_s, include_hdr=include_hdr)
     root = np.random.SeedSequence(seed)
     config = ahdr_suite_config(sensor)
-    entries = [write_sequence(out, name, scene, config, child, "native", progress=progress)
-               for (name, scene), child in zip(scenes, root.spawn(len(scenes)))]
-    return write_index(out, {"generator": "ahdr", "seed": seed_record(root), "format": "native",
-                             "config_source": "generators.builtin.ahdr_suite", "sequences": entries})
+    jobs = [(SequenceTask(name, config, child), scene) for (name, scene), child in zip(scenes, root.spawn(len(scenes)))]
+    header = {"generator": "ahdr", "seed": seed_record(root), "format": "native",
+              "config_source": "generators.builtin.ahdr_suite"}
+    return run_sequences(out_dir, jobs, header, overwrite=overwrite, resume=resume, workers=workers,
+                         scheduler=scheduler, progress=progress)

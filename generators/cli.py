@@ -1,6 +1,7 @@
 """The `evsim` command line. Each subcommand is a thin layer over the public Python API.
 
-Exit codes: 0 success, 2 usage error, bad input or a full disk (message "evsim: error: ..."), 1 unexpected
+Exit codes: 0 success, 2 usage error, bad input or a full disk (message "evsim: error: ..."), 3 some sequences
+failed (each listed with its error at the end; the others were written or scored: rerun with --resume), 1 unexpected
 failure, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); temporary files are removed on every exit path.
 Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz,
 speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units.
@@ -21,11 +22,12 @@ import sim
 
 from .format_names import EXPORT_FORMATS
 from .plots.cli import add_plot_parser
+from .runner import TasksFailed, raise_failures
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
-          "Exit codes: 0 success, 2 usage error, bad input or full disk, 1 unexpected failure, "
-          "130 Ctrl-C, 143 SIGTERM.")
+          "Exit codes: 0 success, 2 usage error, bad input or full disk, 3 some sequences failed (listed at the end; "
+          "the others were done), 1 unexpected failure, 130 Ctrl-C, 143 SIGTERM.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
 
 
@@ -90,7 +92,7 @@ def _cmd_generate_ahdr(args) -> int:
 
     cfg = _dataset_config(args)
     index = generate_dataset(cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress,
-                             fmt=args.format, seed=args.seed)
+                             fmt=args.format, seed=args.seed, **_run_options(args))
     print(f"wrote {len(cfg.sequences)} sequence(s) to {index.parent} (index: {index.name})")
     return 0
 
@@ -109,7 +111,8 @@ def _cmd_generate_sweep(args) -> int:
     s = spec.settings
     scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us, where=f"sequence {spec.name!r}")
     index = generate_sweep(scene, args.out, grid, to_ahdr_config(s), cfg.seed if args.seed is None else args.seed,
-                           overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format)
+                           overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format,
+                           **_run_options(args))
     print(f"wrote the sweep over {', '.join(grid)} for {spec.name!r} to {index.parent} (index: {index.name})")
     return 0
 
@@ -164,16 +167,40 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from .evaluation import evaluate_dataset, format_table, write_json
+    from .evaluation import format_table, write_json
+    from .evaluation_tasks import evaluate_dataset_tasks
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
-    if not 0 < args.tune_fraction < 1:
-        raise sim.EvsimInputError(f"--tune-fraction must lie in (0, 1), got {args.tune_fraction}")
+    if args.tune:
+        return _evaluate_tuned(args)
+    result, notes, failures = evaluate_dataset_tasks(args.dataset, protocol=args.protocol,
+                                                     methods=_names(args.methods), metrics=_names(args.metrics),
+                                                     method_options=_akf_options(args),
+                                                     progress=False if args.no_progress else None,
+                                                     **_run_options(args))
+    scored = [s for s in next(iter(result.values()), {}) if s != "mean"]
+    if scored:
+        print(format_table(result, args.protocol, notes))
+    raise_failures("sequences", failures, len(failures) + len(scored),
+                   "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
+    if args.json is not None:
+        write_json(result, args.json)
+        print(f"\nscores written to {args.json}")
+    return 0
+
+
+def _evaluate_tuned(args) -> int:
+    """evaluate --tune: the tuning searches over the whole dataset at once, so it runs in this process."""
+    from .evaluation import evaluate_dataset, format_table, write_json
+
+    if args.workers is not None or args.scheduler is not None:
+        raise sim.EvsimInputError("--tune runs in one process (its search scores every sequence per setting); "
+                                  "drop --workers/--scheduler")
     tuning = {}
     result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                                      metrics=_names(args.metrics), method_options=_akf_options(args),
-                                     tune=args.tune, tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
+                                     tune=True, tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
                                      tuning_out=tuning,
                                      progress=None if args.no_progress else lambda t: print(t, file=sys.stderr))
     print(format_table(result, args.protocol, notes))
@@ -248,6 +275,26 @@ def _non_negative(kind):
     return parse
 
 
+def _add_run_flags(p, *, resume: bool = True) -> None:
+    """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
+    g = p.add_argument_group("running the sequences (default: one after the other in this process)")
+    where = g.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_non_negative(int), metavar="N",
+                       help="run them in parallel on a local Dask cluster of N (>= 1) worker processes")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run them on an existing Dask cluster (e.g. tcp://host:8786; its workers need evsim and "
+                            "the same input and output paths)")
+    if resume:
+        g.add_argument("--resume", action="store_true",
+                       help="complete an earlier run into --out: keep the sequences whose file is complete and "
+                            "records the same configuration and seed (hash), generate the others")
+
+
+def _run_options(args) -> dict:
+    """workers, scheduler (and resume) keyword arguments from the flags of _add_run_flags."""
+    return {k: getattr(args, k) for k in ("workers", "scheduler", "resume") if hasattr(args, k)}
+
+
 def _add_akf_flags(p) -> None:
     p.add_argument("--leak-hz", type=_non_negative(float), default=None,
                    help="the DVS's leak rate (Hz) for the AKF's leak-aware event model (default: the recorded "
@@ -316,10 +363,12 @@ def build_parser() -> argparse.ArgumentParser:
                            epilog=EPILOG)
     _add_scene_flags(ahdr)
     _add_output_flags(ahdr, "evsim_dataset")
+    _add_run_flags(ahdr)
     ahdr.set_defaults(func=_cmd_generate_ahdr)
     sweep = gsub.add_parser("sweep", help="one scene over a grid of DVS noise/threshold parameters", epilog=EPILOG)
     _add_scene_flags(sweep)
     _add_output_flags(sweep, "evsim_sweep")
+    _add_run_flags(sweep)
     grid = sweep.add_argument_group("grid (lists of values; default threshold_sigma 0 0.05 x shot_noise_hz 0 2)")
     grid.add_argument("--threshold-sigma", type=float, nargs="+", help="threshold mismatch std (log units)")
     grid.add_argument("--shot-noise-hz", type=float, nargs="+", help="shot-noise rate per pixel (Hz)")
@@ -369,6 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
     dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
+    _add_run_flags(ev, resume=False)
     ev.set_defaults(func=_cmd_evaluate)
 
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
@@ -416,6 +466,12 @@ def main(argv: list[str] | None = None) -> int:
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)
         return 2
+    except TasksFailed as e:
+        for f in e.failures:
+            if f.kind == "bug":  # show where
+                print(f"{f.name}:\n{f.traceback}", file=sys.stderr)
+        print(f"evsim: error: {e}", file=sys.stderr)
+        return 3
     except KeyboardInterrupt:
         print("evsim: interrupted", file=sys.stderr)
         return 130

@@ -12,13 +12,12 @@ import dataclasses
 import itertools
 from pathlib import Path
 
-
 from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .ahdr import AHDRConfig
 from .config import SWEEP_KEYS
-from .dataset import EXPORT_SUFFIX, prepare_output_dir, write_index, write_sequence
+from .dataset import EXPORT_SUFFIX, SequenceTask, run_sequences
 
 GRID_KEYS = SWEEP_KEYS
 DEFAULT_GRID = {"threshold_sigma": [0.0, 0.05], "shot_noise_hz": [0.0, 2.0]}
@@ -36,8 +35,10 @@ def grid_points(grid: dict) -> list[dict]:
 
 
 def generate_sweep(scene, out_dir, grid: dict | None = None, config: AHDRConfig | None = None, seed=0, *,
-                   overwrite: bool = False, progress: bool = True, fmt: str = "native") -> Path:
-    """Write one sequence per grid point of `grid` (default DEFAULT_GRID) for `scene`; return the index path."""
+                   overwrite: bool = False, progress: bool = True, fmt: str = "native", workers: int | None = None,
+                   scheduler: str | None = None, resume: bool = False) -> Path:
+    """Write one sequence per grid point of `grid` (default DEFAULT_GRID) for `scene`; return the index path.
+    workers, scheduler and resume as for generators.dataset.generate_dataset (the scene is sent to a cluster once)."""
     grid = DEFAULT_GRID if grid is None else grid
     config = config or AHDRConfig()
     points = grid_points(grid)
@@ -45,16 +46,12 @@ def generate_sweep(scene, out_dir, grid: dict | None = None, config: AHDRConfig 
         raise InvalidParameterError(f"unknown format {fmt!r}; one of native, {', '.join(EXPORT_SUFFIX)}")
     # validate every point before writing anything
     dvs_points = [dataclasses.replace(config.dvs, **p) for p in points]
-    out = prepare_output_dir(out_dir, overwrite)
     root = as_seed_sequence(seed)
-    children = [child_seed(root, i) for i in range(len(points))]
-    entries = []
     width = max(3, len(str(len(points) - 1)))
-    for i, (point, dvs, child) in enumerate(zip(points, dvs_points, children)):
-        name = f"sweep_{i:0{width}d}"
-        if progress:
-            print(f"[{i + 1}/{len(points)}] {name}: {point}", flush=True)
-        entries.append(write_sequence(out, name, scene, dataclasses.replace(config, dvs=dvs), child, fmt,
-                                      progress=progress, metadata={"sweep_point": point}))
-    return write_index(out, {"generator": "sweep", "seed": seed_record(root), "format": fmt,
-                             "grid": {k: list(v) for k, v in grid.items()}, "sequences": entries})
+    jobs = [(SequenceTask(f"sweep_{i:0{width}d}", dataclasses.replace(config, dvs=dvs), child_seed(root, i), fmt,
+                          {"sweep_point": point}), scene)
+            for i, (point, dvs) in enumerate(zip(points, dvs_points))]
+    header = {"generator": "sweep", "seed": seed_record(root), "format": fmt,
+              "grid": {k: list(v) for k, v in grid.items()}}
+    return run_sequences(out_dir, jobs, header, overwrite=overwrite, resume=resume, workers=workers,
+                         scheduler=scheduler, progress=progress)
