@@ -10,7 +10,6 @@ speeds in pixels per second, angles in degrees, contrast thresholds in natural-l
 from __future__ import annotations
 
 import argparse
-import errno
 import math
 import os
 import signal
@@ -446,15 +445,6 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
-_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
-
-
-def _disk_full(e: OSError) -> bool:
-    """True for "no space left" / "quota" / "file too large" errors (h5py reports them in the message only)."""
-    text = str(e)
-    return e.errno in _DISK_FULL or any(os.strerror(n) in text for n in _DISK_FULL) or "errno = 28" in text
-
-
 def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
@@ -483,7 +473,9 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as e:
-        if isinstance(e, OSError) and _disk_full(e):
+        from .formats.atomic import is_disk_full
+
+        if is_disk_full(e):
             print(f"evsim: error: disk full or file too large, nothing written in its place: {e}", file=sys.stderr)
             # HDF5 keeps the failed file's ids and can crash (SIGSEGV) when they are freed at interpreter exit:
             # the temporary files are already removed, so leave now, skipping that teardown.

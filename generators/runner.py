@@ -121,6 +121,10 @@ def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | N
     try:
         outcome = TaskOutcome(name, value=fn(*args, **kwargs))
     except Exception as e:  # reported with the others at the end; KeyboardInterrupt and SystemExit go through
+        from .formats.atomic import is_disk_full
+
+        if is_disk_full(e):  # every later sequence would fail the same way: stop the run
+            raise
         outcome = TaskOutcome(name, error=f"{type(e).__name__}: {e}", traceback=traceback.format_exc(),
                               kind="input" if isinstance(e, EvsimInputError) else "bug")
     outcome.stats = {"pid": os.getpid(), "seconds": time.perf_counter() - t0, "rss_mb": _rss_mb(),

@@ -8,6 +8,7 @@ is deleted by the next write of the same path on the same host.
 
 from __future__ import annotations
 
+import errno
 import glob
 import os
 import shutil
@@ -114,3 +115,15 @@ def write_text_atomic(path, text: str) -> None:
     """Write a text file (UTF-8) atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def is_disk_full(e: BaseException) -> bool:
+    """True for "no space left" / "quota" / "file too large" OSErrors (h5py reports them in the message only):
+    not a fault of one output, so callers stop the whole run rather than go on to the next file."""
+    if not isinstance(e, OSError):
+        return False
+    text = str(e)
+    return e.errno in _DISK_FULL or any(os.strerror(n) in text for n in _DISK_FULL) or "errno = 28" in text
