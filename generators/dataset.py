@@ -2,7 +2,8 @@
 
 Layout of an output folder:
     <name>.h5            the native file of each sequence (always written: it holds the ground truth)
-    <name>_e2vid.h5 | <name>_ijrr/ | <name>.mat    the export, when a format other than native is chosen
+    <name>_e2vid.h5 | <name>_ijrr/ | <name>.mat | <name>_exr/    the export, when a format other than native is
+                         chosen
     index.json           what the folder holds: generator, root seed, format, and per sequence its file, export,
                          seed record, scene, parameters and counts
 """
@@ -23,7 +24,7 @@ from .formats import export
 from .formats.atomic import write_text_atomic
 
 INDEX_FILE = "index.json"
-EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat"}
+EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "exr": "_exr"}
 
 
 def prepare_output_dir(out_dir, overwrite: bool) -> Path:

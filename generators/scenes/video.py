@@ -97,6 +97,7 @@ class _Frames:
     frames(first) yields the raw images (H, W) or (H, W, 3) RGB from index `first` on."""
 
     kind: str
+    counted_to_end = True  # False when a video was counted only up to the stop time
     path: Path
     times_us: np.ndarray
     size: tuple[int, int]
@@ -140,6 +141,7 @@ class _VideoFile(_Frames):
         n = 0
         while (last is None or n <= last) and cap.grab():
             n += 1
+        self.counted_to_end = last is None or n <= last
         cap.release()
         if n == 0:
             raise fail(path, "the video holds no frames (empty or unreadable)")
@@ -506,7 +508,7 @@ class VideoScene(Scene):
             up["blend"] = "linear in time in log(I + log_eps)"
         return {
             "input": {"path": str(self.path), "kind": inp.kind, "sha256": inp.sha256, "size": list(inp.size),
-                      "n_frames": int(inp.times_us.size), **inp.rate},
+                      ("n_frames" if inp.counted_to_end else "n_frames_read"): int(inp.times_us.size), **inp.rate},
             "frames_used": [self._first, self._first + int(self.times.size) - 1],
             "frame_rate_hz": float((self.times.size - 1) * 1e6 / self.times[-1]),
             "start_s": self.start_s, "stop_s": self.stop_s,
