@@ -73,23 +73,11 @@ class FlowEstimator:
         return FlowPair(log0, log1, self.flow(u8_0, u8_1), self.flow(u8_1, u8_0), **kwargs)
 
 
-def _pixel_grid(height: int, width: int) -> np.ndarray:
-    """float32 (H, W, 2) of the pixel centres' (x, y)."""
-    xx, yy = np.meshgrid(np.arange(width, dtype=np.float32), np.arange(height, dtype=np.float32))
-    return np.dstack([xx, yy])
-
-
-def occlusion(flow_ab: np.ndarray, flow_ba: np.ndarray, grid: np.ndarray) -> np.ndarray:
+def occlusion(flow_ab: np.ndarray, flow_ba: np.ndarray) -> tuple[np.ndarray, float]:
     """float32 (H, W) mask, 1 where the pixel of frame a is not visible in frame b (forward-backward check, or
-    its flow leaves the image), else 0."""
-    h, w = flow_ab.shape[:2]
-    target = grid + flow_ab
-    back = cv2.remap(flow_ba, target, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    err = np.sum((flow_ab + back) ** 2, axis=2)
-    bound = _FB_ALPHA * (np.sum(flow_ab ** 2, axis=2) + np.sum(back ** 2, axis=2)) + _FB_BETA
-    outside = ((target[..., 0] < -0.5) | (target[..., 0] > w - 0.5)
-               | (target[..., 1] < -0.5) | (target[..., 1] > h - 0.5))
-    return ((err > bound) | outside).astype(np.float32)
+    its flow leaves the image), else 0; and the largest |flow_ab| among the visible pixels (pixels)."""
+    out = np.empty(flow_ab.shape[:2], dtype=np.float32)
+    return out, float(_occlusion(flow_ab, flow_ba, out))
 
 
 class FlowPair:
@@ -105,21 +93,13 @@ class FlowPair:
 
     def __init__(self, log0: np.ndarray, log1: np.ndarray, flow01: np.ndarray, flow10: np.ndarray, *,
                  key_step_px: float = 0.5, max_keys: int = 64):
-        h, w = log0.shape
-        grid = _pixel_grid(h, w)
         self.log0, self.log1 = log0, log1
         self.flow01, self.flow10 = flow01, flow10
-        self.occlusion0 = occlusion(flow01, flow10, grid)  # pixels of frame 0 hidden in frame 1
-        self.occlusion1 = occlusion(flow10, flow01, grid)  # pixels of frame 1 hidden in frame 0
-        self.max_motion_px = self._max_motion()
+        self.occlusion0, m0 = occlusion(flow01, flow10)  # pixels of frame 0 hidden in frame 1
+        self.occlusion1, m1 = occlusion(flow10, flow01)  # pixels of frame 1 hidden in frame 0
+        self.max_motion_px = max(m0, m1)  # largest displacement over the interval among the visible pixels
         self.n_keys = int(min(max(np.ceil(self.max_motion_px / key_step_px), 1), max_keys))
         self._keys = {0: log0, self.n_keys: log1}
-
-    def _max_motion(self) -> float:
-        """Largest displacement over the interval, in pixels, among the pixels visible in both frames."""
-        speeds = [np.hypot(f[..., 0], f[..., 1])[o == 0] for f, o in
-                  ((self.flow01, self.occlusion0), (self.flow10, self.occlusion1))]
-        return max((float(s.max()) for s in speeds if s.size), default=0.0)
 
     def key(self, j: int) -> np.ndarray:
         """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys."""
@@ -138,6 +118,37 @@ class FlowPair:
         if f == 0:
             return self.key(j)
         return (1 - f) * self.key(j) + f * self.key(j + 1)
+
+
+@njit(cache=True)
+def _occlusion(fab, fba, out):
+    """out = 1 where the forward-backward check fails or the flow leaves the image, else 0; returns the largest
+    |fab| among the other pixels (0 when there are none)."""
+    h, w = out.shape
+    largest = 0.0
+    for y in range(h):
+        for x in range(w):
+            ux, uy = fab[y, x, 0], fab[y, x, 1]
+            tx, ty = x + ux, y + uy
+            if tx < -0.5 or tx > w - 0.5 or ty < -0.5 or ty > h - 0.5:
+                out[y, x] = 1.0
+                continue
+            tx, ty = min(max(tx, 0.0), w - 1.0), min(max(ty, 0.0), h - 1.0)
+            xi, yi = min(int(tx), w - 1), min(int(ty), h - 1)
+            x1, y1 = min(xi + 1, w - 1), min(yi + 1, h - 1)
+            fx, fy = tx - xi, ty - yi
+            bx = ((1 - fy) * ((1 - fx) * fba[yi, xi, 0] + fx * fba[yi, x1, 0])
+                  + fy * ((1 - fx) * fba[y1, xi, 0] + fx * fba[y1, x1, 0]))
+            by = ((1 - fy) * ((1 - fx) * fba[yi, xi, 1] + fx * fba[yi, x1, 1])
+                  + fy * ((1 - fx) * fba[y1, xi, 1] + fx * fba[y1, x1, 1]))
+            m2 = ux * ux + uy * uy
+            err = (ux + bx) ** 2 + (uy + by) ** 2
+            if err > _FB_ALPHA * (m2 + bx * bx + by * by) + _FB_BETA:
+                out[y, x] = 1.0
+            else:
+                out[y, x] = 0.0
+                largest = max(largest, m2)
+    return np.sqrt(largest)
 
 
 @njit(cache=True, inline="always")

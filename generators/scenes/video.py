@@ -24,8 +24,10 @@ Between input frames (`upsample`):
 - "linear": linear in time in log radiance, log(I + eps) (a cross-fade: moving edges fade instead of moving);
 - "none": each input frame is held until the next (what feeding raw frames to a DVS model gives: every change at
   the frame times).
-How many DVS samples fall between two input frames is then up to the adaptive sampler (generators.sampling),
-which bounds the log change per sample: it adapts to each pair's motion and brightness change.
+With "flow", the number of key frames between two input frames follows the pair's largest motion (one per
+key_step_px pixels); between keys, and between frames with "linear", the log radiance is linear in time, which
+log_linear_until tells the adaptive sampler (generators.sampling), so that the DVS is fed exactly the key frames
+(its own interpolation between samples is linear in log too).
 
 Memory does not depend on the video's length: the scene decodes the input sequentially and holds three frames and
 the flows of the last two intervals; radiance(t) is meant for increasing t. Going back further restarts the
@@ -474,6 +476,24 @@ class VideoScene(Scene):
             log = (1 - np.float32(a)) * self._frame(k)[1] + np.float32(a) * self._frame(k + 1)[1]
         out = np.exp(log) - np.float32(self.log_eps)
         return np.maximum(out, 0.0, out=out)
+
+    def log_linear_until(self, t_us: int) -> int:
+        """The end of the piece from t_us over which log(radiance + log_eps) is linear in time (microseconds): the
+        next key frame (flow), the next input frame (linear), or, holding frames (none), one microsecond before
+        the next input frame and then that frame (a switch within a microsecond). Used by the adaptive sampler."""
+        n = self.times.size
+        t_us = int(t_us)
+        if t_us >= self.duration_us:
+            return self.duration_us
+        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
+        t0, t1 = int(self.times[k]), int(self.times[k + 1])
+        if self.upsample == "none":
+            return t1 - 1 if t_us < t1 - 1 else t1
+        if self.upsample == "linear":
+            return t1
+        keys = self._pair(k).n_keys
+        j = int((t_us - t0) * keys // (t1 - t0)) + 1  # the first key after t_us
+        return min(t0 + -(-(j * (t1 - t0)) // keys), t1)  # rounded up to the microsecond
 
     def max_speed_px_per_s(self) -> float:
         """flow: the largest optical-flow speed over the clip (intervals not yet decoded are scanned first, so
