@@ -13,13 +13,14 @@ upsampling mode (none, linear, flow):
     python bench/bench_convert.py [--duration-s 10] [--clip bikes|synthetic] [--modes none linear flow]
                                   [--flow-preset medium] [--full]
 
-Numba kernels are compiled (or loaded from cache) by a short warm-up first. Wall-clock figures depend on whatever
+Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short warm-up first. Wall-clock figures depend on whatever
 else the machine runs; CPU time (time.process_time, all threads) is the steadier figure.
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
 import tempfile
 import time
@@ -111,6 +112,7 @@ def main() -> None:
             print(f"{mode:8s} {r['input_frames']:9d} {r['events']:10d} {r['dvs_samples']:8d} {r['wall_s']:7.2f} "
                   f"{r['cpu_s']:7.2f} {r['frames_per_s']:9.1f} {r['events_per_s']:10.3g} "
                   f"{r['realtime_x']:12.2f} / {r['realtime_x_cpu']:.2f}")
+        print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
         if args.full:
             print("whole pipeline (events + LDR frames + HDR reference + HDF5):")
             for mode in args.modes:

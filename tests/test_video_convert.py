@@ -186,6 +186,20 @@ def test_video_file_and_config_scene_type(tmp_path):
     assert scene.max_speed_px_per_s() == pytest.approx(30.0, rel=0.3)
 
 
+def test_the_sampler_feeds_the_dvs_exactly_the_log_linear_pieces(tmp_path):
+    from generators.sampling import AdaptiveSampler
+
+    stack = np.stack([np.full((8, 8), 10.0 ** k, np.float32) for k in range(4)])  # x10 per frame: far above the bound
+    np.save(tmp_path / "s.npy", stack)
+    kw = dict(threshold=0.2, fraction=0.5, max_step_us=1_000_000, log_eps=1e-6)
+    linear = VideoScene(tmp_path / "s.npy", fps=10.0, upsample="linear")
+    assert [t for t, _ in AdaptiveSampler(linear, **kw)] == linear.times.tolist()  # the frames and nothing else
+    hold = VideoScene(tmp_path / "s.npy", fps=10.0, upsample="none")
+    samples = [(t, float(img[0, 0])) for t, img in AdaptiveSampler(hold, **kw)]
+    assert samples == [(0, 1.0), (99_999, 1.0), (100_000, 10.0), (199_999, 10.0), (200_000, 100.0),
+                       (299_999, 100.0), (300_000, 1000.0)]  # held, then switched within a microsecond
+
+
 # ----- bad input ---------------------------------------------------------------------------------------
 
 def test_bad_inputs_get_clear_errors(tmp_path):
