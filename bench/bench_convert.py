@@ -13,8 +13,8 @@ upsampling mode (none, linear, flow):
     python bench/bench_convert.py [--duration-s 10] [--clip bikes|synthetic] [--modes none linear flow]
                                   [--flow-preset medium] [--full]
 
-Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short warm-up first. Wall-clock figures depend on whatever
-else the machine runs; CPU time (time.process_time, all threads) is the steadier figure.
+Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short
+warm-up first. Wall-clock figures depend on whatever else the machine runs; CPU time (time.process_time, all threads) is the steadier figure.
 """
 
 from __future__ import annotations

@@ -6,16 +6,16 @@ For a pair of frames 0 and 1 (log radiance L0, L1):
    of exposure or illumination by a constant factor is an offset, not a change of contrast);
 2. occlusion by forward-backward consistency (Sundaram et al., ECCV 2010): p is occluded in the other frame when
    |F01(p) + F10(p + F01(p))|^2 > 0.01 (|F01|^2 + |F10|^2) + 0.5 px^2, or when p + F01(p) leaves the image;
-3. at a fraction a in (0, 1) of the interval (at key fractions chosen from the motion: FlowPair), the flows from time a back to both frames are approximated from the
-   two flows as in Super SloMo (Jiang et al., CVPR 2018), exact for any motion constant over the interval:
+3. at a fraction a in (0, 1) of the interval (the key fractions chosen from the motion: FlowPair), the flows from
+   time a back to both frames are approximated from the two flows as in Super SloMo (Jiang et al., CVPR 2018),
+   exact for any motion constant over the interval:
    F_a0 = -(1 - a) a F01 + a^2 F10,   F_a1 = (1 - a)^2 F01 - a (1 - a) F10;
    both frames are warped to time a (bicubic interpolation, Keys a = -0.5, in floating point: bilinear
    interpolation blurs texture at half-pixel shifts, which loses events, and OpenCV's remap quantises coordinates
-   to 1/32 pixel, which would make the result jump in time) and blended in log radiance with weights
+   to 1/32 pixel, which would make neighbouring keys jitter) and blended in log radiance with weights
    w0 = (1 - a) (1 - O1 + d), w1 = a (1 - O0 + d): content about to be hidden comes from frame 0 (O0 warped from
    frame 0: it is not in frame 1), newly revealed content from frame 1; d = 1e-3 keeps both weights positive.
-The result is L0 at a = 0, L1 at a = 1 and continuous in a (a sub-microsecond step gives a proportionally small
-change, which the adaptive DVS sampling relies on).
+The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames the log radiance is linear in time.
 """
 
 from __future__ import annotations

@@ -42,7 +42,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim import EvsimInputError, InvalidParameterError, TimeOrderError
+from sim import EvsimInputError, InvalidParameterError
 
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
@@ -328,9 +328,8 @@ class VideoScene(Scene):
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps=None, start_s: float = 0.0, stop_s: float | None = None,
                  upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", key_step_px: float = 0.5,
-                 input_crf: str = "srgb",
-                 input_crf_params: dict | None = None, channel: str | int | None = None,
-                 log_eps: float | None = None, name: str | None = None):
+                 input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
+                 log_eps: float | None = None):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
         start_us = int(round(positive("start_s", start_s, "VideoScene", allow_zero=True) * 1e6))
@@ -338,7 +337,7 @@ class VideoScene(Scene):
         if stop_us is not None and stop_us <= start_us:
             raise InvalidParameterError(f"VideoScene: start_s={start_s} must come before stop_s={stop_s}")
         self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us)
-        self.path, self.name = Path(path), name or Path(path).name
+        self.path = Path(path)
         t = self._input.times_us
         keep = np.flatnonzero((t >= start_us) & (t <= (t[-1] if stop_us is None else stop_us)))
         if keep.size < 2:
@@ -351,7 +350,6 @@ class VideoScene(Scene):
         self.upsample, self.channel = upsample, channel
         self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
         self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
-        self._lut_crf = None
         h0, w0 = self._input.size
         if height is None and width is None:
             height, width = h0, w0
