@@ -37,22 +37,60 @@ def event_change(events, c_on, c_off, width):
     return kernels.event_change(events["x"], events["y"], events["p"], width, c_on, c_off)
 
 
-def calibrate_scale(d_start, d_end, change, net, clipped, params: AKFParams):
+def calibrate_scale(d_start, d_end, change, net, clipped, params: AKFParams, return_valid: bool = False):
     """Per-pixel contrast scale c_p^k / c (eq. 12): (L^D_end - L^D_start) / (nominal event change).
 
     Guards (the scale stays 1, i.e. the nominal contrast): calibration disabled; fewer than calib_min_events net
     events; either deblurred frame clipped; ratio outside calib_scale_range (this also rejects opposite signs).
+    return_valid: also return the bool mask of the pixels that were calibrated.
     """
     scale = np.ones_like(change)
-    if not params.calibrate:
-        return scale
-    ok = (np.abs(net) >= max(params.calib_min_events, 1)) & ~clipped
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = (d_end - d_start) / change
-    lo, hi = params.calib_scale_range
-    ok &= (ratio >= lo) & (ratio <= hi)
-    scale[ok] = ratio[ok]
-    return scale
+    ok = np.zeros(change.shape, bool)
+    if params.calibrate:
+        ok = (np.abs(net) >= max(params.calib_min_events, 1)) & ~clipped
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = (d_end - d_start) / change
+        lo, hi = params.calib_scale_range
+        ok &= (ratio >= lo) & (ratio <= hi)
+        scale[ok] = ratio[ok]
+    return (scale, ok) if return_valid else scale
+
+
+class ContrastCalibration:
+    """Eq. 12 calibration carried across intervals: a pixel's threshold is a property of the pixel, so what the
+    intervals with two unclipped frames measured also holds where its frames are clipped (which the paper leaves at
+    the nominal contrast, so calibration barely acts on data whose frames clip where the events matter).
+
+    Per pixel p it accumulates A_p = sum |L^D_end - L^D_start| and B_p = sum |nominal change| over the intervals
+    calibrated so far (causal: interval j uses intervals 0..j), and the pooled scale g = sum_p A_p / sum_p B_p
+    (a global correction of the nominal contrast, 1 before any evidence). Interval j's scale is eq. 12's ratio where
+    that interval is calibrated, else the carried (A_p + kappa g) / (B_p + kappa), clipped to calib_scale_range,
+    kappa = params.calib_prior (log units of evidence: the shrinkage toward g of pixels with little evidence).
+    With params.calibrate False every scale is 1 (the nominal contrast).
+    """
+
+    def __init__(self, n: int, params: AKFParams):
+        self.params = params
+        self.a, self.b = np.zeros(n), np.zeros(n)
+
+    def carried(self) -> np.ndarray:
+        """The carried scale of every pixel (1 when calibration is off)."""
+        if not self.params.calibrate:
+            return np.ones_like(self.a)
+        total_b = self.b.sum()
+        g = self.a.sum() / total_b if total_b > 0 else 1.0
+        k = self.params.calib_prior
+        lo, hi = self.params.calib_scale_range
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(self.b + k > 0, (self.a + k * g) / (self.b + k), g)
+        return np.clip(s, lo, hi)
+
+    def interval(self, d_start, d_end, change, net, clipped) -> np.ndarray:
+        """The scale of one interval (see the class docstring); accumulates its calibrated pixels first."""
+        scale, ok = calibrate_scale(d_start, d_end, change, net, clipped, self.params, return_valid=True)
+        self.a[ok] += np.abs(d_end[ok] - d_start[ok])
+        self.b[ok] += np.abs(change[ok])
+        return np.where(ok, scale, self.carried())
 
 
 def interval_start(d_start, d_end, change, scale, end_clipped):

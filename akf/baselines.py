@@ -4,7 +4,8 @@ frames only (nearest / linear blend) and direct event integration.
 A frame k is taken to describe the scene at its mid-exposure time tau_k = (start + end) / 2, and it is used from
 then on (zero-order hold, causal). Intensities are CRF^-1 scaled to frame 0's exposure time (times T_0 / T_k).
 Output images at t include the events with timestamps < t; output is float32
-(T, H, W) linear intensity in the CRF's scaled-irradiance units (exp(log) - I0 for the log-domain filters).
+(T, H, W) linear intensity in the CRF's scaled-irradiance units (max(exp(log) - I0, 0) for the log-domain filters:
+never negative). crf is a crf_models curve or its registered name.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from sim.events import slice_time
 
 from . import kernels
 from .augmentation import columns
-from .inputs import Inputs, validate_inputs
+from .inputs import Inputs, as_crf, validate_inputs
 from .params import AKFParams
 
 _I0 = AKFParams().i0
@@ -65,45 +66,75 @@ def _crossover_alpha(crossover_hz, alpha):
 
 def complementary_filter(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
                          crossover_hz=None, alpha=None, adaptive_gain=False, adaptive_factor=0.1,
-                         adaptive_margin=0.05, i0=_I0, bit_depth=8):
+                         adaptive_margin=0.05, max_intensity=1.0, i0=_I0, bit_depth=8):
     """Complementary filter (Scheerlinck, Barnes, Mahony, ACCV 2018) on the log image L = log(I + I0).
 
-    Per event x <- L^F + (x - L^F) exp(-alpha dt) + sigma c: events are high-passed, the latest frame's log L^F
-    low-passed, with crossover alpha (rad/s) = 2 pi crossover_hz (default 0.5 Hz, the original ROS default).
-    adaptive_gain: pixels whose frame log lies within adaptive_margin * (max - min) of that frame's min or max log
-    (near saturation) use alpha * adaptive_factor, so events dominate where the frame is clipped.
-    The filter starts at tau_0 from L^F of frame 0.
+    dL/dt = E(t) - alpha (L - L^F): events E are high-passed, the latest frame's log L^F low-passed; per event
+    L <- L^F + (L - L^F) exp(-alpha dt) + sigma c, with crossover alpha (rad/s) = 2 pi crossover_hz (default
+    0.5 Hz, the original ROS default). The filter starts at tau_0 from L^F of frame 0.
+
+    Bounded output: the state is kept in [log(I0), log(max_intensity + I0)], i.e. I in [0, max_intensity] (x
+    units; default 1, the top of the CRF's input range: the full well), and L^F likewise; None: unbounded (the
+    textbook filter, whose event integration at a mismatched threshold can run far above anything the sensor
+    saw where frames are clipped).
+    adaptive_gain (the paper's adaptive crossover): alpha(p) = alpha for frame logs in [L_low, L_high], falling
+    linearly to adaptive_factor * alpha (lambda) at the ends L_min, L_max of what the frame can represent
+    (log of CRF^-1(0) and CRF^-1(1) in frame 0's exposure units); L_low / L_high lie adaptive_margin * (L_max -
+    L_min) inside them. Events thus dominate where the frame is (nearly) clipped; the bound keeps the state
+    finite even for lambda = 0 (an integrator there).
+    Returns float32 (T, H, W) intensity max(exp(L) - I0, 0) in the CRF's scaled-irradiance units.
     """
     if crossover_hz is None and alpha is None:
         crossover_hz = 0.5
     a = _crossover_alpha(crossover_hz, alpha)
+    for name, v, lo, hi in (("adaptive_factor", adaptive_factor, 0.0, 1.0), ("adaptive_margin", adaptive_margin,
+                                                                             0.0, 0.5)):
+        if not (isinstance(v, (int, float)) and lo <= v <= hi):
+            raise InvalidParameterError(f"{name} must be in [{lo}, {hi}], got {v!r}")
+    if max_intensity is not None and not (math.isfinite(max_intensity) and max_intensity > 0):
+        raise InvalidParameterError(f"max_intensity must be a finite number > 0 (x units) or None, "
+                                    f"got {max_intensity!r}")
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
-    return _cf(inp, lambda k: _log_frame(inp, crf, k, i0), a, adaptive_gain, adaptive_factor, adaptive_margin, i0)
+    crf = as_crf(crf)
+    bounds = (math.log(i0), math.log(max_intensity + i0)) if max_intensity is not None else _UNBOUNDED
 
+    def log_frame(k):
+        return np.clip(_log_frame(inp, crf, k, i0), *bounds)
 
-def _cf(inp: Inputs, log_frame, a, adaptive_gain, adaptive_factor, adaptive_margin, i0):
-    """The complementary filter over validated inputs; log_frame(k) gives frame k's flat log image on demand."""
-
-    def gains(lf):
+    def gains(k, lf):
         if not adaptive_gain:
             return np.full(lf.shape[0], a)
-        lo, hi = lf.min(), lf.max()
-        m = adaptive_margin * (hi - lo)
-        return np.where((lf <= lo + m) | (lf >= hi - m), a * adaptive_factor, a)
+        g = inp.exposure_gain(k)
+        l_min, l_max = (math.log(g * float(crf.inverse(y)) + i0) for y in (0.0, 1.0))
+        m = adaptive_margin * (l_max - l_min)
+        # 0 at L_min / L_max, 1 inside [L_low, L_high]
+        ramp = np.clip(np.minimum(lf - l_min, l_max - lf) / m, 0.0, 1.0) if m > 0 else np.ones_like(lf)
+        return a * (adaptive_factor + (1 - adaptive_factor) * ramp)
 
+    out = _cf(inp, log_frame, gains, bounds, i0)
+    return np.maximum(out, 0.0, out=out)
+
+
+_UNBOUNDED = (-1e300, 1e300)  # finite: the kernels are compiled with fastmath "ninf"
+
+
+def _cf(inp: Inputs, log_frame, gains, bounds, i0):
+    """The complementary filter over validated inputs; log_frame(k) gives frame k's flat log image on demand,
+    gains(k, log frame) the per-pixel crossover (rad/s), bounds the (lo, hi) log range of the state."""
     w = inp.shape[1]
     lf0 = log_frame(0)
-    state = {"lf": lf0, "alpha": gains(lf0)}
+    state = {"lf": lf0, "alpha": gains(0, lf0)}
     x = state["lf"].copy()
     t0 = int(math.floor(inp.tau[0]))
     tl = np.full(x.shape[0], t0, np.int64)
+    lo, hi = float(bounds[0]), float(bounds[1])
 
     def on_switch(k):
         lf = log_frame(k)
-        state["lf"], state["alpha"] = lf, gains(lf)
+        state["lf"], state["alpha"] = lf, gains(k, lf)
 
     def run_events(et, ex, ey, ep):
-        kernels.cf_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x, tl, state["lf"], state["alpha"])
+        kernels.cf_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x, tl, state["lf"], state["alpha"], lo, hi)
 
     def publish(t, out):
         kernels.cf_publish(np.int64(t), x, tl, state["lf"], state["alpha"], i0, out)
@@ -121,7 +152,7 @@ def high_pass_filter(events, shape, output_times_us, *, contrast=0.2, crossover_
     h, w = shape
     frames = np.zeros((1, h, w), np.uint8)
     inp = validate_inputs(events, frames, [t0_us], [t0_us], output_times_us, contrast, 8)
-    out = _cf(inp, lambda k: np.zeros(h * w), a, False, 1.0, 0.0, 0.0)
+    out = _cf(inp, lambda k: np.zeros(h * w), lambda k, lf: np.full(h * w, a), _UNBOUNDED, 0.0)
     return np.log(out)
 
 
@@ -132,6 +163,7 @@ def frames_only(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     if mode not in ("nearest", "linear"):
         raise InvalidParameterError(f"frames_only mode must be 'nearest' or 'linear', got {mode!r}")
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     tau, nf = inp.tau, inp.frames.shape[0]
     out = np.zeros((inp.out_t.shape[0], *inp.shape), np.float32)
     cache = {}
@@ -162,6 +194,7 @@ def direct_integration(events, frames, frame_t_start_us, frame_t_end_us, crf, ou
                        i0=_I0, bit_depth=8):
     """The log of the first frame at tau_0 plus the contrast times the signed event count since then."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     x = _log_frame(inp, crf, 0, i0)
     w = inp.shape[1]
 
@@ -170,7 +203,7 @@ def direct_integration(events, frames, frame_t_start_us, frame_t_end_us, crf, ou
 
     def publish(t, out):
         if out.shape[0]:
-            out[:] = np.exp(x) - i0
+            out[:] = np.maximum(np.exp(x) - i0, 0.0)
 
     return _run_log_filter(inp, int(math.floor(inp.tau[0])), [], None, run_events, publish)
 

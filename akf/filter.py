@@ -10,8 +10,8 @@ from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
 
 from . import kernels
-from .augmentation import calibrate_scale, edi_deblur, event_change, interval_start
-from .inputs import Inputs, validate_inputs
+from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
+from .inputs import Inputs, as_crf, validate_inputs
 from .noise import frame_measurement
 from .params import AKFParams
 
@@ -31,6 +31,8 @@ class _Frames:
     def __init__(self, inp: Inputs, crf, params: AKFParams):
         self.inp, self.crf, self.params = inp, crf, params
         self._meas, self._deb = {}, {}
+        self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
+        self._next = 0  # intervals must be taken in order (the calibration accumulates)
 
     def measurement(self, k):
         if k not in self._meas:
@@ -55,17 +57,21 @@ class _Frames:
     def interval(self, j):
         """(curve value at s_j, contrast scale, clip side) of the interval from frame j to frame j + 1; the side is
         +1 / -1 where both frames are clipped high / low. The last frame's interval is open-ended: forward
-        integration from its deblurred start with the nominal contrast, side of that frame."""
+        integration from its deblurred start with the carried contrast calibration, side of that frame.
+        Intervals are taken once each, in order (see akf.augmentation.ContrastCalibration)."""
+        if j != self._next:
+            raise AssertionError(f"interval {j} taken out of order (expected {self._next})")
+        self._next += 1
         inp = self.inp
         d_start = self.deblurred(j)[0]
         if j == inp.frames.shape[0] - 1:
-            return d_start.copy(), np.ones_like(d_start), self.measurement(j).side.ravel()
+            return d_start.copy(), self._calibration.carried(), self.measurement(j).side.ravel()
         d_end = self.deblurred(j + 1)[1]
         ev = slice_time(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
         change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
         start_clipped = self.measurement(j).clipped.ravel()
         end_clipped = self.measurement(j + 1).clipped.ravel()
-        scale = calibrate_scale(d_start, d_end, change, net, start_clipped | end_clipped, self.params)
+        scale = self._calibration.interval(d_start, d_end, change, net, start_clipped | end_clipped)
         side_a, side_b = self.measurement(j).side.ravel(), self.measurement(j + 1).side.ravel()
         side = np.where(side_a == side_b, side_b, 0)
         return interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side
@@ -100,6 +106,7 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
     if np.any((pixels < 0) | (pixels >= h * w)):
@@ -158,7 +165,8 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
-    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models object (inverse, variance).
+    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models curve or its name
+    (e.g. "window": crf_models.get(name) with default parameters).
     output_times_us: non-decreasing int64 us, none before the first exposure starts; the image at t includes the
     events with timestamps < t. contrast: nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W)
     per-pixel maps (c_off as a magnitude). leak_rate_hz: the sensor's mean leak rate (Hz: ON events per second of a
@@ -171,7 +179,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
     nominal contrasts, as in the paper.
 
-    Returns float32 (T, H, W) intensity I = exp(L_hat) - I0 in the CRF's scaled-irradiance units (of frame 0's
+    Returns float32 (T, H, W) intensity I = max(exp(L_hat) - I0, 0) (radiance is never negative) in the CRF's scaled-irradiance units (of frame 0's
     exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
     requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
     P is the variance under the paper's noise model, not a calibrated error bar: the model has no term for the
@@ -190,6 +198,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    crf = as_crf(crf)
     nf, (h, w) = inp.frames.shape[0], inp.shape
     n, nt = h * w, inp.out_t.shape[0]
     out_i = np.zeros((nt, h, w), np.float32)
@@ -247,5 +256,6 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
             j += 1
         if j < nt:
             kernels.akf_events(*(c[i0:] for c in cols), w, S, C, te_pad, win, noise)
+    np.maximum(out_i, 0.0, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)

@@ -6,8 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import crf_models
 from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError
-from sim.events import validate_events
+from sim.events import check_times_us, validate_events
 
 
 @dataclass(frozen=True)
@@ -39,14 +40,28 @@ class Inputs:
         return self.frames[k].astype(np.float64) / self.full_scale
 
 
+def as_crf(crf):
+    """A crf_models curve from a curve object or a registered name ("window", "linear", ...: crf_models.get(name)
+    with its default parameters)."""
+    if isinstance(crf, str):
+        try:
+            return crf_models.get(crf)
+        except crf_models.CRFError as e:
+            raise InvalidParameterError(f"crf: {e}") from None
+    if not (hasattr(crf, "inverse") and hasattr(crf, "variance")):
+        raise InvalidParameterError(f"crf must be a crf_models curve or its name, got {type(crf).__name__}")
+    return crf
+
+
 def _times(a, name: str, n: int | None = None) -> np.ndarray:
     a = np.asarray(a)
     if a.ndim != 1 or (n is not None and a.shape[0] != n):
         length = "" if n is None else f" of length {n}"
         raise EvsimInputError(f"{name} must be one-dimensional{length}, got shape {a.shape}")
-    if a.size and not np.issubdtype(a.dtype, np.integer):
-        raise EvsimInputError(f"{name} must be integer microseconds, got dtype {a.dtype}")
-    return a.astype(np.int64)
+    return check_times_us(a, name)  # integer, no int64 wrap of uint64 >= 2**63, |t| <= 2**62 us
+
+
+MAX_CONTRAST = 5.0  # log units: a factor e**5 (about 150) per event; real sensors use 0.1..1
 
 
 def contrast_maps(contrast, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -62,9 +77,10 @@ def contrast_maps(contrast, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndar
     else:
         raise InvalidParameterError(f"contrast must be a scalar, an (on, off) pair or a (2, {shape[0]}, {shape[1]}) "
                                     f"array, got shape {c.shape}")
-    if not (np.all(np.isfinite(c_on)) and np.all(np.isfinite(c_off)) and c_on.min() > 0 and c_off.min() > 0):
-        raise InvalidParameterError("contrast thresholds must be finite and > 0 (log units; give the OFF threshold "
-                                    "as a magnitude)")
+    if not (np.all(np.isfinite(c_on)) and np.all(np.isfinite(c_off)) and c_on.min() > 0 and c_off.min() > 0
+            and max(c_on.max(), c_off.max()) <= MAX_CONTRAST):
+        raise InvalidParameterError(f"contrast thresholds must be finite, > 0 and <= {MAX_CONTRAST:g} (log units; "
+                                    "give the OFF threshold as a magnitude)")
     return c_on, c_off
 
 

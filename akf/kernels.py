@@ -375,13 +375,14 @@ def _decay(x, lf, alpha, a, t):
 
 
 @njit(cache=True, fastmath=FAST)
-def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha):
+def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha, lo, hi):
     """Complementary filter (Scheerlinck et al. 2018): decay toward the frame log LF at rate alpha (rad/s), then add
-    the event's contrast. With LF = 0 this is the events-only high-pass filter."""
+    the event's contrast; the state is kept in [lo, hi] (log units; -inf, inf: unbounded). With LF = 0 this is the
+    events-only high-pass filter."""
     for n in range(et.shape[0]):
         i = np.int64(ey[n]) * width + np.int64(ex[n])
         t = et[n]
-        X[i] = _decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if ep[n] > 0 else -c_off[i])
+        X[i] = min(max(_decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if ep[n] > 0 else -c_off[i]), lo), hi)
         tl[i] = t
 
 

@@ -8,6 +8,12 @@
   cd/m^2 (default 100: I = 1 is SDR reference white), clamped to [0.005, 10000] cd/m^2 and encoded with the
   'banding_glare' PU21 curve (100 cd/m^2 -> about 256); pu21_psnr uses a peak of 256 (the encoded value of
   100 cd/m^2, as in the authors' pu_psnr) and pu21_ssim a data_range of 256.
+- mse01 / ssim01: the AKF paper's protocol. Reconstruction and reference are both brought to [0, 1] by one rule,
+  v = clip(I / white, 0, 1), with `white` the intensity that maps to 1 (given by the caller: for AHDR data the
+  radiance the generator recorded as white, for held-out frames CRF^-1(1)); SSIM with data_range 1.
+- log_mse: mean squared difference of log(I + LOG_EPS) (natural log, LOG_EPS = 1e-3 x units, the AKF's I0) on
+  absolute values: errors of highlights and shadows count by ratio, not by absolute size.
+Every metric's normalisation in one line is NORMALISATION[name]; score() applies any metric by name.
 """
 
 from __future__ import annotations
@@ -77,4 +83,59 @@ def pu21_ssim(x, ref, luminance_scale: float = 100.0) -> float:
     return ssim(pu21_encode(luminance_scale * x), pu21_encode(luminance_scale * ref), data_range=PU21_PEAK)
 
 
-METRICS = {"mse": mse, "psnr": psnr, "ssim": ssim, "pu21_psnr": pu21_psnr, "pu21_ssim": pu21_ssim}
+LOG_EPS = 1e-3
+
+
+def to_unit_range(x, white: float) -> np.ndarray:
+    """The paper protocol's normalisation: clip(x / white, 0, 1)."""
+    if not (np.isfinite(white) and white > 0):
+        raise EvsimInputError(f"the [0, 1] normalisation needs a white level > 0, got {white}")
+    return np.clip(np.asarray(x, np.float64) / white, 0.0, 1.0)
+
+
+def mse01(x, ref, white: float = 1.0) -> float:
+    """MSE after clip(I / white, 0, 1) of both images."""
+    x, ref = _pair(x, ref)
+    return mse(to_unit_range(x, white), to_unit_range(ref, white))
+
+
+def ssim01(x, ref, white: float = 1.0) -> float:
+    """SSIM (data_range 1) after clip(I / white, 0, 1) of both images."""
+    x, ref = _pair(x, ref)
+    return ssim(to_unit_range(x, white), to_unit_range(ref, white), data_range=1.0)
+
+
+def log_mse(x, ref) -> float:
+    """Mean squared difference of log(I + LOG_EPS) (negative intensities count as 0)."""
+    x, ref = _pair(x, ref)
+    return mse(np.log(np.maximum(x, 0) + LOG_EPS), np.log(np.maximum(ref, 0) + LOG_EPS))
+
+
+METRICS = {"mse01": mse01, "ssim01": ssim01, "mse": mse, "psnr": psnr, "ssim": ssim, "log_mse": log_mse,
+           "pu21_psnr": pu21_psnr, "pu21_ssim": pu21_ssim}
+#: the metrics that take the white level of the [0, 1] protocol
+NEEDS_WHITE = frozenset({"mse01", "ssim01"})
+#: how each metric normalises its inputs, one line each (printed with evsim evaluate's tables)
+NORMALISATION = {
+    "mse01": "paper protocol: clip(I / white, 0, 1) of both images, then MSE",
+    "ssim01": "paper protocol: clip(I / white, 0, 1) of both images, SSIM with data_range 1",
+    "mse": "raw linear intensities, no rescaling",
+    "psnr": "raw linear intensities, peak = reference max",
+    "ssim": "raw linear intensities, data_range = reference max - min",
+    "log_mse": "absolute values: MSE of ln(I + 1e-3)",
+    "pu21_psnr": "absolute values: PU21 of Y = 100 I cd/m^2, peak 256",
+    "pu21_ssim": "absolute values: PU21 of Y = 100 I cd/m^2, data_range 256",
+}
+#: larger is better for these (the others are errors)
+HIGHER_IS_BETTER = frozenset({"psnr", "ssim", "ssim01", "pu21_psnr", "pu21_ssim"})
+
+
+def score(metric: str, x, ref, white: float | None = None) -> float:
+    """metric (a METRICS name) of image x against ref; white is required by the NEEDS_WHITE metrics."""
+    if metric not in METRICS:
+        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join(METRICS)}")
+    if metric in NEEDS_WHITE:
+        if white is None:
+            raise EvsimInputError(f"metric {metric!r} needs the white level of the [0, 1] protocol")
+        return METRICS[metric](x, ref, white=white)
+    return METRICS[metric](x, ref)

@@ -45,7 +45,10 @@ class AKFParams:
         calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
         calib_min_events: calibrate only where the net signed event count over the interval is at least this.
         calib_scale_range: accepted (min, max) of the calibrated/nominal contrast ratio; outside it, or where either
-            deblurred frame is clipped (Rbar at max_variance), the nominal contrast is kept.
+            deblurred frame is clipped (Rbar at max_variance), the interval is not calibrated by eq. 12 and takes
+            the pixel's calibration carried from earlier intervals (akf.augmentation.ContrastCalibration).
+        calib_prior: shrinkage (log units of measured change) of a pixel's carried calibration toward the pooled
+            one: a pixel whose calibrated intervals changed by calib_prior in total is half its own, half pooled.
 
     The defaults suit x in about [0, 1] with 8-bit frames: sigma_im2 = 1e-6 is about one quantisation step of the
     AHDR window CRF squared, and max_variance = 100 sigma_im2 keeps a weak pull of clipped frames that bounds the
@@ -65,6 +68,7 @@ class AKFParams:
     calibrate: bool = True
     calib_min_events: int = 2
     calib_scale_range: tuple[float, float] = (0.5, 2.0)
+    calib_prior: float = 1.0
 
     def __post_init__(self):
         for f in fields(self):

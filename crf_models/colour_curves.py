@@ -10,16 +10,19 @@ are central differences of the exact curve (relative step 1e-6, one-sided at the
 from __future__ import annotations
 
 import warnings
-from functools import partial
 
 import numpy as np
 
-with warnings.catch_warnings():
-    # colour-science warns at import when matplotlib (an optional extra here) is absent; nothing here plots.
-    warnings.filterwarnings("ignore", message='"Matplotlib" related API features are not available')
-    import colour
-
 from .base import CRF, CRFError
+
+
+def _models():
+    """colour.models, imported on first use: importing colour-science costs seconds (it pulls in matplotlib)."""
+    with warnings.catch_warnings():
+        # colour-science warns at import when matplotlib (an optional extra here) is absent; nothing here plots.
+        warnings.filterwarnings("ignore", message='"Matplotlib" related API features are not available')
+        import colour
+    return colour.models
 
 
 class _ColourCurve(CRF):
@@ -52,8 +55,11 @@ class SRGBCRF(_ColourCurve):
     """IEC 61966-2-1 sRGB encoding (linear toe of slope 12.92, then 1.055 x^(1/2.4) - 0.055)."""
 
     name = "srgb"
-    _encode = staticmethod(colour.models.eotf_inverse_sRGB)
-    _decode = staticmethod(colour.models.eotf_sRGB)
+    def _encode(self, v):
+        return _models().eotf_inverse_sRGB(v)
+
+    def _decode(self, v):
+        return _models().eotf_sRGB(v)
 
     def __init__(self, **kw):
         super().__init__(**kw)
@@ -67,8 +73,11 @@ class BT709CRF(_ColourCurve):
     """ITU-R BT.709 OETF (linear toe of slope 4.5, then 1.099 x^0.45 - 0.099)."""
 
     name = "bt709"
-    _encode = staticmethod(colour.models.oetf_BT709)
-    _decode = staticmethod(colour.models.oetf_inverse_BT709)
+    def _encode(self, v):
+        return _models().oetf_BT709(v)
+
+    def _decode(self, v):
+        return _models().oetf_inverse_BT709(v)
 
     def __init__(self, **kw):
         super().__init__(**kw)
@@ -82,8 +91,11 @@ class HLGCRF(_ColourCurve):
     """ITU-R BT.2100 Hybrid Log-Gamma OETF (square root below 1/12, logarithmic above)."""
 
     name = "hlg"
-    _encode = staticmethod(colour.models.oetf_BT2100_HLG)
-    _decode = staticmethod(colour.models.oetf_inverse_BT2100_HLG)
+    def _encode(self, v):
+        return _models().oetf_BT2100_HLG(v)
+
+    def _decode(self, v):
+        return _models().oetf_inverse_BT2100_HLG(v)
 
     def __init__(self, **kw):
         super().__init__(**kw)
@@ -105,9 +117,13 @@ class LogC3CRF(_ColourCurve):
         if EI not in self._EIS:
             raise CRFError(f"EI must be one of {self._EIS}, got {EI}")
         self.EI = int(EI)
-        self._encode = partial(colour.models.log_encoding_ARRILogC3, EI=self.EI)
-        self._decode = partial(colour.models.log_decoding_ARRILogC3, EI=self.EI)
         self._init_curve(float(self._dec(1.0)) if in_max is None else in_max)
+
+    def _encode(self, v):
+        return _models().log_encoding_ARRILogC3(v, EI=self.EI)
+
+    def _decode(self, v):
+        return _models().log_decoding_ARRILogC3(v, EI=self.EI)
 
     def _own_params(self):
         return {"EI": self.EI, "in_max": self.in_max}
@@ -118,8 +134,11 @@ class SLog3CRF(_ColourCurve):
     coded as 1.0, about 38.42)."""
 
     name = "slog3"
-    _encode = staticmethod(colour.models.log_encoding_SLog3)
-    _decode = staticmethod(colour.models.log_decoding_SLog3)
+    def _encode(self, v):
+        return _models().log_encoding_SLog3(v)
+
+    def _decode(self, v):
+        return _models().log_decoding_SLog3(v)
 
     def __init__(self, in_max: float | None = None, **kw):
         super().__init__(**kw)

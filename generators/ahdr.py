@@ -6,7 +6,8 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
 - reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
 - threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
   spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
-  reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output).
+  reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
+  reference_white_radiance: the radiance the evaluation's [0, 1] protocol maps to 1 (98th percentile at t = 0).
 Memory stays flat in the sequence length: one chunk of samples and one frame are alive at a time.
 """
 
@@ -33,6 +34,10 @@ from .sampling import make_sampler
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
              "scikit-image", "tqdm")
+REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
+MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
+MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
+MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
 _CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
 
 
@@ -47,9 +52,9 @@ class AHDRConfig:
         t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
         radiance units; the resolved values are recorded in the metadata.
     sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample, min/max step in microseconds)
-        or "fixed" (rate_hz samples per second).
+        or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
-        regular grid (0: none).
+        regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
     compression: of the HDF5 datasets: "gzip" (default, smallest), "lzf" (faster to write) or None.
     """
@@ -75,8 +80,11 @@ class AHDRConfig:
         if not isinstance(self.dvs, sim.DVSParams) or not isinstance(self.camera, sim.CameraParams):
             raise InvalidParameterError("AHDRConfig: dvs must be a sim.DVSParams and camera a sim.CameraParams")
         object.__setattr__(self, "reference_times_us", tuple(int(t) for t in self.reference_times_us))
-        if not (math.isfinite(self.reference_rate_hz) and self.reference_rate_hz >= 0):
-            raise InvalidParameterError(f"reference_rate_hz must be >= 0, got {self.reference_rate_hz}")
+        if not (math.isfinite(self.reference_rate_hz) and 0 <= self.reference_rate_hz <= MAX_RATE_HZ):
+            raise InvalidParameterError(f"reference_rate_hz must be in [0, {MAX_RATE_HZ:g}] Hz, got "
+                                        f"{self.reference_rate_hz}")
+        if not (math.isfinite(self.rate_hz) and 0 < self.rate_hz <= MAX_RATE_HZ):
+            raise InvalidParameterError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate_hz}")
         if self.compression not in ("gzip", "lzf", None):
             raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {self.compression!r}")
         if self.sampling not in ("adaptive", "fixed"):
@@ -166,6 +174,11 @@ class _TimedSource:
 
 def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     times = set(config.reference_times_us)
+    n = len(times) + duration_us * 1e-6 * config.reference_rate_hz
+    if n > MAX_REFERENCE_FRAMES:
+        raise InvalidParameterError(f"{n:.3g} reference frames requested (reference_rate_hz "
+                                    f"{config.reference_rate_hz:g} over {duration_us} us): at most "
+                                    f"{MAX_REFERENCE_FRAMES}")
     if config.reference_rate_hz > 0:
         step = 1e6 / config.reference_rate_hz
         times.update(int(round(k * step)) for k in range(int(duration_us / step) + 1))
@@ -200,6 +213,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                                log_eps=dvs_params.dark_fraction * dvs_params.full_illumination,
                                breakpoints_us=breakpoints)
     else:
+        if duration * 1e-6 * config.rate_hz > MAX_FIXED_SAMPLES:
+            raise InvalidParameterError(f"fixed sampling at {config.rate_hz:g} Hz over {duration} us needs more "
+                                        f"than {MAX_FIXED_SAMPLES} DVS input frames")
         sampler = make_sampler(src, config.sampling, rate_hz=config.rate_hz, breakpoints_us=breakpoints)
     resolved = config.to_dict()
     resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))
@@ -214,6 +230,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
         "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
                                / cam_params.full_well_e) if len(schedule) else None,
+        # the paper's [0, 1] protocol: the radiance that maps to 1 (the AHDR rule: the 98th percentile at t = 0)
+        "reference_white_radiance": float(np.percentile(scene.radiance(0), REFERENCE_WHITE_PERCENTILE)),
         "packages": package_versions(),
         **(metadata or {}),
     }
@@ -236,8 +254,11 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             write("add_events", events, labels)
             counts["events"] += events.size
 
-        def reference(t):
-            write("add_reference", src.radiance(t), t)
+        # every reference time is a sampler breakpoint: the DVS pass writes the image it rendered there (once)
+        ref_times = set(refs) | set(schedule[:, 1].tolist())
+
+        def reference(img, t):
+            write("add_reference", img, t)
             counts["references"] += 1
 
         writer.set_crf(meta["crf"])
@@ -245,6 +266,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             writer.set_threshold_maps(dvs.threshold_map)
         chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
         with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+            # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
+            bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
             stack, times = [], []
             samples = iter(sampler)
             while True:
@@ -254,10 +277,13 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                 if item is None:
                     break
                 t, img = item
+                if t in ref_times:
+                    reference(img, t)
                 stack.append(img)
                 times.append(t)
                 if len(stack) == chunk:
                     feed(stack, times)
+                    bar.set_postfix_str("", refresh=False)
                     bar.update(t - bar.n)
                     stack, times = [], []
             if stack:
@@ -266,21 +292,18 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         rendered_for_dvs = src.seconds
         with tqdm(total=len(schedule), unit="frame", desc="frames",
                   disable=not progress, leave=False) as bar:
+            bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
             frames = camera.capture(src, irradiance=False, clean_response=False)
             while True:
                 t0, s0 = time.perf_counter(), src.seconds
                 frame = next(frames, None)
                 timings["camera"] += (time.perf_counter() - t0) - (src.seconds - s0)
-                mid = None if frame is None else int(frame.t_mid_us)
-                while refs and (mid is None or refs[0] < mid):
-                    reference(refs.pop(0))
                 if frame is None:
                     break
-                if refs and refs[0] == mid:
-                    refs.pop(0)
-                write("add_frame", frame.image, int(frame.t_start_us), mid, int(frame.t_end_us))
-                reference(mid)
+                write("add_frame", frame.image, int(frame.t_start_us), int(frame.t_mid_us), int(frame.t_end_us))
                 counts["frames"] += 1
+                if counts["frames"] == 1:
+                    bar.set_postfix_str("", refresh=False)
                 bar.update(1)
         writer.update_metadata({"n_dvs_samples": sampler.n_samples,
                                 "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),

@@ -20,24 +20,10 @@ from sim import InvalidParameterError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig
+from .builtin_sequences import BUILTIN_SEQUENCES
 from .config import DatasetConfig, parse_config
 from .dataset import prepare_output_dir, write_index, write_sequence
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
-
-# The default dataset, in the configuration-file schema (see generators.config).
-BUILTIN_SEQUENCES = [
-    {"name": "astronaut_pan", "scene": {"type": "builtin_image", "image": "astronaut",
-                                        "trajectory": {"pan_px_per_s": [30.0, 8.0], "shake_px": 1.0,
-                                                       "shake_hz": 2.0}}},
-    {"name": "camera_zoom_rotate", "scene": {"type": "builtin_image", "image": "camera",
-                                             "trajectory": {"zoom_per_s": 0.2, "rotation_deg_per_s": 8.0}}},
-    {"name": "checkerboard", "scene": {"type": "checkerboard", "square_px": 12.0,
-                                       "velocity_px_per_s": [40.0, 10.0], "low": 0.02, "high": 400.0}},
-    {"name": "sun", "scene": {"type": "sun", "velocity_px_per_s": [40.0, 10.0]}},
-    {"name": "rotating_disk", "scene": {"type": "rotating_disk", "angular_speed_deg_s": 90.0}},
-    {"name": "moving_edge", "scene": {"type": "moving_edge", "speed_px_per_s": 60.0}},
-    {"name": "flicker", "scene": {"type": "flicker", "frequency_hz": 50.0}},
-]
 
 
 def builtin_dataset(*, duration_s: float = 1.0, height: int = 180, width: int = 240, seed: int = 0,

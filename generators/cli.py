@@ -1,6 +1,7 @@
 """The `evsim` command line. Each subcommand is a thin layer over the public Python API.
 
-Exit codes: 0 success, 2 usage error or bad input (message "evsim: error: ..."), 1 unexpected failure.
+Exit codes: 0 success, 2 usage error, bad input or a full disk (message "evsim: error: ..."), 1 unexpected
+failure, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); temporary files are removed on every exit path.
 Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz,
 speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units.
 """
@@ -8,20 +9,23 @@ speeds in pixels per second, angles in degrees, contrast thresholds in natural-l
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
+import signal
 import sys
 import traceback
 from pathlib import Path
 
 import sim
 
-from .formats.atomic import write_text_atomic
+from .format_names import EXPORT_FORMATS
 from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
-          "Exit codes: 0 success, 2 usage error or bad input, 1 unexpected failure.")
+          "Exit codes: 0 success, 2 usage error, bad input or full disk, 1 unexpected failure, "
+          "130 Ctrl-C, 143 SIGTERM.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
 
 
@@ -43,7 +47,7 @@ def _settings_from_flags(args) -> dict:
 
 def _scene_sequences(args) -> list[dict]:
     """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     if args.image is not None:
         traj = {"pan_px_per_s": list(args.pan), "zoom_per_s": args.zoom, "rotation_deg_per_s": args.rotation,
@@ -170,6 +174,7 @@ def _cmd_demo(args) -> int:
         return 0
     from .evaluation import UNITS, evaluate_recording, format_scores
     from .formats import load
+    from .formats.atomic import write_text_atomic
 
     table, _ = evaluate_recording(load(path))
     text = format_scores(table)
@@ -184,11 +189,34 @@ def _cmd_demo(args) -> int:
 def _cmd_evaluate(args) -> int:
     from .evaluation import evaluate_dataset, format_table, write_json
 
+    if args.task == "denoise":
+        return _evaluate_denoise(args)
+    if not 0 < args.tune_fraction < 1:
+        raise sim.EvsimInputError(f"--tune-fraction must lie in (0, 1), got {args.tune_fraction}")
+    tuning = {}
     result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                                     metrics=_names(args.metrics), method_options=_akf_options(args))
+                                     metrics=_names(args.metrics), method_options=_akf_options(args),
+                                     tune=args.tune, tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
+                                     tuning_out=tuning,
+                                     progress=None if args.no_progress else lambda t: print(t, file=sys.stderr))
     print(format_table(result, args.protocol, notes))
     if args.json is not None:
-        write_json(result, args.json)
+        write_json(result, args.json, tuning)
+        print(f"\nscores written to {args.json}")
+    return 0
+
+
+def _evaluate_denoise(args) -> int:
+    from .denoising import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
+
+    filters = None if args.filters is None else _names(args.filters)
+    result, notes = evaluate_denoise_dataset(args.dataset, filters=filters, reconstruct=not args.no_reconstruct,
+                                             protocol=args.protocol, methods=_names(args.methods),
+                                             metrics=_names(args.metrics), method_options=_akf_options(args),
+                                             progress=not args.no_progress)
+    print(format_denoise_table(result, notes))
+    if args.json is not None:
+        write_denoise_json(result, args.json)
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -198,10 +226,18 @@ def _cmd_reconstruct(args) -> int:
 
     if args.leak_hz is not None and args.method != "akf":
         raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
+        raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
+                                  "replace it")
     options = _akf_options(args).get(args.method)
-    for name, folder, n in reconstruct_dataset(args.dataset, args.out, method=args.method, times=args.times,
-                                               method_options=options):
-        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {folder}")
+    from .formats.atomic import atomic_path
+
+    with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
+        written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
+                                      method_options=options)
+    for name, folder, n in written:
+        print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {out / folder.relative_to(tmp)}")
     return 0
 
 
@@ -246,9 +282,7 @@ def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
     p.add_argument("--seed", type=_non_negative(int), default=None,
                    help="root seed (non-negative integer, numpy SeedSequence entropy; default: the config's, or 0)")
-    from .dataset import EXPORT_SUFFIX
-
-    p.add_argument("--format", choices=("native", *EXPORT_SUFFIX), default=None,
+    p.add_argument("--format", choices=EXPORT_FORMATS, default=None,
                    help="also export every sequence to this layout (the native HDF5 file is always written)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
@@ -265,7 +299,7 @@ def _add_sensor_flags(g) -> None:
 
 
 def _add_scene_flags(p) -> None:
-    from .builtin import BUILTIN_SEQUENCES
+    from .builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
     p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")
@@ -375,27 +409,69 @@ def build_parser() -> argparse.ArgumentParser:
                                                "an IJRR folder or an AKF .mat")
     ev.add_argument("--methods", default="akf,cf,frames", help="comma-separated methods (akf.METHODS; default "
                                                                "akf,cf,frames)")
-    ev.add_argument("--metrics", default="mse,psnr,ssim,pu21_psnr,pu21_ssim", help="comma-separated metrics "
-                                                                                   "(akf.METRICS)")
+    ev.add_argument("--metrics", default="mse01,ssim01,mse,log_mse,pu21_ssim",
+                    help="comma-separated metrics (akf.METRICS; default mse01,ssim01,mse,log_mse,pu21_ssim: the "
+                         "paper's [0, 1] protocol, raw MSE, log-domain MSE, PU21 SSIM; each table states its "
+                         "normalisation)")
     ev.add_argument("--protocol", choices=("reference", "interleave"), default="reference",
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
-    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}}")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
+                                              "tuning: {method: setting} with --tune)")
+    ev.add_argument("--tune", action="store_true",
+                    help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
+                         "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
+                         "every sequence's scored frames; all methods are then scored on the rest")
+    ev.add_argument("--tune-fraction", type=float, default=1 / 3,
+                    help="fraction of each sequence's scored frames that tunes (default 1/3)")
+    ev.add_argument("--tune-metric", default="mse01", help="metric the tuning minimises (maximises for "
+                                                           "SSIM/PSNR; default mse01)")
+    ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     _add_akf_flags(ev)
+    dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
+    dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",
+                    help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
+                         "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
+                         "methods on events denoised at each filter's default (needs files written with --labels; "
+                         "--json then writes generators.denoising's result)")
+    dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
+                                      "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
+                                      "installed)")
+    dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
     ev.set_defaults(func=_cmd_evaluate)
 
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
                         epilog=EPILOG)
     rc.add_argument("dataset", type=Path, help="as for evaluate")
     rc.add_argument("--out", type=Path, required=True, help="output folder (one sub-folder per sequence when the "
-                                                            "dataset has several)")
+                                                            "dataset has several), written atomically: it "
+                                                            "appears whole")
     rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")
+    rc.add_argument("--overwrite", action="store_true", help="replace an existing, non-empty --out (refused "
+                                                            "otherwise)")
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
     return parser
+
+
+class Terminated(BaseException):
+    """Raised in the main thread on SIGTERM, so that every writer's cleanup (temporary files) runs as on Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+_DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def _disk_full(e: OSError) -> bool:
+    """True for "no space left" / "quota" / "file too large" errors (h5py reports them in the message only)."""
+    text = str(e)
+    return e.errno in _DISK_FULL or any(os.strerror(n) in text for n in _DISK_FULL) or "errno = 28" in text
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -403,6 +479,7 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
     except SystemExit as e:  # argparse: --help (0) or a usage error (2), message already printed
         return int(e.code or 0)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
     except sim.EvsimInputError as e:
@@ -411,13 +488,26 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("evsim: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("evsim: terminated (SIGTERM); temporary files removed", file=sys.stderr)
+        return 128 + signal.SIGTERM
+
     except BrokenPipeError:  # the reader of our output went away (e.g. `evsim info f | head`): not a failure
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except Exception:
+    except Exception as e:
+        if isinstance(e, OSError) and _disk_full(e):
+            print(f"evsim: error: disk full or file too large, nothing written in its place: {e}", file=sys.stderr)
+            # HDF5 keeps the failed file's ids and can crash (SIGSEGV) when they are freed at interpreter exit:
+            # the temporary files are already removed, so leave now, skipping that teardown.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(2)
         traceback.print_exc()
         print("evsim: unexpected error (a bug: please report it with the traceback above)", file=sys.stderr)
         return 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

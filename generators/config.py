@@ -3,11 +3,12 @@
 A configuration describes a dataset of sequences. Every key is optional except [[sequence]].scene.type:
 
     seed = 0                      # root seed (numpy SeedSequence entropy); sequence i gets its i-th child
-    format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat
+    format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat | e2vid-txt |
+                                  # aedat4 | evt3 | evt2 | dat
 
     [defaults]                    # applies to every sequence; a sequence may override any of these keys
     duration_s = 1.0              # seconds
-    height = 180                  # pixels
+    height = 180                  # pixels (1..65535 per side, at most 2**25 pixels)
     width = 240                   # pixels
     sensor = "davis346"           # sim.DVSParams preset
     dvs = { pos_threshold = 0.2 } # sim.DVSParams fields (log units, Hz, microseconds as named)
@@ -18,8 +19,9 @@ A configuration describes a dataset of sequences. Every key is optional except [
                compression = "gzip" }   # or "lzf" (faster to write, larger) or "none"
 
     [[sequence]]
-    name = "desk_pan"
-    speeds = [0.5, 1.0, 2.0]      # optional: one sequence per factor, all scene speeds scaled by it
+    name = "desk_pan"             # a plain file name: no path separators, no leading dot, not empty
+    speeds = [0.5, 1.0, 2.0]      # optional: one sequence per factor (finite, > 0), all scene speeds scaled by it;
+                                  # the scene must set its speed (else the factors would be ignored: an error)
     scene = { type = "image", path = "Desk.exr", trajectory = { pan_px_per_s = [120.0, 0.0] } }
 
     [sweep]                       # for `evsim generate sweep` (first sequence only): lists of values
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +46,7 @@ from sim import EvsimInputError, InvalidParameterError
 
 from . import scenes
 from .ahdr import AHDRConfig
+from .formats import EXPORT_FORMATS
 
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
@@ -61,6 +65,8 @@ SCENE_TYPES = {
 _SPEED_KEYS = ("speed_px_per_s", "velocity_px_per_s", "angular_speed_deg_s")
 _TRAJECTORY_SPEED_KEYS = ("pan_px_per_s", "zoom_per_s", "rotation_deg_per_s", "shake_hz")
 
+MAX_SIDE_PX = 65535  # event coordinates are uint16
+MAX_PIXELS = 1 << 25  # about 33 M pixels (8K UHD): larger sensors are refused as almost surely a typo
 SAMPLING_KEYS = {"mode": str, "fraction": float, "min_step_us": int, "max_step_us": int, "rate_hz": float}
 OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": list, "reference_rate_hz": float,
                "compression": str}
@@ -156,11 +162,41 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
         raise _fail(f"{where}.output.compression",
                     f"must be 'gzip', 'lzf' or 'none', got {settings['output']['compression']!r}")
     for key in ("height", "width"):
-        if settings[key] < 1:
-            raise _fail(f"{where}.{key}", f"must be a positive number of pixels, got {settings[key]}")
-    if not settings["duration_s"] > 0:
-        raise _fail(f"{where}.duration_s", f"must be > 0 seconds, got {settings['duration_s']}")
+        if not 1 <= settings[key] <= MAX_SIDE_PX:
+            raise _fail(f"{where}.{key}", f"must be 1..{MAX_SIDE_PX} pixels, got {settings[key]}")
+    if settings["height"] * settings["width"] > MAX_PIXELS:
+        raise _fail(where, f"sensor of {settings['height']}x{settings['width']} pixels: at most {MAX_PIXELS}")
+    if not (math.isfinite(settings["duration_s"]) and settings["duration_s"] > 0):
+        raise _fail(f"{where}.duration_s", f"must be finite and > 0 seconds, got {settings['duration_s']}")
     return settings
+
+
+MAX_NAME_LEN = 200
+
+
+def check_sequence_name(where: str, name) -> str:
+    """A sequence name is a plain file-name stem: not empty, no path separator, no leading dot (hidden files,
+    "..") and at most MAX_NAME_LEN characters, so that <out>/<name>.h5 stays inside the output folder."""
+    name = _check_type(where, name, str)
+    if not name or len(name) > MAX_NAME_LEN:
+        raise _fail(where, f"must be 1..{MAX_NAME_LEN} characters, got {name!r:.80}")
+    if any(c in name for c in "/\\\0") or Path(name).is_absolute() or name.startswith("."):
+        raise _fail(where, f"must be a plain file name (no path separators, no leading dot), got {name!r}")
+    return name
+
+
+def _has_speed(scene: dict) -> bool:
+    traj = scene.get("trajectory")
+    return any(k in scene for k in _SPEED_KEYS) or (
+        isinstance(traj, dict) and any(k in traj for k in _TRAJECTORY_SPEED_KEYS))
+
+
+def _check_speed_values(where: str, scene: dict) -> None:
+    traj = scene.get("trajectory") if isinstance(scene.get("trajectory"), dict) else {}
+    for key, v in [*((k, scene[k]) for k in _SPEED_KEYS if k in scene),
+                   *((f"trajectory.{k}", traj[k]) for k in _TRAJECTORY_SPEED_KEYS if k in traj)]:
+        for x in v if isinstance(v, list) else [v]:
+            _check_type(f"{where}.scene.{key}", x, float)
 
 
 def _scale_speeds(scene: dict, k: float) -> dict:
@@ -183,7 +219,7 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
         raise _fail(where, "expected a table with at least 'type'")
     if "type" not in scene:
         raise _fail(f"{where}.type", f"missing; one of {', '.join(SCENE_TYPES)}")
-    if scene["type"] not in SCENE_TYPES:
+    if not isinstance(scene["type"], str) or scene["type"] not in SCENE_TYPES:
         raise _fail(f"{where}.type", f"unknown scene type {scene['type']!r}; one of {', '.join(SCENE_TYPES)}")
     scene = dict(scene)
     for key in ("path", "timestamps"):
@@ -206,8 +242,8 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
     if seed < 0:
         raise _fail(f"{source}: seed", f"must be >= 0, got {seed}")
     fmt = _check_type(f"{source}: format", data.get("format", "native"), str)
-    if fmt not in ("native", "e2vid", "ijrr", "akf-mat"):
-        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of native, e2vid, ijrr, akf-mat")
+    if fmt not in EXPORT_FORMATS:
+        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of {', '.join(EXPORT_FORMATS)}")
     defaults_table = _check_type(f"{source}: defaults", data.get("defaults", {}), dict)
     for key in defaults_table:
         if key not in SEQUENCE_KEYS:
@@ -225,13 +261,22 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
         for key in table:
             if key not in own and key not in SEQUENCE_KEYS:
                 raise _fail(f"{where}.{key}", f"unknown key (allowed: {', '.join([*own, *SEQUENCE_KEYS])})")
-        name = _check_type(f"{where}.name", table.get("name", f"seq{i:03d}"), str)
+        name = check_sequence_name(f"{where}.name", table.get("name", f"seq{i:03d}"))
         scene = _check_scene(f"{where}.scene", table.get("scene"), base_dir)
         settings = _resolve_settings(where, {k: v for k, v in table.items() if k in SEQUENCE_KEYS}, defaults)
         speeds = _check_type(f"{where}.speeds", table.get("speeds", [None]), list)
+        if "speeds" in table:
+            if not speeds:
+                raise _fail(f"{where}.speeds", "expected a non-empty list of speed factors")
+            _check_speed_values(where, scene)
+            if not _has_speed(scene):
+                raise _fail(f"{where}.speeds", "would be ignored: the scene sets none of "
+                                               f"{', '.join(_SPEED_KEYS)} or trajectory.{{{', '.join(_TRAJECTORY_SPEED_KEYS)}}}")
         for k in speeds:
             if k is not None:
                 k = _check_type(f"{where}.speeds", k, float)
+                if not (math.isfinite(k) and k > 0):
+                    raise _fail(f"{where}.speeds", f"speed factors must be finite and > 0, got {k}")
             seq_name = name if k is None else f"{name}_x{k:g}"
             if seq_name in names:
                 raise _fail(f"{where}.name", f"duplicate sequence name {seq_name!r}")
@@ -288,7 +333,9 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
             return src
         cls = getattr(scenes, SCENE_TYPES[kind])
         return cls(height, width, duration_us, **params)
-    except TypeError as e:  # an unexpected keyword argument: name it
+    except EvsimInputError:
+        raise
+    except (TypeError, ValueError) as e:  # an unexpected keyword argument, or a value of the wrong kind: name it
         raise _fail(where, f"bad parameter for scene type {kind!r}: {e}") from None
 
 

@@ -2,8 +2,7 @@
 
 Layout of an output folder:
     <name>.h5            the native file of each sequence (always written: it holds the ground truth)
-    <name>_e2vid.h5 | <name>_ijrr/ | <name>.mat | <name>_exr/    the export, when a format other than native is
-                         chosen
+    <name>_e2vid.h5 | <name>_ijrr/ | <name>.mat    the export, when a format other than native is chosen
     index.json           what the folder holds: generator, root seed, format, and per sequence its file, export,
                          seed record, scene, parameters and counts
 """
@@ -19,12 +18,13 @@ from sim import EvsimInputError
 from sim.seeding import seed_record
 
 from .ahdr import generate_ahdr
-from .config import DatasetConfig, build_scene, to_ahdr_config
+from .config import DatasetConfig, build_scene, check_sequence_name, to_ahdr_config
 from .formats import export
 from .formats.atomic import write_text_atomic
 
 INDEX_FILE = "index.json"
-EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "exr": "_exr"}
+EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
+                 "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 
 
 def prepare_output_dir(out_dir, overwrite: bool) -> Path:
@@ -42,7 +42,7 @@ def prepare_output_dir(out_dir, overwrite: bool) -> Path:
 def write_sequence(out: Path, name: str, scene, ahdr_config, seed, fmt: str, *, progress: bool,
                    metadata: dict | None = None) -> dict:
     """Generate one sequence into out/<name>.h5 (and its export); return its index entry."""
-    path = out / f"{name}.h5"
+    path = out / f"{check_sequence_name('sequence name', name)}.h5"
     result = generate_ahdr(scene, path, ahdr_config, seed, progress=progress, metadata={"name": name, **(metadata or {})})
     entry = {"name": name, "file": path.name, "seed": seed_record(seed), "scene": scene.describe(),
              "n_events": result.n_events, "n_frames": result.n_frames, "n_dvs_samples": result.n_dvs_samples,

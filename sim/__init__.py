@@ -1,16 +1,36 @@
-"""Sensor emulation: the DVS (event) emulator, the LDR camera model and the event container."""
+"""Sensor emulation: the DVS (event) emulator, the LDR camera model and the event container.
 
-from .camera import PRESETS as CAMERA_PRESETS, CameraParams, LDRCamera, LDRFrame
-from .dvs import EVENT_LABELS, NO_EVENT_US, DVSEmulator, emulate, emulate_source
+Names are imported on first use (the kernels' modules load numba), so that importing sim for its errors or
+parameters, as `evsim --help` does, stays fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+
 from .dvs_params import PRESETS as DVS_PRESETS, DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
-from .events import (
-    EVENT_DTYPE,
-    concatenate,
-    empty_events,
-    first_unsorted_index,
-    is_sorted,
-    make_events,
-    slice_time,
-    validate_events,
-)
+
+# name -> (submodule, name in it), imported on first use
+_LAZY = {
+    "CAMERA_PRESETS": ("camera", "PRESETS"),
+    **{n: ("camera", n) for n in ("CameraParams", "LDRCamera", "LDRFrame")},
+    **{n: ("dvs", n) for n in ("EVENT_LABELS", "NO_EVENT_US", "DVSEmulator", "emulate", "emulate_source")},
+    **{n: ("events", n) for n in ("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index",
+                                  "is_sorted", "make_events", "slice_time", "validate_events")},
+}
+__all__ = sorted({"DVS_PRESETS", "DVSParams", "EvsimInputError", "InvalidParameterError", "TimeOrderError",
+                  "UnsortedEventsError", *_LAZY})
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, attr = _LAZY[name]
+    value = getattr(importlib.import_module(f".{module}", __name__), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_LAZY})

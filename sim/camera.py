@@ -65,7 +65,11 @@ class CameraParams:
     def __post_init__(self):
         for name in ("exposure_us", "frame_times_us"):
             value = getattr(self, name)
-            if isinstance(value, (list, tuple, np.ndarray)):
+            many = isinstance(value, (list, tuple, np.ndarray))
+            for v in (value if many else () if value is None else (value,)):
+                if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                    raise InvalidParameterError(f"{name} must be integer microseconds, got {v!r}")
+            if many:
                 object.__setattr__(self, name, tuple(int(v) for v in value))
         exposures = self.exposures
         if len(exposures) == 0 or min(exposures) <= 0:

@@ -4,7 +4,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
 
 - Log response. The photocurrent is I + I_d, with I the input radiance and I_d = dark_fraction *
   full_illumination the dark current expressed as radiance; the pixel responds to L = log(I + I_d), which is
-  logarithmic above I_d and linear below it (black stays finite).
+  logarithmic above I_d and linear below it (black stays finite). L is rounded to a multiple of 2^-32 (as v2e
+  rounds its log) and so are the thresholds: the reference arithmetic is then exact, and a pixel that returns
+  exactly to a level it left fires the event of that tie as the rule says.
 - Input between samples. L is interpolated linearly in time between two consecutive frames of a pixel. The first
   frame only initialises the pixels: photoreceptor settled, reference = L, no event.
 - Photoreceptor. A first-order low-pass on L with time constant tau = 1 / (2 pi f_c),
@@ -15,8 +17,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
   Lf is again interpolated linearly, which gives the crossing times.
 - Events. A pixel compares Lf with its reference level R and fires ON when Lf - R reaches +C_on and OFF when it
   reaches -C_off (per-pixel thresholds, see DVSParams). Every crossing gets its own time, so an interval with several
-  crossings gives several events spread over it (not clumped at frame times); an event is stamped at the first integer microsecond at or
-  after its crossing (ceil), so stamps are never early and lie within 1 us of the exact crossing. Without
+  crossings gives several events spread over it (not clumped at frame times); an event is stamped at the first
+  integer microsecond at or after its crossing (ceil), so stamps are never early and lie within 1 us of the exact
+  crossing (a crossing reached at a frame's end is stamped at that frame's time). Without
   refractory the reference moves by exactly +C_on / -C_off per event.
 - Refractory (IEBCS-style physical reset). After an event stamped t_e the pixel is blind until t_e + refractory_us;
   crossings in that time are lost (not deferred as in v2e), and at t_e + refractory_us the reference is reset to
@@ -27,7 +30,9 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
 - Leak. The reference drifts down at drift = leak_rate * C_on log units per second, so a static pixel fires ON leak
   events at its leak_rate (log-normal over pixels with mean leak_hz; with refractory the period is
   1 / leak_rate + refractory_us); the initial drift phase is uniform random.
-  An ON crossing is labelled leak when the drift since the last reset supplied at least half of C_on.
+  An ON crossing is labelled leak when the drift since the last reset supplied at least half of C_on. Every
+  event resets the drift, so with shot noise a static pixel shows fewer leak events than leak_rate
+  (DVSParams.observed_leak_hz; DVSParams.with_observed_leak sets leak_hz from a measured rate).
 - Shot noise: a Poisson process per pixel of rate shot_noise_hz + dark_shot_noise_hz * I_d / J (J as above),
   polarity +-1 with equal odds. Hot pixels (a fixed random set) add a Poisson process of rate hot_pixel_hz, also
   with random polarity. Both have continuous arrival times (stamped by ceil like crossings).
@@ -39,19 +44,23 @@ Determinism: fixed patterns (thresholds, leak rates, hot pixels, initial phases)
 SeedSequence; every later draw comes from a per-pixel counter-based stream kept in the state. The events are
 bit-identical for the same seed, whatever the chunking of the frames into calls and the numba thread count.
 
-Speed: rows run in parallel (numba); feed stacks of frames where possible, since every call has a fixed cost.
+Speed: blocks of rows run in parallel on numba.get_num_threads() threads (serial kernels that release the GIL, run
+from a thread pool); feed stacks of frames where possible, since every call has a fixed cost.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 
 from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
-from .events import EVENT_DTYPE, empty_events
+from .events import EVENT_DTYPE, check_times_us, empty_events
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -59,6 +68,8 @@ EVENT_LABELS = ("signal", "shot", "leak", "hot")  # per-event label code -> name
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = K.LABEL_SIGNAL, K.LABEL_SHOT, K.LABEL_LEAK, K.LABEL_HOT
 NO_EVENT_US = K.NO_EVENT_US
 
+MAX_TIME_GAP_US = 3_600_000_000  # one hour: consecutive input times further apart are refused (noise is simulated
+# over every gap, so a gap of days would mean billions of noise events; split such a recording instead)
 _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
 
 
@@ -91,7 +102,9 @@ class DVSEmulator:
 
         def threshold(mean):
             c = np.maximum(mean + p.threshold_sigma * rng.standard_normal(shape), p.min_threshold)
-            return c.astype(np.float32).astype(np.float64)  # exactly what threshold_map reports
+            c = c.astype(np.float32).astype(np.float64)  # exactly what threshold_map reports
+            # on the log response's grid (a no-op above 2**-9, where float32 values are multiples of it)
+            return np.maximum(np.round(c / K.LOG_GRID), 1.0) * K.LOG_GRID
 
         c_on, c_off = threshold(p.pos_threshold), threshold(p.neg_threshold)
         s = p.leak_spread
@@ -201,14 +214,25 @@ class DVSEmulator:
             raise EvsimInputError("no frames given")
         if frames.shape[1:] != hw:
             raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
-        times = times.astype(np.int64)
+        times = check_times_us(times)
         if len(times) and np.any(np.diff(times) <= 0):
             i = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
             raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
         if len(times) and self._t is not None and times[0] <= self._t:
             raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
+        gaps = np.diff(times) if self._t is None else np.diff(times, prepend=self._t)
+        if gaps.size and int(gaps.max()) > MAX_TIME_GAP_US:
+            raise InvalidParameterError(f"input times {int(gaps.max())} us apart: at most MAX_TIME_GAP_US = "
+                                        f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
-        if frames.size and not K.frames_valid(frames):
+        valid = [True]
+
+        def check(a, b):
+            valid.append(K.frames_valid(frames[a:b]))
+
+        if frames.size:
+            _in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
+        if not all(valid):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
                 idx = np.argwhere(bad(frames))
                 if idx.size:
@@ -219,7 +243,8 @@ class DVSEmulator:
     def _initialise(self, frame: np.ndarray, t: int) -> None:
         shape = (self.height, self.width)
         cur = frame.astype(np.float64) + self._scal[2]
-        logi = np.log(cur)
+        logi = np.empty(shape)  # the kernels' log response, so that a pixel back at its first level is at it
+        K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))
         # random leak phase: as if the reference had been reset a uniform fraction of a leak period ago
         drift = self._fixed[2]
         since = np.divide(self._leak_phase * self._fixed[0], drift, out=np.zeros(shape), where=drift > 0)
@@ -237,29 +262,66 @@ class DVSEmulator:
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        K.emulate_rows(frames, times, t_prev, rows, cap, self._state, self._fixed, self._scal, *bufs_a, ends)
+        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends)
         over = np.flatnonzero(ends[:, -1] > cap)
         offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
         if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
             cap_b = int(ends[over, -1].max())
             bufs_b, ends_b = _new_buffers(over.size * cap_b), np.zeros((over.size, n), dtype=np.int64)
-            K.emulate_rows(frames, times, t_prev, over, cap_b, self._state, self._fixed, self._scal, *bufs_b, ends_b)
+            self._emulate(frames, times, t_prev, over, cap_b, bufs_b, ends_b)
             ends[over] = ends_b
             src_b[over] = True
             offsets[over] = np.arange(over.size) * cap_b
         total = int(ends[:, -1].sum())
         events, labels = empty_events(total), np.empty(total, dtype=np.uint8)
-        gather = K.gather_sorted if n >= 4 else K.gather_sorted_serial
-        gather(rows, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels)
+        starts, first_out = K.interval_plan(ends)
+
+        def gather(k0, k1):
+            K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
+                            labels)
+
+        _in_parallel(gather, n, 4)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
+
+    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends) -> None:
+        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:])."""
+
+        def block(a, b):
+            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal,
+                           *(buf[a * cap:b * cap] for buf in bufs), ends[a:b])
+
+        _in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
         if self._bufs is None or self._bufs[0].size < n:
             self._bufs = _new_buffers(n)
         return self._bufs
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_PID = 0  # the process that made _POOL: a forked child has its object but not its threads
+
+
+def _in_parallel(fn, n: int, min_part: int) -> None:
+    """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
+    numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
+    global _POOL, _POOL_PID
+    parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
+    bounds = [n * i // parts for i in range(parts + 1)]
+    if parts == 1:
+        fn(0, n)
+        return
+    if _POOL is None or _POOL._max_workers < parts - 1 or _POOL_PID != os.getpid():
+        _POOL_PID = os.getpid()
+        _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
+                                   thread_name_prefix="evsim-dvs")
+    futures = [_POOL.submit(fn, bounds[i], bounds[i + 1]) for i in range(1, parts)]
+    fn(bounds[0], bounds[1])
+    for f in futures:
+        f.result()
 
 
 def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

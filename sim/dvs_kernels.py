@@ -1,6 +1,8 @@
 """Numba kernels of the DVS emulator (see sim.dvs for the model they implement).
 
-Rows are independent and processed in parallel. Every random number a pixel draws comes from a counter-based
+Rows are independent: the caller runs blocks of rows (and of frame intervals when gathering) on its own threads,
+the kernels releasing the GIL (nogil). Serial kernels compile several times faster than numba's parallel ones and
+a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel draws comes from a counter-based
 generator (splitmix64 of the pixel's key and its own draw counter, kept in the state), so the output does not
 depend on the number of threads nor on how the frames are split into calls.
 """
@@ -10,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .kernel_math import GOLDEN, expm1_row, log_row, mix64
 
@@ -21,6 +23,21 @@ _PIXEL_MUL = np.uint64(0xD1B54A32D192ED03)
 _S11 = np.uint64(11)
 _ONE = np.uint64(1)
 _TWO_M53 = 2.0**-53
+LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
+_LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+
+
+@njit(cache=True, error_model="numpy")
+def log_response(a, bits, out):
+    """out = log(a) rounded to a multiple of LOG_GRID (2**-32), for positive normal a.
+
+    On this grid, as on v2e's rounded log, the reference arithmetic is exact: thresholds are multiples of it too, so
+    a pixel that returns exactly to a level it left has Lf - reference exactly -C_off (or +C_on) and fires as the
+    rule says, instead of missing the tie by a rounding error.
+    """
+    log_row(a, bits, out)
+    for i in range(a.size):
+        out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
 
 
 @njit(cache=True, inline="always")
@@ -46,22 +63,25 @@ def _drop_arrivals(budget, rate, duration, pixel_key, counter):
     return budget - used, counter
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def frames_valid(frames):
     """True when every sample is finite and >= 0 (NaN fails both comparisons)."""
     n, h, w = frames.shape
     ok = np.empty(n * h, dtype=np.bool_)
-    for i in prange(n * h):
+    for i in range(n * h):
         k, y = i // h, i % h
         row_ok = True
         for x in range(w):
             v = frames[k, y, x]
             row_ok &= (v >= 0.0) & (v < np.inf)
         ok[i] = row_ok
-    return ok.all()
+    n_bad = 0
+    for i in range(n * h):
+        n_bad += not ok[i]
+    return n_bad == 0
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, out_x, out_p, out_lab, ends):
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
@@ -75,24 +95,25 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
     c_on, c_off, drift, hot_rate = fixed
     refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
-    for i in prange(rows.size):
+    w = cur.shape[1]
+    for i in range(rows.size):
         y = rows[i]
-        saved = (cur[y].copy(), logi[y].copy(), lf[y].copy(), ref[y].copy(), tref[y].copy(),
-                 e_shot[y].copy(), e_hot[y].copy(), last_t[y].copy(), ctr[y].copy())
+        # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
+        # shape-mismatch error path, seconds of compilation for nothing)
+        saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
+        for x in range(w):
+            saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
+            saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
+            saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
         cnt = _advance_row(frames, times, t_prev, y, i * cap, cap, cur[y], logi[y], lf[y], ref[y], tref[y],
                            e_shot[y], e_hot[y], last_t[y], ctr[y], c_on[y], c_off[y], drift[y], hot_rate[y],
                            refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x, out_p, out_lab,
                            ends[i])
         if cnt > cap:
-            cur[y] = saved[0]
-            logi[y] = saved[1]
-            lf[y] = saved[2]
-            ref[y] = saved[3]
-            tref[y] = saved[4]
-            e_shot[y] = saved[5]
-            e_hot[y] = saved[6]
-            last_t[y] = saved[7]
-            ctr[y] = saved[8]
+            for x in range(w):
+                cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
+                tref[y, x], e_shot[y, x], e_hot[y, x] = saved_f[4, x], saved_f[5, x], saved_f[6, x]
+                last_t[y, x], ctr[y, x] = saved_i[x], saved_u[x]
 
 
 @njit(cache=True, error_model="numpy")
@@ -121,7 +142,7 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
         hf = float(t1 - t0)
         for x in range(w):
             c1_t[x] = float(frames[k, y, x]) + dark
-        log_row(c1_t, bits, l1_t)
+        log_response(c1_t, bits, l1_t)
         for x in range(w):
             j_t[x] = math.sqrt(cur_y[x] * c1_t[x])  # the interval's geometric-mean photocurrent
             cur_y[x] = c1_t[x]
@@ -212,6 +233,9 @@ def _row_events(todo, t0, hf, f0_t, f1_t, lam_t, hot_y, y, refractory, key, ref_
         sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
         sc = sc if sc > 0.0 else 0.0
         sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+        d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
+        at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
+        sc = hf if at_end & (sc > hf) else sc
         te = t0 + np.int64(math.ceil(sc))
         te = te if te > t0 else t0 + 1
         sb = float(te + refractory - t0)
@@ -289,6 +313,9 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
     while not done:
         d = f0 + g * s - r + dr * ((t0 - tr) + s)
         sc = max(s, s + (target - d) * inv_m) if m != 0.0 else np.inf
+        d_hf = f1 - r + dr * ((t0 - tr) + hf)
+        if sc > hf and m != 0.0 and ((d_hf >= con) if m > 0.0 else (d_hf <= -coff)):
+            sc = hf  # a crossing reached at the interval's end is inside it, whatever the rounding of sc
         pol = 1 if m > 0.0 else -1
         sn = s + es * inv_ls if lam_s > 0.0 else np.inf
         sh = s + eh * inv_lh if lam_h > 0.0 else np.inf
@@ -352,39 +379,33 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
     return cnt
 
 
-@njit(cache=True, parallel=True)
-def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels):
-    """Merge per-row event buffers into `events` (EVENT_DTYPE) and `labels`, sorted by (t, y, x).
+@njit(cache=True, nogil=True)
+def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events, labels):
+    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE) and `labels`,
+    sorted by (t, y, x).
 
     Row i of row_ids (ascending y) has its events at offsets[i] in bufs_b if src_b[i] else bufs_a (each a tuple
-    (t, x, p, label)), ends[i, k] of them up to frame k. Frame intervals are independent (in parallel), and in
-    each the events are stably sorted by t: rows arrive in y order and a row's events of one interval in x order,
-    so the result is in (t, y, x) order.
+    (t, x, p, label)); starts, first_out come from interval_plan. Frame intervals are independent (callers may
+    run ranges of them on several threads), and in each the events are stably sorted by t: rows arrive in y order
+    and a row's events of one interval in x order, so the result is in (t, y, x) order.
     """
-    starts, first_out = _interval_plan(ends)
-    for k in prange(ends.shape[1]):
+    for k in range(k0, k1):
         _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events,
                          labels)
 
 
 @njit(cache=True)
-def gather_sorted_serial(row_ids, bufs_a, bufs_b, src_b, offsets, ends, t_prev, times, events, labels):
-    """gather_sorted on one thread (cheaper for a few frame intervals: no thread wake-up)."""
-    starts, first_out = _interval_plan(ends)
-    for k in range(ends.shape[1]):
-        _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events,
-                         labels)
-
-
-@njit(cache=True)
-def _interval_plan(ends):
+def interval_plan(ends):
     """starts[i, k]: row i's first buffered event of interval k; first_out[k]: interval k's first output index."""
     n_rows, n = ends.shape
     starts = np.zeros((n_rows, n + 1), dtype=np.int64)
-    starts[:, 1:] = ends
     first_out = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n_rows):  # element loops: array expressions would compile numba's shape-error path
+        for k in range(n):
+            starts[i, k + 1] = ends[i, k]
+            first_out[k + 1] += ends[i, k] - (ends[i, k - 1] if k > 0 else 0)
     for k in range(n):
-        first_out[k + 1] = first_out[k] + (starts[:, k + 1] - starts[:, k]).sum()
+        first_out[k + 1] += first_out[k]
     return starts, first_out
 
 

@@ -6,6 +6,7 @@ Log units are natural logarithms of radiance; rates are per pixel; times are mic
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 from .errors import InvalidParameterError, check_number
@@ -28,7 +29,11 @@ class DVSParams:
     shot_noise_hz: rate of shot-noise events (ON and OFF together, Hz per pixel) at any illumination (>= 0).
     dark_shot_noise_hz: additional shot-noise rate in complete darkness (Hz per pixel, >= 0); it falls off as
         dark / (radiance + dark), so noise rises in the dark as in real sensors.
-    leak_hz: mean rate of leak (reference drift) ON events of a static pixel (Hz per pixel, >= 0).
+    leak_hz: mean reference drift, as the rate of the leak ON events it gives a static pixel without noise or
+        refractory (Hz per pixel, >= 0; the reference drifts down leak_hz * C_on log units per second; the AKF's
+        leak_rate_hz is this rate). Shot noise resets the reference and restarts the drift, so with noise a static
+        pixel shows fewer leak events (0.058 Hz for 0.1 with 0.1 Hz shot noise): observed_leak_hz gives that
+        rate, with_observed_leak the leak_hz that shows a measured one.
     leak_spread: standard deviation of the natural log of the per-pixel leak rate (log-normal spread, >= 0);
         the per-pixel rates average to leak_hz.
     hot_pixel_fraction: fraction of pixels that are hot, in [0, 1] (rounded to a whole number of pixels).
@@ -70,6 +75,46 @@ class DVSParams:
         except KeyError:
             raise InvalidParameterError(f"unknown DVS preset {name!r}; known: {sorted(PRESETS)}") from None
         return dataclasses.replace(base, **overrides)
+
+    def observed_leak_hz(self, radiance: float = 1.0, leak_hz: float | None = None) -> float:
+        """Leak event rate (Hz) of a static pixel at `radiance` with these params' shot noise and refractory.
+
+        For one pixel of drift rate leak_hz (default self.leak_hz; the per-pixel spread aside): every event resets
+        the reference, after a dead time r = refractory_us, so with shot-noise rate lam (at that radiance) and
+        drift period T = 1 / leak_hz, a leak event ends a cycle r + min(Exp(lam), T) with probability
+        u = e^(-lam T): the rate is u / (r + (1 - u) / lam) (1 / (r + T) without noise).
+        """
+        rate = self.leak_hz if leak_hz is None else float(leak_hz)
+        if rate <= 0:
+            return 0.0
+        lam, r, period = self._static_shot_hz(radiance), self.refractory_us * 1e-6, 1.0 / rate
+        if lam <= 0:
+            return 1.0 / (r + period)
+        u = math.exp(-lam * period)
+        return u / (r + -math.expm1(-lam * period) / lam)
+
+    def with_observed_leak(self, observed_hz: float, radiance: float = 1.0) -> DVSParams:
+        """A copy whose leak_hz makes a static pixel at `radiance` show `observed_hz` leak events (Hz).
+
+        The inverse of observed_leak_hz: what to set when the leak rate was measured on a real, noisy sensor.
+        """
+        check_number("observed_hz", observed_hz, positive=False)
+        o = float(observed_hz)
+        if o == 0:
+            return self.replace(leak_hz=0.0)
+        lam, r = self._static_shot_hz(radiance), self.refractory_us * 1e-6
+        if o * r >= 1:
+            raise InvalidParameterError(f"observed_hz {o} is not reachable with refractory_us={self.refractory_us}")
+        if lam <= 0:
+            return self.replace(leak_hz=1.0 / (1.0 / o - r))
+        u = o * (r * lam + 1.0) / (lam + o)  # solves o = u / (r + (1 - u) / lam)
+        return self.replace(leak_hz=lam / -math.log(u))
+
+    def _static_shot_hz(self, radiance: float) -> float:
+        check_number("radiance", radiance, positive=False)
+        i = float(radiance)
+        dark = self.dark_fraction * self.full_illumination
+        return self.shot_noise_hz + self.dark_shot_noise_hz * dark / (i + dark)
 
     def replace(self, **changes) -> DVSParams:
         """A copy with some fields changed (validated again)."""

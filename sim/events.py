@@ -12,6 +12,20 @@ from .errors import EvsimInputError, UnsortedEventsError
 EVENT_DTYPE = np.dtype([("t", np.int64), ("x", np.uint16), ("y", np.uint16), ("p", np.int8)])
 
 
+MAX_TIME_US = 1 << 62  # |t| bound of every time (about 146,000 years): differences never overflow int64
+
+
+def check_times_us(t, name: str = "t_us") -> np.ndarray:
+    """Integer microsecond times as int64, refusing values an int64 cast would wrap (uint64 >= 2**63) and any
+    |t| > 2**62 us (differences of two such times could overflow)."""
+    t = np.asarray(t)
+    if t.size and t.dtype.kind not in "iu":
+        raise EvsimInputError(f"{name} must be integer microseconds, got dtype {t.dtype}")
+    if t.size and (int(t.max()) > MAX_TIME_US or int(t.min()) < -MAX_TIME_US):
+        raise EvsimInputError(f"{name} outside +-2**62 us: {int(t.min())}..{int(t.max())}")
+    return t.astype(np.int64)
+
+
 def empty_events(n: int = 0) -> np.ndarray:
     """A zero-filled event array of length n."""
     return np.zeros(n, dtype=EVENT_DTYPE)
@@ -26,6 +40,10 @@ def make_events(t, x, y, p) -> np.ndarray:
         col = np.asarray(col)
         if col.shape != (n,):
             raise EvsimInputError(f"event column {name!r} has shape {col.shape}, expected ({n},)")
+        if name == "t":
+            col = check_times_us(col, "event times") if col.dtype.kind in "iu" else col
+        elif name in "xy" and col.size and (col.dtype.kind not in "iu" or col.min() < 0 or col.max() > 65535):
+            raise EvsimInputError(f"event column {name!r} must be integers in 0..65535")
         ev[name] = col
     validate_events(ev, require_sorted=False)
     return ev

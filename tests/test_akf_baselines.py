@@ -80,3 +80,39 @@ def test_direct_integration_adds_contrast_times_event_count():
     l0 = math.log(0.2 + 1e-3)
     # the event at 1 ms precedes tau_0 = 5 ms and is not counted
     np.testing.assert_allclose(np.log(out[:, 0] + 1e-3), [[l0 - 0.2, l0 + 0.4], [l0 - 0.4, l0 + 0.4]], atol=1e-5)
+
+
+def test_crf_by_name_and_never_negative():
+    """Every method takes a CRF name; reconstructions are radiance (>= 0) even where events drive the log below
+    log(I0)."""
+    frames = np.array([np.full((2, 2), 0), np.full((2, 2), 0)], np.uint8)
+    ts, te = np.array([0, 100_000]), np.array([10_000, 110_000])
+    ev = sim.make_events(np.arange(1000, 21000, 1000), np.zeros(20, int), np.zeros(20, int), -np.ones(20, int))
+    times = np.array([50_000, 105_000])
+    for name, fn in akf.METHODS.items():
+        by_name = fn(ev, frames, ts, te, "window", times)
+        by_object = fn(ev, frames, ts, te, crf_models.get("window"), times)
+        np.testing.assert_array_equal(by_name, by_object)
+        assert by_name.min() >= 0, name
+    with pytest.raises(sim.EvsimInputError, match="unknown CRF"):
+        akf.complementary_filter(ev, frames, ts, te, "no-such-curve", times)
+
+
+def test_cf_output_is_bounded_where_frames_clip_and_adaptive_gain_cannot_diverge():
+    """A pixel clipped high in every frame with a burst of ON events (the demo's divergence: events integrated far
+    above full well): the bounded CF stays within [0, max_intensity], the adaptive one too with lambda = 0 (a pure
+    integrator there); unbounded (max_intensity=None) it follows exp(n c)."""
+    frames = np.full((3, 1, 2), 255, np.uint8)
+    ts, te = np.array([0, 100_000, 200_000]), np.array([10_000, 110_000, 210_000])
+    n = 60
+    ev = sim.make_events(np.linspace(20_000, 90_000, n).astype(np.int64), np.zeros(n, int), np.zeros(n, int),
+                         np.ones(n, int))
+    times = np.array([95_000, 205_000])
+    plain = akf.complementary_filter(ev, frames, ts, te, LINEAR, times, alpha=0.1)
+    assert plain.max() <= 1.0 + 1e-6 and plain[0, 0, 0] == pytest.approx(1.0, rel=1e-5)
+    adaptive = akf.complementary_filter(ev, frames, ts, te, LINEAR, times, alpha=50.0, adaptive_gain=True,
+                                        adaptive_factor=0.0)
+    assert adaptive.max() <= 1.0 + 1e-6
+    free = akf.complementary_filter(ev, frames, ts, te, LINEAR, times, alpha=0.1, max_intensity=None)
+    assert free[0, 0, 0] > 1e4  # exp(60 * 0.2) ~ 1.6e5 times the frame: the straw man the bound removes
+    assert free[0, 0, 1] == pytest.approx(1.0, rel=1e-5)  # the pixel without events holds its frame

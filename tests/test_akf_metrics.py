@@ -40,3 +40,31 @@ def test_pu21_anchor_values_and_monotonicity():
     assert metrics.pu21_psnr(ref, ref) == np.inf
     assert metrics.pu21_ssim(ref, ref) == pytest.approx(1.0)
     assert metrics.pu21_psnr(ref * 1.1, ref) > metrics.pu21_psnr(ref * 1.5, ref)
+
+
+def test_paper_protocol_maps_white_to_1_and_clips_highlights():
+    ref = np.full((16, 16), 0.5)
+    ref[:2] = 80.0  # highlights far above white: the [0, 1] protocol sees them as 1
+    x = ref.copy()
+    x[:2] = 1.0  # a reconstruction that reaches white there has no [0, 1] error...
+    assert metrics.mse01(x, ref, white=1.0) == 0.0
+    assert metrics.mse(x, ref) > 700  # ...while the raw MSE is all highlight
+    y = ref * 0.5
+    expected = np.mean((np.clip(y / 2, 0, 1) - np.clip(ref / 2, 0, 1)) ** 2)
+    assert metrics.mse01(y, ref, white=2.0) == pytest.approx(expected)
+    assert metrics.ssim01(ref, ref, white=2.0) == pytest.approx(1.0)
+    assert metrics.ssim01(y, ref, white=2.0) == pytest.approx(
+        metrics.ssim(np.clip(y / 2, 0, 1), np.clip(ref / 2, 0, 1), data_range=1.0))
+    assert metrics.score("mse01", y, ref, white=2.0) == metrics.mse01(y, ref, white=2.0)
+    with pytest.raises(EvsimInputError, match="white"):
+        metrics.score("ssim01", y, ref)
+    assert set(metrics.NORMALISATION) == set(metrics.METRICS)
+
+
+def test_log_mse_counts_ratios():
+    ref = np.full((4, 4), 0.1)
+    assert metrics.log_mse(2 * ref, ref) == pytest.approx(np.log((0.2 + 1e-3) / (0.1 + 1e-3)) ** 2)
+    big = np.full((4, 4), 100.0)
+    # a 10 % error on a highlight costs about what a 10 % error on a shadow costs
+    assert metrics.log_mse(1.1 * big, big) == pytest.approx(metrics.log_mse(1.1 * ref, ref), rel=0.02)
+    assert metrics.log_mse(-ref, ref) == metrics.log_mse(0 * ref, ref)

@@ -1,5 +1,7 @@
 """DVS emulator API: determinism and chunking invariance, threshold maps, entry points, and input errors."""
 
+import sys
+
 import numba
 import numpy as np
 import pytest
@@ -248,3 +250,18 @@ def test_refractory_never_violated_on_moving_scene_with_all_noise():
     same = (np.diff(ev["y"].astype(int)) == 0) & (np.diff(ev["x"].astype(int)) == 0)
     gaps = np.diff(ev["t"])[same]
     assert 700 <= gaps.min() < 1000  # the dead time binds but is never crossed
+
+
+def _emulate_small(_):
+    frames = np.random.default_rng(0).random((5, 60, 80)).astype(np.float32)
+    return sim.emulate(frames, np.arange(5) * 1000).view(np.uint8).tobytes()
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="fork start method")
+def test_emulator_runs_in_a_forked_child_after_the_parent_used_its_threads():
+    import multiprocessing
+
+    parent = _emulate_small(0)  # the parent's row threads exist now; a forked child must not wait for them
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        child = pool.map_async(_emulate_small, [0]).get(timeout=120)[0]
+    assert child == parent

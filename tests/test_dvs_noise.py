@@ -88,3 +88,22 @@ def test_all_noise_static_scene_labels_and_refractory():
     ev = events[np.lexsort((events["t"], events["x"], events["y"]))]
     same = (np.diff(ev["y"].astype(int)) == 0) & (np.diff(ev["x"].astype(int)) == 0)
     assert np.min(np.diff(ev["t"])[same]) >= 500
+
+
+@pytest.mark.parametrize("refractory_us", [0, 100_000])
+def test_leak_rate_with_shot_noise_on_is_the_documented_one_and_can_be_set(refractory_us):
+    """With shot noise every event resets the reference: the measured leak rate is observed_leak_hz, not leak_hz;
+    with_observed_leak sets leak_hz so that a static noisy pixel shows the rate the user asks for."""
+    base = IDEAL.replace(leak_hz=0.1, leak_spread=0.0, shot_noise_hz=0.1, refractory_us=refractory_us)
+    hw, duration_us = (50, 80), 400_000_000
+    for params, expected in ((base, base.observed_leak_hz(0.5)), (base.with_observed_leak(0.1, 0.5), 0.1)):
+        emu = sim.DVSEmulator(*hw, params, seed=3, return_labels=True)
+        frames = np.full((3, *hw), 0.5, dtype=np.float32)
+        _, labels = emu.feed(frames, np.array([0, duration_us // 2, duration_us]))
+        n_leak = np.count_nonzero(labels == sim.EVENT_LABELS.index("leak"))
+        assert_poisson_count(n_leak, expected * hw[0] * hw[1] * duration_us / 1e6)
+    # without noise and refractory the parameter is the static pixel's leak rate; with them it is lower
+    assert IDEAL.replace(leak_hz=0.1).observed_leak_hz() == pytest.approx(0.1)
+    if refractory_us == 0:
+        assert base.observed_leak_hz(0.5) == pytest.approx(0.1 / (np.e - 1))  # 0.058 Hz, as measured above
+    assert base.with_observed_leak(0.1, 0.5).leak_hz > 0.1

@@ -5,6 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import sim
+from sim import dvs_kernels
 
 IDEAL = sim.DVSParams.preset("ideal")
 DARK = IDEAL.dark_fraction * IDEAL.full_illumination
@@ -157,3 +158,36 @@ def test_photoreceptor_exact_for_any_interval(interval_over_tau):
     assert emu.log_intensity[0, 0] == pytest.approx(sol.y[0, -1], abs=1e-7)
     lag = l1 - emu.log_intensity[0, 0]
     assert lag > (0.5 if interval_over_tau < 1 else 1e-3)  # still lagging behind the input: not clamped
+
+
+def test_8bit_level_pairs_return_ties_fire_as_the_esim_rule_says():
+    """Every 8-bit level pair a -> b -> a: the pixel back at its starting level fires its last event at the tie.
+
+    Ground truth is the ESIM rule in exact arithmetic: n = floor((L(b) - L(a)) / C) events one way, then n the
+    other way, the last exactly when the level is back at L(a), i.e. at the third frame's time (not 1 us later).
+    """
+    levels = np.arange(1, 256)
+    a, b = (v.ravel() for v in np.meshgrid(levels, levels, indexing="ij"))
+    keep = a != b
+    a, b = a[keep], b[keep]
+    w = 254
+    h = a.size // w
+    emu = sim.DVSEmulator(h, w, IDEAL, seed=0)
+    fa, fb = ((v / 255).astype(np.float32).reshape(h, w) for v in (a, b))
+    times = np.array([0, 1000, 2000, 3000])
+    events = emu.feed(np.stack([fa, fb, fa, fa]), times)
+    c = float(emu.threshold_map[0, 0, 0])
+    # the rule, in units of the log response's grid (where the emulator's arithmetic is exact)
+    grid = dvs_kernels.LOG_GRID
+    q = np.round(np.log(levels.astype(np.float32) / 255 + DARK) / grid).astype(np.int64)
+    n_rule = np.abs(q[b - 1] - q[a - 1]) // int(round(c / grid))
+    pix = events["y"].astype(np.int64) * w + events["x"]
+    up = (b > a).astype(np.int8) * 2 - 1
+    first_way = np.bincount(pix, weights=events["p"] == up[pix], minlength=a.size)
+    back = np.bincount(pix, weights=events["p"] != up[pix], minlength=a.size)
+    np.testing.assert_array_equal(first_way, n_rule)
+    np.testing.assert_array_equal(back, n_rule)
+    assert events["t"].max() == 2000  # nothing fires after the return, nothing is stamped late
+    last = np.full(a.size, -1)
+    np.maximum.at(last, pix, events["t"])
+    assert np.all(last[n_rule > 0] == 2000)  # the tie is stamped at the frame's own microsecond

@@ -88,10 +88,11 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
             assert result[method]["mean"][metric] == pytest.approx(
                 np.mean([direct[n][method][metric] for n in ("a", "b")]), rel=1e-9)
     assert "units: x = CRF scaled irradiance" in text
-    mse_block = text.split("\n\nmse")[1].split("\n\n")[0].splitlines()
-    assert mse_block[0].split() == ["akf", "cf", "frames"]
-    row = dict(zip(("akf", "cf", "frames"), map(float, mse_block[1].split()[1:])))
-    assert mse_block[1].split()[0] == "a"
+    mse_block = text.split("\n\nmse: ")[1].split("\n\n")[0].splitlines()
+    assert mse_block[0] == akf.NORMALISATION["mse"]  # every table states its normalisation
+    assert mse_block[1].split() == ["mse", "akf", "cf", "frames"]
+    row = dict(zip(("akf", "cf", "frames"), map(float, mse_block[2].split()[1:])))
+    assert mse_block[2].split()[0] == "a"
     for method, value in row.items():
         assert value == pytest.approx(result[method]["a"]["mse"], rel=1e-3)  # printed with 4 significant digits
 
@@ -209,3 +210,37 @@ def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, messa
     err = capsys.readouterr().err
     assert message in err
     assert not (tmp_path / "o").exists()
+
+
+def test_tune_searches_on_the_tuning_split_and_scores_on_the_rest(dataset, tmp_path, capsys):
+    from akf.tuning import setting_options
+    from generators.evaluation import recording_task, split_times
+
+    tuning = {}
+    result, notes = evaluate_dataset(dataset, methods=("cf", "frames"), metrics=("mse01", "ssim01"), tune=True,
+                                     tuning_out=tuning)
+    assert set(tuning) == {"cf", "frames"} and tuning["frames"] == {}
+    assert any("first 33%" in n for n in notes) and any(n.startswith("tuned cf: alpha=") for n in notes)
+    for name in ("a", "b"):  # the scores are those of the chosen setting on the held-back part only
+        task, _ = recording_task(load(dataset / f"{name}.h5"))
+        tune_sel, score_sel = split_times(task.times.size, 1 / 3)
+        assert tune_sel.size and score_sel.size and tune_sel[-1] < score_sel[0]
+        contrast, opts = setting_options("cf", tuning["cf"], task.contrast, task.options.get("cf"))
+        direct = task.scores(task.run("cf", score_sel, contrast, opts), score_sel, ("mse01",))
+        assert result["cf"][name]["mse01"] == pytest.approx(direct["mse01"], rel=1e-12)
+    # the tuned setting is no worse than the defaults on the tuning split (it was chosen there)
+    def tuning_objective(setting):
+        values = []
+        for name in ("a", "b"):
+            task, _ = recording_task(load(dataset / f"{name}.h5"))
+            sel = split_times(task.times.size, 1 / 3)[0]
+            contrast, opts = setting_options("cf", setting, task.contrast, task.options.get("cf"))
+            values.append(task.scores(task.run("cf", sel, contrast, opts), sel, ("mse01",))["mse01"])
+        return np.mean(values)
+    assert tuning_objective(tuning["cf"]) <= tuning_objective({"alpha": 2 * np.pi * 0.5, "contrast_scale": 1.0})
+    out = tmp_path / "t.json"
+    assert main(["evaluate", str(dataset), "--methods", "cf", "--metrics", "mse01", "--tune", "--no-progress",
+                 "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["tuning"]["cf"] == pytest.approx(tuning["cf"])
+    assert "tuned cf: alpha=" in capsys.readouterr().out
+    assert main(["evaluate", str(dataset), "--tune", "--tune-fraction", "1.5"]) == 2

@@ -40,8 +40,11 @@ def test_e2vid_layout_matches_event_cnn_minimal(tmp_path):
             img = f["images"][name]
             assert img.dtype == np.uint8 and tuple(img.attrs["size"]) == (H, W)
             assert img.attrs["timestamp"] == rec.frame_t_mid_us[i] / 1e6
-            # event_idx: the first event at or after the frame's timestamp.
-            assert img.attrs["event_idx"] == np.searchsorted(ev["t"], rec.frame_t_mid_us[i])
+            # event_idx as event_utils' own writer stores it (github.com/TimoStoff/event_utils,
+            # lib/data_formats/event_packagers.py, hdf5_packager.add_event_indices): one before the first
+            # event at or after the frame's timestamp, max(0, i - 1).
+            first = np.searchsorted(ev["t"], rec.frame_t_mid_us[i], side="left")
+            assert img.attrs["event_idx"] == max(0, first - 1)
 
 
 def test_e2vid_round_trip_is_exact_after_rounding_seconds_to_microseconds(tmp_path):
@@ -181,7 +184,30 @@ def test_akf_mat_variables_follow_the_authors_conventions(tmp_path):
     np.testing.assert_array_equal(m["exposure"].ravel(), rec.frame_t_end_us - rec.frame_t_start_us)
     assert (m["im_height"].item(), m["im_width"].item()) == (H, W)
     assert m["ct"].item() == pytest.approx(rec.threshold_maps.mean(), rel=1e-6)
-    assert m["f_Q"].shape == (1, 256)
+    assert m["f_Q"].shape == (256, 1)
+
+
+def test_akf_mat_vectors_are_the_columns_the_authors_code_indexes(tmp_path):
+    # github.com/ziweiWWANG/AKF, deblur_edge_left.m: t1 = time_image(img_idx_now, 1) - exposure/2 for every frame
+    # from the second on; with a 1 x F row this is "time_image(2,_): out of bound". akf_reconstruction.m indexes
+    # exposure(i) and f_Q(z + 1) linearly, which columns satisfy too.
+    rec = make_recording()
+    export(rec, tmp_path / "a.mat", "akf-mat")
+    m = scipy.io.loadmat(tmp_path / "a.mat")
+    nf = rec.frames.shape[0]
+    for name in ("time_image", "exposure", "evsim_frame_t_start_us", "evsim_frame_t_end_us"):
+        assert m[name].shape == (nf, 1), name
+    for i in range(1, nf + 1):  # MATLAB's time_image(i, 1), 1-based
+        assert m["time_image"][i - 1, 0] == rec.frame_t_mid_us[i - 1]
+    assert m["evsim_event_labels"].shape == (rec.events.size, 1)
+    assert m["evsim_reference_t_us"].shape == (rec.reference.shape[0], 1)
+    # files written before (1 x F rows) still read the same
+    rows = {k: (v.T if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 1 and k != "events" else v)
+            for k, v in m.items() if not k.startswith("__")}
+    scipy.io.savemat(tmp_path / "old.mat", rows)
+    old, new = read_akf_mat(tmp_path / "old.mat"), read_akf_mat(tmp_path / "a.mat")
+    assert old.metadata == new.metadata
+    assert_recordings_equal(new, old, skip=("metadata",))
 
 
 def test_akf_mat_round_trip_is_exact(tmp_path):

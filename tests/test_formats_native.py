@@ -10,7 +10,7 @@ import pytest
 
 import generators
 from generators.formats import DatasetFormatError, NativeWriter, detect, export, load
-from generators.formats.native import read_native, write_native
+from generators.formats.native import iter_native_events, read_native, write_native
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, UnsortedEventsError
 from test_formats_common import H, W, assert_recordings_equal, files_in, make_recording
 
@@ -30,7 +30,7 @@ def test_layout_is_dsec_like(tmp_path):
     rec = make_recording()
     write_native(rec, tmp_path / "seq.h5")
     with h5py.File(tmp_path / "seq.h5") as f:
-        assert {k: f["events"][k].dtype.str for k in "txyp"} == {"t": "<i8", "x": "<u2", "y": "<u2", "p": "|i1"}
+        assert {k: f["events"][k].dtype.str for k in "txyp"} == {"t": "<i8", "x": "<u2", "y": "<u2", "p": "|u1"}
         assert f["events/t"].compression == "gzip" and f["events/t"].maxshape == (None,)
         # byte-shuffled before gzip (a filter every HDF5 reader has): smaller and faster for int64 / float32
         assert f["events/t"].shuffle and f["reference/images"].shuffle
@@ -180,3 +180,23 @@ def test_export_native_to_native_streams_and_is_exact(tmp_path):
     assert_recordings_equal(rec, load(tmp_path / "b.h5"))
     with pytest.raises(EvsimInputError, match="unknown format"):
         export(rec, tmp_path / "c", "tiff")
+
+
+def test_polarity_is_stored_as_dsec_stores_it_and_old_files_still_load(tmp_path):
+    # DSEC (github.com/uzh-rpg/DSEC, scripts/dataset/representations.py) builds its voxel grid with
+    # value = 2 * pol - 1 from the stored events/p: stored 0/1, OFF must become -1 there, never -3.
+    rec = make_recording()
+    write_native(rec, tmp_path / "seq.h5")
+    with h5py.File(tmp_path / "seq.h5") as f:
+        p = f["events/p"][()]
+        assert f.attrs["format_version"] == 2 and p.dtype == np.uint8
+        np.testing.assert_array_equal(2 * p.astype(np.int64) - 1, rec.events["p"])
+    assert_recordings_equal(rec, read_native(tmp_path / "seq.h5"))
+    # A file written before the fix (layout version 1: int8 -1/+1) reads the same.
+    with h5py.File(tmp_path / "seq.h5", "a") as f:
+        del f["events/p"]
+        f["events/p"] = rec.events["p"].astype(np.int8)
+        f.attrs["format_version"] = 1
+    assert_recordings_equal(rec, read_native(tmp_path / "seq.h5"))
+    chunks = list(iter_native_events(tmp_path / "seq.h5", size=1000))
+    np.testing.assert_array_equal(np.concatenate([c for c, _ in chunks])["p"], rec.events["p"])

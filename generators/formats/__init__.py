@@ -1,37 +1,66 @@
 """Dataset file formats: the native HDF5 layout and export profiles, with readers.
 
 FORMATS: the names export() accepts. load(path) reads any readable layout (detected from the content):
-native HDF5, E2VID HDF5, IJRR text folder (or its events.txt), AKF .mat, and AEDAT4 when the optional `aedat`
-package is installed. Bad files raise DatasetFormatError.
+native HDF5, E2VID HDF5, IJRR text folder (or its events.txt), E2VID text (.txt / .zip with a "width height"
+first line), AKF .mat, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, and AEDAT4 when the optional `aedat` package
+is installed. Bad files raise DatasetFormatError.
+HOLDS: what each export format can hold; export() warns (ExportDropWarning) and returns the names of the parts
+of a recording that the format cannot hold.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import h5py
 
 from sim import EvsimInputError
 
+from ..format_names import EXPORT_FORMATS, FORMATS
 from ..recording import Recording
-from .aedat4 import read_aedat4
+from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
-from .common import DatasetFormatError, fail, open_h5
+from .common import DatasetFormatError, fail, open_h5, reading, validated
 from .e2vid import is_e2vid, read_e2vid, write_e2vid
 from .exr import write_exr_sequence
-from .ijrr import is_ijrr, read_ijrr, write_ijrr
+from .ijrr import is_e2vid_txt, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_txt, write_ijrr
+from .interop import from_tonic, to_tonic
 from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
+from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
 
-FORMATS = ("native", "e2vid", "ijrr", "akf-mat", "exr")
 
-__all__ = ["FORMATS", "DatasetFormatError", "NativeWriter", "detect", "export", "load"]
+_ALL_PARTS = ("events", "frames", "reference", "threshold_maps", "event_labels", "crf", "metadata")
+# What each export format can hold, of a Recording's parts (every format also holds the sensor size).
+HOLDS = {
+    "native": _ALL_PARTS, "e2vid": _ALL_PARTS, "ijrr": _ALL_PARTS, "akf-mat": _ALL_PARTS,
+    "exr": ("reference",),
+    "e2vid-txt": ("events",),
+    "aedat4": ("events", "frames"),
+    **{fmt: ("events",) for fmt in PROPHESEE_FORMATS},
+}
+
+__all__ = ["EXPORT_FORMATS", "FORMATS", "HOLDS", "DatasetFormatError", "ExportDropWarning", "NativeWriter",
+           "detect", "export", "from_tonic", "load", "to_tonic"]
+
+
+class ExportDropWarning(UserWarning):
+    """An export format cannot hold part of the recording (labels, reference, thresholds, ...): it is left out."""
 
 
 def detect(path) -> str:
-    """The layout of `path`: "native", "e2vid", "ijrr", "akf-mat" or "aedat4"; DatasetFormatError when unknown."""
+    """The layout of `path`: "native", "e2vid", "ijrr", "e2vid-txt", "akf-mat", "aedat4", "evt3", "evt2" or
+    "dat"; DatasetFormatError when unknown."""
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or directory")
+    if is_e2vid_txt(path):
+        return "e2vid-txt"
+    if path.suffix.lower() in (".raw", ".dat"):
+        kind = prophesee_kind(path)
+        if kind is None:
+            raise fail(path, "unknown layout: a .raw file whose header names neither EVT 2.0 nor EVT 3.0")
+        return kind
     if path.is_dir() or path.name == "events.txt":
         if is_ijrr(path if path.is_dir() else path.parent):
             return "ijrr"
@@ -41,44 +70,70 @@ def detect(path) -> str:
     if path.suffix.lower() == ".aedat4":
         return "aedat4"
     if h5py.is_hdf5(path):
-        with open_h5(path) as f:
+        with reading(path), open_h5(path) as f:
             if is_native(f):
                 return "native"
             if is_e2vid(f):
                 return "e2vid"
         raise fail(path, "unknown layout: HDF5 file with neither events/t (native) nor events/ts (E2VID)")
-    raise fail(path, "unknown layout: not HDF5, .mat, .aedat4 or an IJRR folder (or truncated?)")
+    raise fail(path, "unknown layout: not HDF5, .mat, .aedat4, .raw, .dat, E2VID text or an IJRR folder "
+                     "(or truncated?)")
 
 
 def load(path) -> Recording:
     """Read a dataset in any readable layout into a Recording (events, frames with exposure times, reference
-    frames with times, threshold maps, labels, CRF and metadata, where the layout holds them)."""
+    frames with times, threshold maps, labels, CRF and metadata, where the layout holds them).
+
+    What a reader returns is checked by generators.recording.validate_recording; every problem (an invalid
+    recording, or what h5py, zlib, json, scipy.io or numpy raise on malformed content) is a DatasetFormatError
+    naming the file."""
     readers = {"native": read_native, "e2vid": read_e2vid, "ijrr": read_ijrr, "akf-mat": read_akf_mat,
-               "aedat4": read_aedat4}
-    return readers[detect(path)](path)
+               "aedat4": read_aedat4, "e2vid-txt": read_e2vid_txt,
+               **{fmt: read_prophesee for fmt in PROPHESEE_FORMATS}}
+    kind = detect(path)
+    with reading(path):
+        rec = readers[kind](path)
+    return validated(path, rec)
 
 
-def export(recording_or_native_path, out_path, fmt: str, **options) -> None:
+def export(recording_or_native_path, out_path, fmt: str, **options) -> list[str]:
     """Write a Recording (or a native HDF5 file, streamed) to out_path in format `fmt` (one of FORMATS).
 
     options: akf-mat takes ct= and f_q= (see akfmat.write_akf_mat); exr takes half=True for float16 files.
-    "exr" writes the reference frames as an EXR folder with a timestamps.txt sidecar. Atomic for every format.
+    "exr" writes the reference frames as an EXR folder with a timestamps.txt sidecar; "e2vid-txt" is zipped when
+    out_path ends in .zip. Atomic for every format. Returns the parts of the recording that `fmt` cannot hold
+    (see HOLDS), also said by an ExportDropWarning; [] when nothing is dropped.
     """
     if fmt not in FORMATS:
         raise EvsimInputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     src = recording_or_native_path
     if isinstance(src, Recording):
         _write(src, out_path, fmt, options)
-        return
+        return _say_dropped(src, fmt, has_labels=src.event_labels is not None)
     src = Path(src)
     if detect(src) != "native":
         raise EvsimInputError(f"{src}: export reads native HDF5 files or Recordings")
     if fmt == "akf-mat":  # a .mat file is written in one piece
         _write(read_native(src), out_path, fmt, options)
-        return
+        return []
     # events streamed in chunks, frames and reference read one image at a time: memory stays flat
     with open_native_images(src) as rec:
         _write(rec, out_path, fmt, {**options, "event_source": iter_native_events(src)} if fmt != "exr" else options)
+        with open_h5(src) as f:
+            has_labels = "events/label" in f
+        return _say_dropped(rec, fmt, has_labels=has_labels)
+
+
+def _say_dropped(rec: Recording, fmt: str, *, has_labels: bool) -> list[str]:
+    """Warn about, and return, the parts of `rec` that format `fmt` cannot hold."""
+    present = {"events": True, "frames": rec.frames is not None, "reference": rec.reference is not None,
+               "threshold_maps": rec.threshold_maps is not None, "event_labels": has_labels,
+               "crf": rec.crf is not None, "metadata": bool(rec.metadata)}
+    dropped = [part for part in _ALL_PARTS if present[part] and part not in HOLDS[fmt]]
+    if dropped:
+        warnings.warn(f"{fmt} export holds {', '.join(HOLDS[fmt])} and the sensor size; it leaves out "
+                      f"{', '.join(dropped)}", ExportDropWarning, stacklevel=3)
+    return dropped
 
 
 def _write(rec: Recording, out_path, fmt: str, options: dict) -> None:
@@ -87,5 +142,9 @@ def _write(rec: Recording, out_path, fmt: str, options: dict) -> None:
             raise EvsimInputError("exr export needs reference frames: the recording has none")
         write_exr_sequence(out_path, rec.reference, rec.reference_t_us, **options)
         return
-    writers = {"native": write_native, "e2vid": write_e2vid, "ijrr": write_ijrr, "akf-mat": write_akf_mat}
+    if fmt in PROPHESEE_FORMATS:
+        write_prophesee(rec, out_path, fmt, **options)
+        return
+    writers = {"native": write_native, "e2vid": write_e2vid, "ijrr": write_ijrr, "akf-mat": write_akf_mat,
+               "e2vid-txt": write_e2vid_txt, "aedat4": write_aedat4}
     writers[fmt](rec, out_path, **options)

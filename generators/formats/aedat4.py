@@ -1,4 +1,5 @@
-"""AEDAT4 (iniVation DV) reader through the optional `aedat` package (`pip install aedat`).
+"""AEDAT4 (iniVation DV): reader through the optional `aedat` package (`pip install aedat`), writer through
+dv-processing (`pip install dv-processing`), iniVation's own library.
 
 Reads the first event stream (and the first frame stream, if any) into a Recording. Times are the camera's
 int64 microseconds (usually Unix time). Frame exposure windows come from exposure_begin_t / exposure_end_t;
@@ -7,13 +8,19 @@ colour frames are converted to grey with OpenCV. IMU and trigger packets are ign
 
 from __future__ import annotations
 
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from sim import EvsimInputError
+
 from ..recording import Recording
-from .common import events_from_columns, fail, polarity_pm1
+from .atomic import commit
+from .common import check_recording, events_from_columns, fail, polarity_pm1
+from .native import recording_event_chunks
 
 
 def _grey(frame: dict) -> np.ndarray:
@@ -67,3 +74,61 @@ def read_aedat4(path) -> Recording:
         frame_t_end_us=t[:, 1] if frames else None, frame_bit_depth=8,
         metadata={"source": {"format": "aedat4", "path": str(path)}},
     )
+
+
+# -- writing ----------------------------------------------------------------------------------------------------
+def write_aedat4(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
+    """Write events (and frames with their exposure windows, when the recording has them) as AEDAT4 through
+    dv-processing (`pip install dv-processing`), streamed chunk by chunk and atomically.
+
+    What AEDAT4 holds: the sensor size (stream resolution), events as int64 microsecond times with boolean
+    polarity (True = ON), 8-bit grey frames whose timestamp is the exposure start and whose exposure is
+    t_end - t_start (deeper frames lose their low bits). The mid-exposure time reads back as (start + end) // 2.
+    """
+    check_recording(rec)
+    try:
+        import dv_processing as dv
+    except ImportError as e:
+        raise EvsimInputError("writing AEDAT4 needs the optional 'dv-processing' package "
+                              "(pip install dv-processing)") from e
+    nf = 0 if rec.frames is None else rec.frames.shape[0]
+    config = dv.io.MonoCameraWriter.Config("evsim")
+    config.addEventStream((rec.width, rec.height))
+    if nf:
+        config.addFrameStream((rec.width, rec.height))
+    shift = max(rec.frame_bit_depth - 8, 0)
+    t_start = np.asarray(rec.frame_t_start_us if nf else [], np.int64)
+    t_end = np.asarray(rec.frame_t_end_us if nf else [], np.int64)
+    next_frame = 0
+
+    def write_frames_until(writer, t_us) -> int:
+        i = next_frame
+        while i < nf and (t_us is None or t_start[i] <= t_us):
+            img = np.ascontiguousarray(rec.frames[i] >> shift if shift else rec.frames[i], dtype=np.uint8)
+            writer.writeFrame(dv.Frame(int(t_start[i]), int(t_end[i] - t_start[i]), 0, 0, img,
+                                       dv.FrameSource.SENSOR))
+            i += 1
+        return i
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # dv-processing aborts the process on a file name not ending in .aedat4: write one in a private temporary
+    # folder beside path, then move it onto path (atomic, as every writer)
+    with tempfile.TemporaryDirectory(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent) as d:
+        tmp = Path(d) / "out.aedat4"
+        writer = dv.io.MonoCameraWriter(str(tmp), config)
+        try:
+            for chunk, _ in event_source if event_source is not None else recording_event_chunks(rec):
+                if chunk.size == 0:
+                    continue
+                next_frame = write_frames_until(writer, int(chunk["t"][-1]))  # frames interleaved in time
+                store = dv.EventStore()
+                push = store.push_back
+                for t, x, y, on in zip(chunk["t"].tolist(), chunk["x"].tolist(), chunk["y"].tolist(),
+                                       (chunk["p"] > 0).tolist()):
+                    push(t, x, y, on)
+                writer.writeEvents(store)
+            next_frame = write_frames_until(writer, None)
+        finally:
+            del writer  # closes the file (flushes dv-processing's writer thread)
+        commit(tmp, path)

@@ -3,13 +3,15 @@
 Variables (MATLAB conventions: 1-based pixel indices, column-major images):
     events      N x 4 double [t_us, x + 1, y + 1, p (+1 ON / -1 OFF)]
     image       H x W x F uint8 frames
-    time_image  1 x F double, mid-exposure times (us);  exposure 1 x F double, exposure durations (us)
+    time_image  F x 1 double, mid-exposure times (us);  exposure F x 1 double, exposure durations (us)
+                (columns: their deblur_edge_left.m indexes time_image(i, 1))
     im_height, im_width   sensor size;  ct   nominal contrast threshold (log units)
-    f_Q         1 x 256 double, 1/Rbar indexed by pixel value z + 1 (z = 0..255)
+    f_Q         256 x 1 double, 1/Rbar indexed by pixel value z + 1 (z = 0..255)
     post_process          output normalisation selector of their code (written as 1: min-max)
 evsim extras (ignored by their code): evsim_metadata, evsim_crf (JSON text), evsim_frame_t_start_us,
-evsim_frame_t_end_us, evsim_reference (H x W x R single), evsim_reference_t_us, evsim_threshold_maps
-(H x W x 2 single), evsim_event_labels.
+evsim_frame_t_end_us (F x 1), evsim_reference (H x W x R single), evsim_reference_t_us (R x 1),
+evsim_threshold_maps (H x W x 2 single), evsim_event_labels (N x 1). Every vector is a column. Files written
+before (1 x F rows) still read: vectors are read whatever their orientation.
 Precision: event and frame times are doubles in microseconds (exact below 2**53 us). Frames are 8-bit by layout:
 deeper frames lose their low bits. Without the evsim extras, t_start = t_mid - exposure // 2 and
 t_end = t_start + exposure. The .mat is MATLAB v5 (scipy.io.savemat, 2 GB per variable: about 67 M events);
@@ -28,7 +30,7 @@ from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
-from ..recording import Recording
+from ..recording import MAX_TIME_US, Recording
 from .atomic import atomic_path
 from .common import check_recording, events_from_columns, fail, open_h5, polarity_pm1, to_json
 
@@ -94,22 +96,27 @@ def write_akf_mat(rec: Recording, path, *, ct: float | None = None, f_q: np.ndar
     data = {
         "events": np.column_stack([ev["t"], ev["x"] + 1.0, ev["y"] + 1.0, ev["p"]]).astype(np.float64),
         "image": np.ascontiguousarray(frames.transpose(1, 2, 0), dtype=np.uint8),
-        "time_image": np.asarray(rec.frame_t_mid_us, np.float64)[None],
-        "exposure": (t_end - t_start).astype(np.float64)[None],
-        "im_height": float(rec.height), "im_width": float(rec.width), "ct": ct, "f_Q": f_q[None],
+        "time_image": _column(np.asarray(rec.frame_t_mid_us, np.float64)),
+        "exposure": _column((t_end - t_start).astype(np.float64)),
+        "im_height": float(rec.height), "im_width": float(rec.width), "ct": ct, "f_Q": _column(f_q),
         "post_process": 1.0,
         "evsim_metadata": to_json(rec.metadata), "evsim_crf": to_json(rec.crf),
-        "evsim_frame_t_start_us": t_start[None], "evsim_frame_t_end_us": t_end[None],
+        "evsim_frame_t_start_us": _column(t_start), "evsim_frame_t_end_us": _column(t_end),
     }
     if rec.reference is not None:
         data["evsim_reference"] = np.asarray(rec.reference, np.float32).transpose(1, 2, 0)
-        data["evsim_reference_t_us"] = np.asarray(rec.reference_t_us, np.int64)[None]
+        data["evsim_reference_t_us"] = _column(np.asarray(rec.reference_t_us, np.int64))
     if rec.threshold_maps is not None:
         data["evsim_threshold_maps"] = np.asarray(rec.threshold_maps, np.float32).transpose(1, 2, 0)
     if rec.event_labels is not None:
-        data["evsim_event_labels"] = np.asarray(rec.event_labels, np.uint8)[None]
+        data["evsim_event_labels"] = _column(np.asarray(rec.event_labels, np.uint8))
     with atomic_path(path) as tmp:
-        scipy.io.savemat(tmp, data, do_compression=True, oned_as="row")
+        scipy.io.savemat(tmp, data, do_compression=True, oned_as="column")
+
+
+def _column(v: np.ndarray) -> np.ndarray:
+    """A vector as an N x 1 MATLAB column (the authors' code indexes time_image(i, 1))."""
+    return np.asarray(v).reshape(-1, 1)
 
 
 def _load_mat(path: Path) -> dict:
@@ -122,6 +129,16 @@ def _load_mat(path: Path) -> dict:
         return scipy.io.loadmat(path)
     except (MatReadError, ValueError, OSError, TypeError) as e:
         raise fail(path, f"not a readable MATLAB .mat file (truncated or corrupt?): {e}") from e
+
+
+def _us(path, name: str, v) -> np.ndarray:
+    """A MATLAB time vector (double or integer microseconds) as int64, refusing NaN and overflowing values."""
+    a = np.asarray(v).ravel()
+    if a.dtype.kind not in "iuf" or (a.dtype.kind == "f" and not np.isfinite(a).all()):
+        raise fail(path, f"{name} must hold finite numbers, got {a.dtype}")
+    if a.size and np.abs(a.astype(np.float64)).max() > MAX_TIME_US:
+        raise fail(path, f"{name} outside +-2**62 us")
+    return np.rint(a).astype(np.int64)
 
 
 def _text(v) -> str:
@@ -150,18 +167,20 @@ def read_akf_mat(path) -> Recording:
         image = image[:, :, None]
     if image.ndim != 3 or image.shape[:2] != (h, w):
         raise fail(path, f"image must be {h} x {w} x F, got shape {image.shape}")
-    frames = np.ascontiguousarray(np.clip(np.rint(image), 0, 255).astype(np.uint8).transpose(2, 0, 1))
+    if image.dtype.kind not in "biuf" or (image.dtype.kind == "f" and not np.isfinite(image).all()):
+        raise fail(path, f"image must hold finite numbers, got {image.dtype}")
+    if image.size and (image.min() < 0 or image.max() > 255):
+        raise fail(path, f"image values must be 8-bit (0..255), got {image.min()}..{image.max()}")
+    frames = np.ascontiguousarray(np.rint(image).astype(np.uint8).transpose(2, 0, 1))
     nf = frames.shape[0]
-    t_mid = np.rint(np.asarray(m["time_image"], np.float64).ravel()).astype(np.int64)
-    exposure = np.rint(np.asarray(m["exposure"], np.float64).ravel()).astype(np.int64)
+    t_mid, exposure = (_us(path, k, m[k]) for k in ("time_image", "exposure"))
     if exposure.size == 1:
         exposure = np.full(nf, exposure[0])
     if t_mid.size != nf or exposure.size < nf:
         raise fail(path, f"{nf} images but {t_mid.size} time_image and {exposure.size} exposure entries")
     exposure = exposure[:nf]  # the authors' sample files sometimes carry a longer exposure vector
     if "evsim_frame_t_start_us" in m:
-        t_start = np.asarray(m["evsim_frame_t_start_us"]).ravel().astype(np.int64)
-        t_end = np.asarray(m["evsim_frame_t_end_us"]).ravel().astype(np.int64)
+        t_start, t_end = (_us(path, k, m[k]) for k in ("evsim_frame_t_start_us", "evsim_frame_t_end_us"))
     else:
         t_start = t_mid - exposure // 2
         t_end = t_start + exposure
@@ -175,7 +194,7 @@ def read_akf_mat(path) -> Recording:
         events=events, height=h, width=w, frames=frames, frame_t_start_us=t_start, frame_t_mid_us=t_mid,
         frame_t_end_us=t_end, frame_bit_depth=8,
         reference=None if ref is None else np.ascontiguousarray(np.atleast_3d(ref).transpose(2, 0, 1)),
-        reference_t_us=None if ref is None else np.asarray(m["evsim_reference_t_us"]).ravel().astype(np.int64),
+        reference_t_us=None if ref is None else _us(path, "evsim_reference_t_us", m["evsim_reference_t_us"]),
         crf=json.loads(_text(m["evsim_crf"])) if "evsim_crf" in m else None,
         threshold_maps=None if thr is None else np.ascontiguousarray(thr.transpose(2, 0, 1)),
         event_labels=None if "evsim_event_labels" not in m else np.asarray(m["evsim_event_labels"]).ravel(),

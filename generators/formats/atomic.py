@@ -1,29 +1,60 @@
 """Atomic outputs: write to a temporary sibling, then os.replace it onto the final path.
 
 A failed or interrupted writer therefore never leaves anything at the final path that looks complete, and an
-existing file there is untouched until the new one is whole.
+existing file there is untouched until the new one is whole. The temporary is deleted on every exit path that runs
+Python code (exceptions, Ctrl-C, and SIGTERM under the CLI, which turns it into an exception); one left by kill -9
+is deleted by the next write of the same path on the same host.
 """
 
 from __future__ import annotations
 
+import glob
 import os
 import shutil
+import socket
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 
+_OWNER = f"{socket.gethostname()}-{os.getpid()}"
+
+
 def temp_sibling(path: Path, *, directory: bool = False) -> Path:
-    """A new, uniquely named temporary file (or directory) next to `path`, named `.<name>.<random>.tmp`."""
+    """A new, uniquely named temporary file (or directory) next to `path`, named `.<name>.<host>-<pid>.<random>.tmp`.
+
+    Temporaries of `path` left by a process of this host that no longer runs (killed with kill -9) are removed
+    first, so that the next write of the same path cleans up after a crash."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    prefix, suffix = f".{path.name}.", ".tmp"
+    _sweep_stale(path)
+    prefix, suffix = f".{path.name}.{_OWNER}.", ".tmp"
     if directory:
         return Path(tempfile.mkdtemp(prefix=prefix, suffix=suffix, dir=path.parent))
     fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=path.parent)
     os.close(fd)
     return Path(tmp)
+
+
+def _sweep_stale(path: Path) -> None:
+    host = socket.gethostname()
+    head = f".{path.name}."
+    for p in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
+        owner = p.name[len(head):-len(".tmp")].rpartition(".")[0]  # "<host>-<pid>" (the random part dropped)
+        h, _, pid = owner.rpartition("-")
+        if h == host and pid.isdigit() and not _alive(int(pid)):
+            discard(p)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def commit(tmp: Path, path: Path) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -11,6 +12,8 @@ import h5py
 import numpy as np
 
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
+
+from ..recording import MAX_SENSOR_PX, MAX_TIME_US, validate_recording
 
 EVENT_CHUNK = 1 << 20  # events per chunk when streaming between files (about 13 MB as EVENT_DTYPE)
 
@@ -43,6 +46,34 @@ def open_h5(path) -> Iterator[h5py.File]:
         raise fail(path, f"unreadable data (truncated or corrupt?): {e}") from e
 
 
+# What libraries raise on malformed content (h5py, zlib, json, scipy.io, numpy, int()/float() of bad values).
+LIBRARY_ERRORS = (OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, RuntimeError, OverflowError,
+                  UnicodeError, zlib.error, MemoryError)
+
+
+@contextmanager
+def reading(path) -> Iterator[None]:
+    """Turn every error raised while decoding `path` into DatasetFormatError naming the file.
+
+    Wrap only the reading itself, never code that runs on what was read (a caller's with-body)."""
+    try:
+        yield
+    except DatasetFormatError:
+        raise
+    except EvsimInputError as e:
+        raise fail(path, str(e)) from e
+    except MemoryError as e:
+        raise fail(path, "content too large to load (corrupt sizes?)") from e
+    except LIBRARY_ERRORS as e:
+        raise fail(path, f"malformed content ({type(e).__name__}: {e})") from e
+
+
+def validated(path, rec):
+    """validate_recording(rec), its errors as DatasetFormatError naming `path`; returns rec."""
+    with reading(path):
+        return validate_recording(rec)
+
+
 def require(f: h5py.File, path, names: list[str]) -> None:
     """Raise DatasetFormatError listing the datasets of `names` that `f` lacks."""
     missing = [n for n in names if n not in f]
@@ -55,7 +86,10 @@ def json_attr(obj, name: str, default=None):
     if name not in obj.attrs:
         return default
     raw = obj.attrs[name]
-    return json.loads(raw.decode() if isinstance(raw, bytes) else str(raw))
+    try:
+        return json.loads(raw.decode() if isinstance(raw, bytes) else str(raw))
+    except ValueError as e:  # JSONDecodeError, UnicodeDecodeError
+        raise fail(getattr(getattr(obj, "file", None), "filename", "?"), f"attribute {name!r} is not JSON: {e}") from e
 
 
 def to_json(value) -> str:
@@ -86,11 +120,42 @@ def event_chunks(events: np.ndarray, size: int = EVENT_CHUNK) -> Iterator[np.nda
         yield events[i : i + size]
 
 
+def _checked_column(path, name: str, col, lo: int, hi: int) -> np.ndarray:
+    """A decoded integer column checked to be numeric, whole and in lo..hi before any cast (a cast would wrap
+    x = -1 to 65535, NaN to 0 and uint64 times >= 2**63 to negative ones)."""
+    col = np.asarray(col)
+    if col.size == 0:
+        return col
+    if col.dtype.kind not in "iuf" and col.dtype != np.bool_:
+        raise fail(path, f"event column {name} must be numeric, got {col.dtype}")
+    if col.dtype.kind == "f":
+        if not np.isfinite(col).all():
+            raise fail(path, f"event column {name} holds NaN or infinite values")
+        if not (col == np.round(col)).all():
+            raise fail(path, f"event column {name} holds non-integer values")
+    if col.min() < lo or col.max() > hi:
+        raise fail(path, f"event column {name} outside {lo}..{hi}: {col.min()}..{col.max()}")
+    return col
+
+
+def add_offset(path, t, offset) -> np.ndarray:
+    """int64 times t + offset (microseconds), DatasetFormatError instead of a silent int64 wrap-around."""
+    t = _checked_column(path, "t", t, -MAX_TIME_US, MAX_TIME_US)
+    offset = int(offset)
+    if abs(offset) > MAX_TIME_US:
+        raise fail(path, f"time offset {offset} us outside +-2**62 us")
+    return t.astype(np.int64) + np.int64(offset)
+
+
 def events_from_columns(path, t, x, y, p) -> np.ndarray:
     """Build a sorted-checked EVENT_DTYPE array from decoded columns; bad content becomes DatasetFormatError."""
+    t = np.asarray(t)
+    if any(np.shape(c) != t.shape for c in (x, y, p)) or t.ndim != 1:
+        raise fail(path, f"event columns differ in shape: {[np.shape(c) for c in (t, x, y, p)]}")
     ev = np.empty(len(t), dtype=EVENT_DTYPE)
-    for name, col in (("t", t), ("x", x), ("y", y), ("p", p)):
-        ev[name] = col
+    for name, col, lo, hi in (("t", t, -MAX_TIME_US, MAX_TIME_US), ("x", x, 0, MAX_SENSOR_PX - 1),
+                              ("y", y, 0, MAX_SENSOR_PX - 1), ("p", p, -1, 1)):
+        ev[name] = _checked_column(path, name, col, lo, hi)
     try:
         return validate_events(ev, name=f"events of {path}")
     except EvsimInputError as e:
@@ -98,38 +163,18 @@ def events_from_columns(path, t, x, y, p) -> np.ndarray:
 
 
 def polarity_pm1(p) -> np.ndarray:
-    """Polarity as int8 -1/+1 from any of the field's encodings (bool, 0/1, -1/+1)."""
-    return np.where(np.asarray(p).astype(np.int64) > 0, 1, -1).astype(np.int8)
-
-
-def _shape_dtype(images) -> tuple[tuple[int, ...], np.dtype]:
-    """Shape and dtype of an image stack without reading it (an array, or an HDF5 dataset read lazily)."""
-    if hasattr(images, "shape") and hasattr(images, "dtype"):
-        return tuple(images.shape), np.dtype(images.dtype)
-    a = np.asarray(images)
-    return a.shape, a.dtype
+    """Polarity as int8 -1/+1 from any of the field's encodings (bool, 0/1, -1/+1); NaN is an error."""
+    p = np.asarray(p)
+    if p.dtype.kind == "f" and not np.isfinite(p).all():
+        raise EvsimInputError("event polarity holds NaN or infinite values")
+    if p.dtype.kind not in "biuf":
+        raise EvsimInputError(f"event polarity must be numeric or boolean, got {p.dtype}")
+    return np.where(p > 0, 1, -1).astype(np.int8)
 
 
 def check_recording(rec) -> None:
-    """Raise EvsimInputError unless a Recording's arrays agree with each other (shapes, lengths, dtypes)."""
-    validate_events(rec.events, name="recording events")
-    h, w = rec.height, rec.width
-    if rec.event_labels is not None and np.shape(rec.event_labels) != rec.events.shape:
-        raise EvsimInputError(f"{np.shape(rec.event_labels)} event labels for {rec.events.size} events")
-    if rec.frames is not None:
-        shape, dtype = _shape_dtype(rec.frames)
-        if len(shape) != 3 or shape[1:] != (h, w) or dtype.kind != "u":
-            raise EvsimInputError(f"frames must be unsigned (F, {h}, {w}), got {dtype} {shape}")
-        for name in ("frame_t_start_us", "frame_t_mid_us", "frame_t_end_us"):
-            if np.shape(getattr(rec, name)) != (shape[0],):
-                raise EvsimInputError(f"{name} must have one entry per frame ({shape[0]})")
-    if rec.reference is not None:
-        shape, _ = _shape_dtype(rec.reference)
-        if len(shape) != 3 or shape[1:] != (h, w) or np.shape(rec.reference_t_us) != (shape[0],):
-            raise EvsimInputError(f"reference must be (R, {h}, {w}) with R times, got {shape} and "
-                                  f"{np.shape(rec.reference_t_us)} times")
-    if rec.threshold_maps is not None and np.shape(rec.threshold_maps) != (2, h, w):
-        raise EvsimInputError(f"threshold maps must be (2, {h}, {w}), got {np.shape(rec.threshold_maps)}")
+    """Raise EvsimInputError unless a Recording follows every documented rule (recording.validate_recording)."""
+    validate_recording(rec)
 
 
 def frame_times_check(t_start, t_mid, t_end) -> None:

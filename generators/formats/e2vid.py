@@ -3,7 +3,8 @@
 Layout (as read by event_cnn_minimal's data loaders):
     /events/xs, /events/ys (i2), /events/ts (f8, seconds), /events/ps (bool, True = ON)
     /images/image000000000 ... (u8, H x W) with attrs timestamp (s, mid-exposure), size (H, W),
-        type "greyscale", event_idx (index of the first event with t >= timestamp)
+        type "greyscale", event_idx = max(0, i - 1) with i the index of the first event with t >= timestamp
+        (what event_utils' own writer, hdf5_packager.add_event_indices, stores)
     root attrs sensor_resolution (H, W), num_events, num_pos, num_neg, num_imgs, duration, t0, tk (seconds,
         t0 / tk = first / last event time)
 evsim extras that other readers ignore: image attrs t_start_us, t_mid_us, t_end_us (i8); root attrs
@@ -73,7 +74,7 @@ def write_e2vid(rec: Recording, path, *, event_source: Iterator | None = None) -
             img = rec.frames[i] >> shift if shift > 0 else rec.frames[i]
             ds = images.create_dataset(f"image{i:09d}", data=img.astype(np.uint8), compression="gzip")
             ds.attrs.update({"timestamp": t_mid[i] / 1e6, "size": img.shape, "type": "greyscale",
-                             "event_idx": event_idx[i], "t_start_us": int(rec.frame_t_start_us[i]),
+                             "event_idx": max(0, int(event_idx[i]) - 1), "t_start_us": int(rec.frame_t_start_us[i]),
                              "t_mid_us": int(t_mid[i]), "t_end_us": int(rec.frame_t_end_us[i])})
         t0 = t0 if t0 is not None else 0
         tk = tk if tk is not None else t0

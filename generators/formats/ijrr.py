@@ -14,12 +14,18 @@ Reading accepts the original dataset too: extra files (calib.txt, imu.txt, groun
 are rounded to the nearest microsecond (9-decimal text included), exactly for microsecond-resolution times below
 2**51 us (about 71 years: Unix time included); missing exposures give t_start = t_mid = t_end; colour PNGs are
 converted to grey; without evsim.json or images the sensor size is max(x) + 1 by max(y) + 1.
+
+The E2VID text flavour ("e2vid-txt", rpg_e2vid's input) is one file: a first line "width height", then the
+same "t x y p" event lines; written zipped (one member, as rpg_e2vid's extract_events_from_rosbag.py does) when
+the path ends in .zip, else plain text. It holds events and the sensor size only.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import warnings
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -30,7 +36,7 @@ from sim import EvsimInputError
 
 from ..recording import Recording
 from .atomic import atomic_path
-from .common import check_recording, events_from_columns, fail, polarity_pm1, to_json
+from .common import DatasetFormatError, check_recording, events_from_columns, fail, polarity_pm1, to_json
 from .exr import read_exr_sequence, write_exr_sequence
 from .native import recording_event_chunks
 
@@ -139,7 +145,10 @@ def read_ijrr(directory) -> Recording:
         raise fail(d, "sensor size unknown: no evsim.json, no images and no events")
     labels = None
     if (d / "event_labels.txt").is_file():
-        labels = _load_table(d / "event_labels.txt", 1, dtype=np.int64)[:, 0].astype(np.uint8)
+        labels = _load_table(d / "event_labels.txt", 1, dtype=np.int64)[:, 0]
+        if labels.size and (labels.min() < 0 or labels.max() > 255):
+            raise fail(d / "event_labels.txt", f"labels must be 0..3, got {labels.min()}..{labels.max()}")
+        labels = labels.astype(np.uint8)
         if labels.shape[0] != events.size:
             raise fail(d / "event_labels.txt", f"{labels.shape[0]} labels for {events.size} events")
     reference = reference_t = None
@@ -186,3 +195,82 @@ def _read_frames(d: Path):
     else:
         t_start, t_end = t_mid.copy(), t_mid.copy()
     return frames, t_start, t_mid, t_end, 8 * frames.dtype.itemsize
+
+
+# -- the E2VID text flavour -------------------------------------------------------------------------------------
+def write_e2vid_txt(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
+    """Write the events as rpg_e2vid's text input (header "width height"), zipped when path ends in .zip;
+    streamed chunk by chunk and atomic."""
+    check_recording(rec)
+    path = Path(path)
+    chunks = event_source if event_source is not None else recording_event_chunks(rec)
+    with atomic_path(path) as tmp:
+        if path.suffix.lower() == ".zip":
+            with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z, \
+                    z.open(path.with_suffix(".txt").name, "w", force_zip64=True) as raw, \
+                    io.TextIOWrapper(raw, encoding="ascii") as fe:
+                _write_e2vid_lines(fe, rec, chunks)
+        else:
+            with open(tmp, "w", encoding="ascii") as fe:
+                _write_e2vid_lines(fe, rec, chunks)
+
+
+def _write_e2vid_lines(fe, rec: Recording, chunks) -> None:
+    fe.write(f"{rec.width} {rec.height}\n")
+    for chunk, _ in chunks:
+        for i in range(0, chunk.size, _FORMAT_ROWS):
+            fe.write(_events_text(chunk[i : i + _FORMAT_ROWS]))
+
+
+def is_e2vid_txt(path) -> bool:
+    """True for a .txt or .zip file whose first line is two integers ("width height")."""
+    path = Path(path)
+    if not path.is_file() or path.suffix.lower() not in (".txt", ".zip"):
+        return False
+    try:
+        with _open_e2vid_text(path) as f:
+            first = f.readline().split()
+    except (OSError, zipfile.BadZipFile, UnicodeDecodeError, DatasetFormatError):
+        return False
+    return len(first) == 2 and all(tok.isdigit() for tok in first)
+
+
+def _open_e2vid_text(path: Path):
+    if path.suffix.lower() != ".zip":
+        return open(path, encoding="ascii")
+    z = zipfile.ZipFile(path)
+    names = z.namelist()
+    if len(names) != 1:
+        z.close()
+        raise fail(path, f"an E2VID .zip holds one text file, found {len(names)}")
+    return io.TextIOWrapper(z.open(names[0]), encoding="ascii")
+
+
+def read_e2vid_txt(path) -> Recording:
+    """Read rpg_e2vid's text input (plain or zipped): header "width height", then "t x y p" lines."""
+    path = Path(path)
+    if not path.is_file():
+        raise fail(path, "no such file")
+    try:
+        with _open_e2vid_text(path) as f:
+            header = f.readline().split()
+            if len(header) != 2 or not all(tok.isdigit() for tok in header):
+                raise fail(path, f"first line must be 'width height', got {' '.join(header)!r}")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
+                ev = np.loadtxt(f, dtype=np.float64, ndmin=2, comments="#")
+    except (zipfile.BadZipFile, UnicodeDecodeError, OSError, EOFError) as e:
+        raise fail(path, f"unreadable E2VID text file (truncated or corrupt?): {e}") from e
+    except ValueError as e:
+        raise fail(path, f"malformed line: {e}") from e
+    ev = ev.reshape(-1, 4) if ev.size else np.zeros((0, 4))
+    if ev.size and not np.isin(ev[:, 3], (0, 1, -1)).all():
+        raise fail(path, "polarity column must hold 0/1 (or -1/+1)")
+    width, height = int(header[0]), int(header[1])
+    events = events_from_columns(path, _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2], polarity_pm1(ev[:, 3]))
+    if events.size and (events["x"].max() >= width or events["y"].max() >= height):
+        raise fail(path, f"event coordinates exceed the header's sensor size {width}x{height}")
+    rec = Recording(events=events, height=height, width=width,
+                    metadata={"source": {"format": "e2vid-txt", "path": str(path)}})
+    check_recording(rec)
+    return rec

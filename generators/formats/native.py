@@ -3,7 +3,8 @@
 Layout (all times int64 microseconds):
     /t_offset (i8)    as in DSEC, stored event times are relative: absolute t = events/t + t_offset. It is the
                       first event's time floored to a whole millisecond (0 for a sequence starting at 0).
-    /events/t (i8, relative), /events/x, /events/y (u2), /events/p (i1, -1/+1)   time-sorted events
+    /events/t (i8, relative), /events/x, /events/y (u2), /events/p (u1, 1 = ON, 0 = OFF, as DSEC stores it)
+                      time-sorted events; the Python API (sim.EVENT_DTYPE) keeps p = -1/+1
     /events/label (u1, optional)                                      0 signal, 1 shot, 2 leak, 3 hot
     /ms_to_idx (u8)   ms_to_idx[k] = index of the first event with events/t >= k * 1000 (i.e. absolute
                       t >= t_offset + k * 1000 us), for k = 0 .. events/t[-1] // 1000 + 1; the last entry is
@@ -13,6 +14,8 @@ Layout (all times int64 microseconds):
     /reference/images (R, H, W) f4 linear HDR radiance, /reference/t_us (R,) i8
     /threshold_maps (2, H, W) f4 (optional): ON and OFF contrast thresholds, log units
     root attrs: format="evsim-native", format_version, height, width, metadata (JSON), crf (JSON or absent)
+Layout versions: 2 stores events/p as u1 0/1 (DSEC's convention); 1 (files written before) stored i1 -1/+1.
+Readers decode p by the file's version; DSEC-like files without the format attribute are read as 0/1.
 Datasets are chunked, resizable, byte-shuffled and gzip-compressed; each add_* call appends, so memory stays flat.
 """
 
@@ -32,6 +35,7 @@ from .atomic import commit, discard, temp_sibling
 from .common import (
     EVENT_CHUNK,
     append_rows,
+    add_offset,
     check_recording,
     event_chunks,
     events_from_columns,
@@ -39,13 +43,15 @@ from .common import (
     frame_times_check,
     json_attr,
     open_h5,
+    reading,
     require,
     to_json,
+    validated,
 )
 
 FORMAT_NAME = "evsim-native"
-FORMAT_VERSION = 1
-_EVENT_FIELDS = {"t": np.int64, "x": np.uint16, "y": np.uint16, "p": np.int8}
+FORMAT_VERSION = 2  # 2: events/p stored 0/1 (DSEC); 1: stored -1/+1
+_EVENT_FIELDS = {"t": np.int64, "x": np.uint16, "y": np.uint16, "p": np.uint8}
 _EV_H5_CHUNK = 1 << 16
 
 
@@ -135,8 +141,9 @@ class NativeWriter:
             self._t_offset = int(events["t"][0]) // 1000 * 1000
         t = events["t"] - self._t_offset
         ev = self._f["events"]
+        stored = {"t": t, "x": events["x"], "y": events["y"], "p": (events["p"] > 0).astype(np.uint8)}
         for name in _EVENT_FIELDS:
-            append_rows(ev[name], t if name == "t" else events[name])
+            append_rows(ev[name], stored[name])
         if labels is not None:
             append_rows(ev["label"], labels)
         # ms_to_idx entries whose millisecond starts at or before this chunk's last event are now known.
@@ -275,22 +282,34 @@ def is_native(f: h5py.File) -> bool:
 
 
 def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
-    """Stream (events, labels) chunks from a native file without loading the whole stream."""
+    """Stream (events, labels) chunks from a native file without loading the whole stream. Each chunk is checked
+    as load() checks a whole recording (coordinates inside the sensor, sorted across chunks, labels in range)."""
     with open_h5(path) as f:
-        require(f, path, ["events/t", "events/x", "events/y", "events/p"])
-        ev = f["events"]
-        n, t_offset = ev["t"].shape[0], _t_offset(f)
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, ["events/t", "events/x", "events/y", "events/p"])
+            ev = f["events"]
+            n, t_offset, version = ev["t"].shape[0], _t_offset(f), _layout_version(f)
+            h, w = _resolution(f, path)
+        t_last = None
         for i in range(0, n, size):
-            cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
-            cols[0] += t_offset
-            labels = ev["label"][i : i + size] if "label" in ev else None
-            yield events_from_columns(path, *cols), labels
+            with reading(path):
+                cols = [ev[k][i : i + size] for k in ("t", "x", "y", "p")]
+                cols[0] = add_offset(path, cols[0], t_offset)
+                cols[3] = _decode_polarity(path, cols[3], version)
+                labels = ev["label"][i : i + size] if "label" in ev else None
+                chunk = events_from_columns(path, *cols)
+                if t_last is not None and chunk.size and chunk["t"][0] < t_last:
+                    raise fail(path, f"events are not sorted by time across chunks (at event {i})")
+                t_last = int(chunk["t"][-1]) if chunk.size else t_last
+                validated(path, Recording(events=chunk, height=h, width=w, event_labels=labels))
+            yield chunk, labels
 
 
 def read_native(path, *, events: bool = True) -> Recording:
     """Read a native file into a Recording (events=False skips the event stream and labels)."""
-    with open_h5(path) as f:
-        return _native_recording(f, path, events=events, lazy_images=False)
+    with open_h5(path) as f, reading(path):
+        return validated(path, _native_recording(f, path, events=events, lazy_images=False))
 
 
 @contextmanager
@@ -299,18 +318,22 @@ def open_native_images(path) -> Iterator[Recording]:
     (read one image at a time when indexed or iterated, so memory does not grow with the sequence length); valid
     inside the with block. Exporters stream the events alongside with iter_native_events."""
     with open_h5(path) as f:
-        yield _native_recording(f, path, events=False, lazy_images=True)
+        with reading(path):
+            rec = validated(path, _native_recording(f, path, events=False, lazy_images=True))
+        yield rec
 
 
 def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) -> Recording:
     if not is_native(f):
         raise fail(path, "not a native evsim HDF5 file")
+    _require_complete(f, path)
     require(f, path, ["events/t", "events/x", "events/y", "events/p", "frames/images", "frames/t_start_us",
                       "frames/t_mid_us", "frames/t_end_us"])
     h, w = _resolution(f, path)
     ev = f["events"]
     if events:
-        evs = events_from_columns(path, ev["t"][()] + _t_offset(f), *(ev[k][()] for k in ("x", "y", "p")))
+        evs = events_from_columns(path, add_offset(path, ev["t"][()], _t_offset(f)), ev["x"][()], ev["y"][()],
+                                  _decode_polarity(path, ev["p"][()], _layout_version(f)))
         labels = ev["label"][()] if "label" in ev else None
     else:
         evs = events_from_columns(path, [], [], [], [])
@@ -338,6 +361,29 @@ def _native_recording(f: h5py.File, path, *, events: bool, lazy_images: bool) ->
         event_labels=labels,
         metadata=json_attr(f, "metadata", {}),
     )
+
+
+def _layout_version(f: h5py.File) -> int:
+    """The layout version of a complete native file (see _require_complete): its format_version attribute."""
+    return int(f.attrs.get("format_version", 1))
+
+
+def _decode_polarity(path, p: np.ndarray, version: int) -> np.ndarray:
+    """Stored polarity -> int8 -1/+1: version >= 2 (and DSEC) stores 0/1, version 1 stored -1/+1."""
+    p = np.asarray(p)
+    if version >= 2:
+        if p.size and p.max() > 1:
+            raise fail(path, f"events/p must hold 0/1 (layout version {version}), found {int(p.max())}")
+        return (p.astype(np.int8) * 2 - 1).astype(np.int8)
+    return p.astype(np.int8)
+
+
+def _require_complete(f: h5py.File, path) -> None:
+    """NativeWriter sets the root attribute format="evsim-native" only when it closes the file: a file without it
+    is an interrupted write (e.g. a leftover temporary file), never read as a valid recording."""
+    fmt = f.attrs.get("format")
+    if (fmt.decode() if isinstance(fmt, bytes) else fmt) != FORMAT_NAME:
+        raise fail(path, f"no format={FORMAT_NAME!r} attribute: an incomplete (interrupted) or foreign file")
 
 
 def _t_offset(f: h5py.File) -> int:

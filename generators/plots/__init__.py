@@ -1,15 +1,37 @@
 """Figures and animations (optional: needs matplotlib, `pip install 'evsim[plot]'`; this package imports without it).
 
 plot_pixel: one pixel over time (the figure that explains the AKF); plot_events: event frames, time surfaces and the
-event rate; plot_compare: methods side by side with error and gain maps; plot_sweep: error against swept noise
-parameters; plot_crfs: the CRF family; animate: events against the reconstruction as GIF/MP4. All use the Agg
-backend, one tone-mapping operator (common.ToneMap) and write their files atomically.
+event rate; plot_compare: methods side by side with error and gain maps; plot_sweep: error (or a denoiser's AUC)
+against swept noise parameters; plot_roc: ROC curves of event denoisers against the per-event labels; plot_crfs:
+the CRF family; animate: events against the reconstruction as GIF/MP4. All use the Agg backend, one tone-mapping
+operator (common.ToneMap) and write their files atomically.
 """
 
-from .animate import animate
-from .common import PlotDependencyError, Prepared, ToneMap, load_recording, prepare
-from .compare import compare_images, plot_compare
-from .crf import plot_crfs
-from .events import event_frame, event_rate, plot_events, time_surface
-from .pixel import PixelSeries, pixel_series, plot_pixel
-from .sweep import plot_sweep, sweep_metrics
+from __future__ import annotations
+
+import importlib
+
+# name -> submodule; imported on first use, so that `evsim --help` does not load every plotting module
+_EXPORTS = {
+    "animate": "animate",
+    **dict.fromkeys(("PlotDependencyError", "Prepared", "ToneMap", "load_recording", "prepare"), "common"),
+    **dict.fromkeys(("compare_images", "plot_compare"), "compare"),
+    "plot_crfs": "crf",
+    **dict.fromkeys(("event_frame", "event_rate", "plot_events", "time_surface"), "events"),
+    **dict.fromkeys(("PixelSeries", "pixel_series", "plot_pixel"), "pixel"),
+    **dict.fromkeys(("load_roc_result", "plot_roc"), "roc"),
+    **dict.fromkeys(("plot_sweep", "sweep_metrics"), "sweep"),
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_EXPORTS})

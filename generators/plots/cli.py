@@ -1,4 +1,4 @@
-"""`evsim plot pixel|events|compare|sweep`: registered on the evsim command line by add_plot_parser(subparsers).
+"""`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
 this includes a missing matplotlib (generators.plots.common.PlotDependencyError, with the pip command to fix it).
@@ -76,12 +76,24 @@ def _cmd_compare(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from .sweep import METRICS_FILE, plot_sweep
+    from .sweep import AUC_METRICS, DEFAULT_FILTERS, DEFAULT_METHODS, METRICS_FILE, plot_sweep
 
     out = args.out or Path(f"{Path(args.results).resolve().name}_sweep.png")
-    rows = plot_sweep(args.results, out, methods=tuple(args.methods), metric=args.metric, recompute=args.recompute,
+    methods = args.methods or (DEFAULT_FILTERS if args.metric in AUC_METRICS else DEFAULT_METHODS)
+    rows = plot_sweep(args.results, out, methods=tuple(methods), metric=args.metric, recompute=args.recompute,
                       progress=not args.no_progress)
     print(f"wrote {out} ({len(rows)} grid points; scores in {Path(args.results) / METRICS_FILE})")
+    return 0
+
+
+def _cmd_roc(args) -> int:
+    from .roc import load_roc_result, plot_roc
+
+    filters = None if args.filters is None else tuple(args.filters)
+    out = args.out or Path(f"{Path(args.source).stem}_roc.png")
+    aucs = plot_roc(load_roc_result(args.source, filters), out)
+    scores = ", ".join(f"{name} {a['all']:.3f}" for name, a in aucs.items())
+    print(f"wrote {out} (AUC over all noise: {scores})")
     return 0
 
 
@@ -127,12 +139,24 @@ def add_plot_parser(subparsers) -> argparse.ArgumentParser:
     c.set_defaults(func=_cmd_compare)
 
     s = psub.add_parser("sweep", epilog=PLOT_EPILOG,
-                        help="reconstruction error against each swept noise parameter, per method")
+                        help="reconstruction error, or a denoiser's ROC AUC, against each swept noise parameter")
     s.add_argument("results", type=Path, help="the output folder of `evsim generate sweep`")
-    s.add_argument("--metric", default="mse", help="mse (default), psnr, ssim, pu21_psnr or pu21_ssim")
-    s.add_argument("--methods", nargs="+", default=["akf", "cf", "frames"], help="methods (default: akf cf frames)")
+    s.add_argument("--metric", default="mse", help="mse (default), psnr, ssim, pu21_psnr or pu21_ssim; or a "
+                                                   "denoiser's ROC AUC: auc (all noise), auc_shot, auc_leak, auc_hot "
+                                                   "(sweeps written with --labels)")
+    s.add_argument("--methods", nargs="+", help="methods (default: akf cf frames), or with an AUC metric the "
+                                                "akf.denoise filters (default: correlation hot_pixel)")
     s.add_argument("--recompute", action="store_true", help="ignore the cached sweep_metrics.json")
     s.add_argument("--no-progress", action="store_true", help="no progress messages")
     s.add_argument("--out", type=Path, help="figure file (default ./<results folder>_sweep.png)")
     s.set_defaults(func=_cmd_sweep)
+
+    r = psub.add_parser("roc", epilog=PLOT_EPILOG,
+                        help="ROC curves of event denoisers (TPR on signal against FPR per noise type) with AUCs")
+    r.add_argument("source", type=Path, help="a dataset written with --labels, or the --json of `evsim evaluate "
+                                             "DATASET --task denoise`")
+    r.add_argument("--filters", nargs="+", help="filters to draw (akf.denoise.FILTERS; default: all installed, or "
+                                                "all in the JSON)")
+    r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
+    r.set_defaults(func=_cmd_roc)
     return plot

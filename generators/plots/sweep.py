@@ -1,11 +1,12 @@
-"""Reconstruction error against each swept noise parameter, per method (`evsim plot sweep RESULTS`).
+"""Reconstruction error (or a denoiser's ROC AUC) against each swept noise parameter (`evsim plot sweep RESULTS`).
 
 RESULTS is a folder written by `evsim generate sweep` (generators.sweep): index.json lists one sequence per grid
 point with its parameters. Each sequence is scored with generators.evaluation.evaluate_recording (protocol
 "reference": the reference frames strictly between the first and last LDR frame, in the CRF's units) for the
-requested metric; the scores are cached per method and metric in RESULTS/sweep_metrics.json (written atomically)
-and reused. With several swept parameters, each panel shows the mean over the other parameters' values at each
-value, with min..max error bars.
+requested metric, or, for the AUC metrics (auc over all noise, auc_shot, auc_leak, auc_hot; the sweep must be
+written with --labels), with generators.denoising for each denoising filter named as a method; the scores are
+cached per method and metric in RESULTS/sweep_metrics.json (written atomically) and reused. With several swept
+parameters, each panel shows the mean over the other parameters' values at each value, with min..max error bars.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from .common import load_recording, pyplot, save_figure
 
 METRICS_FILE = "sweep_metrics.json"
 DEFAULT_METHODS = ("akf", "cf", "frames")
+AUC_METRICS = ("auc", "auc_shot", "auc_leak", "auc_hot")  # denoisers' ROC AUC (generators.denoising)
+DEFAULT_FILTERS = ("correlation", "hot_pixel")  # the methods of an AUC sweep by default (evsim's own filters)
 
 
 def read_index(results) -> dict:
@@ -41,7 +44,12 @@ def read_index(results) -> dict:
 
 
 def score_sequence(path, methods=DEFAULT_METHODS, metrics=("mse",)) -> dict:
-    """{method: {metric: value}} of one sequence file (generators.evaluation, protocol "reference")."""
+    """{method: {metric: value}} of one sequence file (generators.evaluation, protocol "reference"), or, for
+    AUC_METRICS, {filter: {auc metric: value}} of the denoising filters named by methods (generators.denoising)."""
+    if any(m in AUC_METRICS for m in metrics):
+        from ..denoising import sequence_aucs
+
+        return {f: {m: scores[m] for m in metrics} for f, scores in sequence_aucs(path, tuple(methods)).items()}
     from ..evaluation import evaluate_recording
 
     return evaluate_recording(load_recording(path), methods=tuple(methods), metrics=tuple(metrics))[0]
@@ -90,8 +98,8 @@ def plot_sweep(results, out, *, methods=DEFAULT_METHODS, metric: str = "mse", re
     """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows."""
     import akf
 
-    if metric not in akf.METRICS:
-        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join(akf.METRICS)}")
+    if metric not in akf.METRICS and metric not in AUC_METRICS:
+        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join((*akf.METRICS, *AUC_METRICS))}")
     index = read_index(results)
     rows = sweep_metrics(results, methods, metric, recompute=recompute, progress=progress)
     keys = list(index["grid"])

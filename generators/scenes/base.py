@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
 from sim import EvsimInputError, InvalidParameterError
@@ -17,6 +20,22 @@ class Scene:
     height: int
     width: int
     duration_us: int
+
+    def __init_subclass__(cls, **kwargs):
+        """Every scene's constructor ends with a check that its numeric parameters (_params()) are finite: a NaN
+        or infinite speed, size or level would otherwise render NaN radiance (or hang a warp) much later."""
+        super().__init_subclass__(**kwargs)
+        init = cls.__dict__.get("__init__")
+        if init is None:
+            return
+
+        @functools.wraps(init)
+        def checked_init(self, *args, **kw):
+            init(self, *args, **kw)
+            if type(self) is cls:
+                _check_finite(type(self).__name__, self._params())
+
+        cls.__init__ = checked_init
 
     def _init_size(self, height: int, width: int, duration_us: int) -> None:
         for name, v in (("height", height), ("width", width)):
@@ -64,3 +83,14 @@ def positive(name: str, value: float, owner: str, *, allow_zero: bool = False) -
         need = "non-negative" if allow_zero else "positive"
         raise InvalidParameterError(f"{owner}: {name} must be a finite {need} number, got {value!r}")
     return v
+
+
+def _check_finite(owner: str, params, where: str = "") -> None:
+    """InvalidParameterError unless every number in a (nested) parameter dict, list or tuple is finite."""
+    items = params.items() if isinstance(params, dict) else enumerate(params) if isinstance(params, (list, tuple)) else ()
+    for k, v in items:
+        name = f"{where}.{k}" if where else str(k)
+        if isinstance(v, (dict, list, tuple)):
+            _check_finite(owner, v, name)
+        elif isinstance(v, (float, np.floating)) and not math.isfinite(v):
+            raise InvalidParameterError(f"{owner}: {name} must be finite, got {v!r}")

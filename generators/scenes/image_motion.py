@@ -53,6 +53,8 @@ class Trajectory:
         if len(self.pan_px_per_s) != 2:
             raise InvalidParameterError(f"Trajectory: pan_px_per_s must be (vx, vy), got {self.pan_px_per_s!r}")
         object.__setattr__(self, "pan_px_per_s", tuple(float(v) for v in self.pan_px_per_s))
+        if not all(math.isfinite(v) for v in self.pan_px_per_s):
+            raise InvalidParameterError(f"Trajectory: pan_px_per_s must be finite, got {self.pan_px_per_s!r}")
         for name in ("zoom_per_s", "rotation_deg_per_s", "shake_px", "shake_deg", "shake_hz"):
             if not math.isfinite(float(getattr(self, name))):
                 raise InvalidParameterError(f"Trajectory: {name} must be finite, got {getattr(self, name)!r}")

@@ -1,0 +1,107 @@
+"""One tuning protocol for every method: a small coordinate search over each method's main parameters.
+
+A setting is a dict of the search parameters of SEARCH_SPACES[method]; setting_options() turns it into the
+method's contrast and keyword options. tune() starts from DEFAULTS (the untuned method) and, for each parameter in
+turn, keeps the value of its grid that minimises the objective with the other parameters at their best so far
+(one sweep: sum of the grid sizes runs, not their product). The objective is the caller's (e.g. the mean MSE of
+the [0, 1] protocol over the tuning split of every sequence); lower is better; ties keep the earlier value.
+
+Parameters (all multiplicative or in the method's units):
+- contrast_scale: multiplies the nominal contrast thresholds (every event-based method).
+- alpha: the complementary filter's crossover gain (rad/s); 2 pi 0.5 Hz = 3.14 is the ROS default.
+- event_noise_scale: multiplies the AKF's event noise (sigma_proc2, sigma_iso2, sigma_ref2).
+- frame_noise_scale: multiplies the AKF's frame noise (sigma_im2 and max_variance together).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.errors import InvalidParameterError
+
+from .params import AKFParams
+
+_CONTRAST = (0.67, 0.8, 1.0, 1.25, 1.5)
+_ALPHA = (1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0)
+_NOISE = (1 / 16, 0.25, 1.0, 4.0, 16.0)
+SEARCH_SPACES = {
+    "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE},
+    "cf": {"alpha": _ALPHA, "contrast_scale": _CONTRAST},
+    "cf_adaptive": {"alpha": _ALPHA, "contrast_scale": _CONTRAST},
+    "direct": {"contrast_scale": _CONTRAST},
+    "frames": {},
+    "frames_linear": {},
+}
+DEFAULTS = {"contrast_scale": 1.0, "alpha": 2 * math.pi * 0.5, "event_noise_scale": 1.0, "frame_noise_scale": 1.0}
+
+
+@dataclass(frozen=True)
+class Tuned:
+    """The chosen setting, its objective, and every (setting, objective) tried, in order."""
+
+    setting: dict
+    objective: float
+    trials: tuple
+
+
+def setting_options(method: str, setting: dict, contrast, options=None) -> tuple:
+    """(contrast, keyword options) of `method` for a setting; options are the method's other keywords (an AKF
+    "params" there is the base the noise scales multiply)."""
+    options = dict(options or {})
+    c = np.asarray(contrast, np.float64) * setting.get("contrast_scale", 1.0)
+    if "alpha" in setting:
+        options["alpha"] = float(setting["alpha"])
+        options.pop("crossover_hz", None)
+    if method == "akf" and ("event_noise_scale" in setting or "frame_noise_scale" in setting):
+        p = options.get("params", AKFParams())
+        e, f = setting.get("event_noise_scale", 1.0), setting.get("frame_noise_scale", 1.0)
+        options["params"] = dataclasses.replace(p, sigma_proc2=p.sigma_proc2 * e, sigma_iso2=p.sigma_iso2 * e,
+                                                sigma_ref2=p.sigma_ref2 * e, sigma_im2=p.sigma_im2 * f,
+                                                max_variance=p.max_variance * f)
+    return (float(c) if c.ndim == 0 else tuple(c.tolist()) if c.ndim == 1 else c), options
+
+
+def default_setting(method: str) -> dict:
+    """The untuned setting of a method (its defaults for the searched parameters)."""
+    return {k: DEFAULTS[k] for k in SEARCH_SPACES.get(method, {})}
+
+
+def tune(method: str, objective, space: dict | None = None) -> Tuned:
+    """Coordinate search of `method`'s SEARCH_SPACES entry (or `space`: {parameter: grid}); objective(setting) ->
+    float, lower is better. Every setting is evaluated once."""
+    space = SEARCH_SPACES.get(method, {}) if space is None else space
+    unknown = [k for k in space if k not in DEFAULTS]
+    if unknown:
+        raise InvalidParameterError(f"unknown tuning parameters {unknown}; known: {sorted(DEFAULTS)}")
+    best = {k: DEFAULTS[k] for k in space}
+    seen = {}
+
+    def value(setting):
+        key = tuple(sorted(setting.items()))
+        if key not in seen:
+            v = float(objective(dict(setting)))
+            seen[key] = v if math.isfinite(v) else math.inf
+        return seen[key]
+
+    best_v = value(best)
+    for name, grid in space.items():
+        for v in grid:
+            trial = {**best, name: v}
+            tv = value(trial)
+            if tv < best_v:
+                best, best_v = trial, tv
+    trials = tuple((dict(k), v) for k, v in seen.items())
+    return Tuned(best, best_v, trials)
+
+
+def describe_setting(setting: dict) -> str:
+    """A setting in one line, e.g. 'alpha=50 rad/s, contrast x1.25' ('defaults' when empty)."""
+    parts = []
+    for k, v in setting.items():
+        parts.append(f"alpha={v:.3g} rad/s" if k == "alpha" else
+                     f"contrast x{v:.3g}" if k == "contrast_scale" else f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
+    return ", ".join(parts) if parts else "no parameters"

@@ -1,0 +1,101 @@
+"""Numba kernels of the Prophesee EVT 3.0 encoder and decoder (state machines over 16-bit words).
+
+EVT 3.0 words (little-endian uint16, type in bits 15..12), as Prophesee documents them and Metavision decodes:
+    0x0 ADDR_Y        bits 10..0 y (bit 11: system type, 0 = master camera)
+    0x2 ADDR_X        bit 11 polarity (1 = ON), bits 10..0 x: one event at (x, last y, current time)
+    0x3 VECT_BASE_X   bit 11 polarity, bits 10..0 x base for the vector words that follow
+    0x4 VECT_12       bits 11..0: events at base + k for each set bit k; base += 12
+    0x5 VECT_8        bits 7..0: the same for 8 pixels; base += 8
+    0x6 TIME_LOW      bits 11..0 = time bits 11..0
+    0x8 TIME_HIGH     bits 11..0 = time bits 23..12; a value below the previous one means the 24-bit time wrapped
+    0xA EXT_TRIGGER, 0xE OTHERS, 0x7 CONTINUED_4, 0xF CONTINUED_12: carry no CD event (skipped)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+TIME_HIGH_MAX_STEP = 8  # TIME_HIGH steps (of 4096 us) in a silence: Metavision counts a wrap only when TIME_HIGH
+# drops by at least 4085 steps (openeb evt3 decoder, LoopThreshold = 10 steps), so wraps must come in small steps
+
+
+@njit(cache=True)
+def encode_evt3(t, x, y, p, state, out):
+    """Encode events (t relative us, non-decreasing; x, y < 2048; p > 0 = ON) into out (uint16, large enough:
+    4 words per event plus (t_gap >> 12) // TIME_HIGH_MAX_STEP at most). state = [time_high (unwrapped
+    t >> 12), time, y] of the previous word written, -1 before the first; updated in place. Returns the number
+    of words written."""
+    k = 0
+    th_prev, t_prev, y_prev = state[0], state[1], state[2]
+    for i in range(t.size):
+        ti = t[i]
+        th = ti >> 12
+        if th != th_prev:
+            if th_prev >= 0:
+                while th - th_prev > TIME_HIGH_MAX_STEP:  # long silence: keep every wrap visible
+                    th_prev += TIME_HIGH_MAX_STEP
+                    out[k] = 0x8000 | (th_prev & 0xFFF)
+                    k += 1
+            out[k] = 0x8000 | (th & 0xFFF)
+            k += 1
+            th_prev = th
+            t_prev = -1
+        if ti != t_prev:
+            out[k] = 0x6000 | (ti & 0xFFF)
+            k += 1
+            t_prev = ti
+        yi = np.int64(y[i])
+        if yi != y_prev:
+            out[k] = yi & 0x7FF
+            k += 1
+            y_prev = yi
+        out[k] = 0x2000 | (0x800 if p[i] > 0 else 0) | (np.int64(x[i]) & 0x7FF)
+        k += 1
+    state[0], state[1], state[2] = th_prev, t_prev, y_prev
+    return k
+
+
+@njit(cache=True)
+def decode_evt3(words, state, t, x, y, p):
+    """Decode EVT 3.0 words into t (int64 us, from the unwrapped 24-bit time), x, y (uint16), p (int8 -1/+1),
+    each as long as the words' events (ADDR_X words plus the set bits of vector words). state = [time_high
+    (unwrapped), time_low, y, base_x, polarity, seen time_high] carried between chunks. Returns the number of
+    events decoded."""
+    th, tl, yy, base, pol, seen = state[0], state[1], state[2], state[3], state[4], state[5]
+    n = 0
+    for i in range(words.size):
+        w = np.int64(words[i])
+        typ = w >> 12
+        if typ == 0x0:
+            yy = w & 0x7FF
+        elif typ == 0x2:
+            t[n] = (th << 12) | tl
+            x[n] = w & 0x7FF
+            y[n] = yy
+            p[n] = 1 if w & 0x800 else -1
+            n += 1
+        elif typ == 0x3:
+            base = w & 0x7FF
+            pol = 1 if w & 0x800 else -1
+        elif typ == 0x4 or typ == 0x5:
+            width = 12 if typ == 0x4 else 8
+            for b in range(width):
+                if (w >> b) & 1:
+                    t[n] = (th << 12) | tl
+                    x[n] = base + b
+                    y[n] = yy
+                    p[n] = pol
+                    n += 1
+            base += width
+        elif typ == 0x6:
+            tl = w & 0xFFF
+        elif typ == 0x8:
+            v = w & 0xFFF
+            if seen == 0:
+                th = v
+                seen = 1
+            else:
+                th += (v - (th & 0xFFF)) & 0xFFF  # forward steps modulo the 12-bit wrap
+    state[0], state[1], state[2], state[3], state[4], state[5] = th, tl, yy, base, pol, seen
+    return n
