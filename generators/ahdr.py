@@ -168,6 +168,9 @@ class _TimedSource:
     def max_speed_px_per_s(self):
         return self._source.max_speed_px_per_s()
 
+    def __getattr__(self, name):  # optional source methods (e.g. log_linear_until, for the sampler) pass through
+        return getattr(self._source, name)
+
 
 def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     times = set(config.reference_times_us)

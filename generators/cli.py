@@ -19,7 +19,7 @@ from pathlib import Path
 
 import sim
 
-from .format_names import EXPORT_FORMATS
+from .choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from .plots.cli import add_plot_parser
 from .runner import TasksFailed, raise_failures
 
@@ -113,6 +113,30 @@ def _cmd_generate_sweep(args) -> int:
                            overwrite=args.overwrite, progress=not args.no_progress, fmt=args.format or cfg.format,
                            **_run_options(args))
     print(f"wrote the sweep over {', '.join(grid)} for {spec.name!r} to {index.parent} (index: {index.name})")
+    return 0
+
+
+def _cmd_convert(args) -> int:
+    from types import SimpleNamespace
+
+    from .convert import convert
+
+    # the sensor flags as generate reads them, with the LDR camera's frame rate from --camera-fps
+    flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "duration_s": None, "height": None,
+                               "width": None})
+    settings = _settings_from_flags(flags)
+    if args.sensor is not None:
+        settings["sensor"] = args.sensor
+    index = convert(args.inputs, args.out, settings=settings, height=args.height, width=args.width,
+                    seed=0 if args.seed is None else args.seed, fmt=args.format or "native",
+                    overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
+                    stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
+                    flow=args.flow, flow_preset=args.flow_preset, input_crf=args.input_crf,
+                    **_run_options(args))
+    import json
+
+    n = len(json.loads(index.read_text())["sequences"])
+    print(f"converted {n} clip(s) to {index.parent} (index: {index.name})")
     return 0
 
 
@@ -310,6 +334,17 @@ def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
+def _add_sensor_flags(g) -> None:
+    """The LDR camera, CRF, DVS sampling and output flags shared by generate and convert (read by
+    _settings_from_flags, with the camera's --fps)."""
+    g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
+    g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
+    g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
+    g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--reference-rate-hz", type=float,
+                   help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+
+
 def _add_scene_flags(p) -> None:
     from .builtin_sequences import BUILTIN_SEQUENCES
 
@@ -328,14 +363,45 @@ def _add_scene_flags(p) -> None:
     g.add_argument("--height", type=int, help="sensor height in pixels (default 180)")
     g.add_argument("--width", type=int, help="sensor width in pixels (default 240)")
     g.add_argument("--fps", type=float, help="frame rate of the LDR camera in frames per second (default 30)")
-    g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
-    g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
-    g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
-    g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
-    g.add_argument("--reference-rate-hz", type=float,
-                   help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+    _add_sensor_flags(g)
     p.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS),
                    help="DVS preset (default davis346); with --config it replaces every sequence's sensor")
+
+
+def _add_convert_parser(sub) -> None:
+    conv = sub.add_parser("convert", help="video(s) -> events + LDR frames + HDR reference, one sequence per clip",
+                          epilog=EPILOG)
+    conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
+                      help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
+                           "(PNG/JPG/TIFF 8/16-bit, EXR/HDR float) with a timestamps.txt or --fps, a .npy stack "
+                           "(N, H, W[, C]), or a folder of videos")
+    g = conv.add_argument_group("input")
+    g.add_argument("--start-s", type=_non_negative(float), default=0.0,
+                   help="start of the clip in seconds from the input's first frame (default 0)")
+    g.add_argument("--stop-s", type=_non_negative(float), default=None,
+                   help="end of the clip in seconds (default: the input's last frame)")
+    g.add_argument("--fps", type=float, help="input frame rate in frames per second (image folders and .npy "
+                                             "stacks; overrides a video container's rate)")
+    g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
+                                                   "decimal seconds (default: timestamps.txt in an image folder)")
+    g.add_argument("--input-crf", default="srgb", help="crf_models curve whose inverse linearises 8/16-bit "
+                                                       "input (default srgb; float input is taken as linear)")
+    g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
+                   help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
+                        "none (hold each frame)")
+    g.add_argument("--flow", choices=FLOW_METHODS, default="dis", help="optical flow (OpenCV; default dis)")
+    g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, default="medium", help="DIS preset (default medium)")
+    s = conv.add_argument_group("sensors")
+    s.add_argument("--height", type=int, help="sensor height in pixels (default: the input's; alone, it keeps "
+                                              "the aspect ratio; the input is cropped to the sensor's aspect ratio "
+                                              "and area-resized)")
+    s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
+    s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
+    _add_sensor_flags(s)
+    conv.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), help="DVS preset (default davis346)")
+    _add_output_flags(conv, "evsim_convert")
+    _add_run_flags(conv)
+    conv.set_defaults(func=_cmd_convert)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -376,6 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
     grid.add_argument("--hot-pixel-fraction", type=float, nargs="+", help="fraction of hot pixels (0..1)")
     grid.add_argument("--hot-pixel-hz", type=float, nargs="+", help="event rate of a hot pixel (Hz)")
     sweep.set_defaults(func=_cmd_generate_sweep)
+
+    _add_convert_parser(sub)
 
     info = sub.add_parser("info", help="what a dataset holds (duration, events, rates, frames, exposure, CRF, seed)",
                           epilog=EPILOG)

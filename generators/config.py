@@ -28,8 +28,8 @@ A configuration describes a dataset of sequences. Every key is optional except [
     threshold_sigma = [0.0, 0.03]
 
 Scene types: see SCENE_TYPES; the other keys of a scene table are the keyword arguments of the scene class
-(lists become tuples; "path" is relative to the configuration file). Errors raise InvalidParameterError naming
-the file and the key.
+(lists become tuples; "path" and "timestamps" are relative to the configuration file). Errors raise
+InvalidParameterError naming the file and the key.
 """
 
 from __future__ import annotations
@@ -54,6 +54,10 @@ SCENE_TYPES = {
              "image is shrunk, so that each pixel integrates its area; default 3)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
+    "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "
+             "fps (input frame rate, for folders and stacks), timestamps (file), upsample (flow | linear | none), "
+             "flow (dis | farneback), flow_preset, key_step_px, input_crf, input_crf_params, channel (the clip sets "
+             "the duration; it is cropped to the aspect ratio of height x width and area-resized to it)",
     "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",
     "rotating_disk": "RotatingDisk", "flicker": "FlickeringLight", "sun": "SunPatch",
@@ -218,10 +222,11 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
     if not isinstance(scene["type"], str) or scene["type"] not in SCENE_TYPES:
         raise _fail(f"{where}.type", f"unknown scene type {scene['type']!r}; one of {', '.join(SCENE_TYPES)}")
     scene = dict(scene)
-    if "path" in scene:
-        p = Path(_check_type(f"{where}.path", scene["path"], str)).expanduser()
-        scene["path"] = str(p if p.is_absolute() else (base_dir / p).resolve())
-    elif scene["type"] in ("image", "frames"):
+    for key in ("path", "timestamps"):
+        if key in scene:
+            p = Path(_check_type(f"{where}.{key}", scene[key], str)).expanduser()
+            scene[key] = str(p if p.is_absolute() else (base_dir / p).resolve())
+    if "path" not in scene and scene["type"] in ("image", "frames", "video"):
         raise _fail(f"{where}.path", f"required for scene type {scene['type']!r}")
     return scene
 
@@ -319,6 +324,8 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
                 return scenes.ImageMotionScene.from_file(params.pop("path"), duration_us, traj, height=height,
                                                          width=width, **params)
             return scenes.builtin_image_scene(height, width, duration_us, traj, **params)
+        if kind == "video":
+            return scenes.VideoScene(params.pop("path"), height=height, width=width, **params)
         if kind == "frames":
             src = scenes.FrameSequenceScene.from_folder(params.pop("path"), **params)
             if (src.height, src.width) != (height, width):

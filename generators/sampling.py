@@ -8,6 +8,10 @@ pairs (one image alive at a time, so memory stays flat) that count the samples t
   per-pixel change of L = log(I + log_eps) stays below `fraction * threshold`; a sample that turns out to exceed it
   is discarded and the step halved (bisection) until it fits or reaches min_step_us. Steps never exceed
   max_step_us.
+  A source that is log-linear between known times (a video upsampled into key frames: scenes.video) says so
+  with log_linear_until(t_us) -> the end of the piece that starts at t_us; the sampler then steps from piece end
+  to piece end without the bound: the DVS emulator interpolates log intensity linearly between its samples, so
+  samples inside a log-linear piece would change nothing.
 - FixedRateSampler: a regular grid at rate_hz, plus the end time.
 
 Times are int64 microseconds, strictly increasing, from t_start_us to t_end_us inclusive, and include every
@@ -46,7 +50,8 @@ def _positive_int(name: str, v) -> int:
 
 
 class AdaptiveSampler:
-    """Samples of `source` such that max |L(t_{k+1}) - L(t_k)| <= fraction * threshold (unless at min_step_us).
+    """Samples of `source` such that max |L(t_{k+1}) - L(t_k)| <= fraction * threshold (unless at min_step_us, or
+    within a log-linear piece of a source with log_linear_until: module docstring).
 
     threshold: the DVS contrast threshold (natural-log units); fraction: its share allowed between samples
     (0 < fraction <= 1); min_step_us, max_step_us: step bounds (microseconds); log_eps: the offset in log(I + eps),
@@ -85,10 +90,20 @@ class AdaptiveSampler:
         self.n_samples += 1
         yield t, img
         rate = None  # largest per-pixel |dL/dt| seen between the last two samples, per microsecond
+        linear_until = getattr(self.source, "log_linear_until", None)
         while t < self.t_end:
             dt = self.max_step if not rate else int(np.clip(_SAFETY * self.max_change / rate, self.min_step, self.max_step))
             k = np.searchsorted(self.breakpoints, t, side="right")
-            dt = min(dt, (self.breakpoints[k] if k < self.breakpoints.size else self.t_end) - t)
+            to_break = (self.breakpoints[k] if k < self.breakpoints.size else self.t_end) - t
+            if linear_until is not None:  # a log-linear piece: step to its end (or a breakpoint), no bound check
+                dt = min(max(int(linear_until(t)) - t, 1), self.max_step, to_break)
+                t += dt
+                img = self.source.radiance(t)
+                self.n_evaluations += 1
+                self.n_samples += 1
+                yield t, img
+                continue
+            dt = min(dt, to_break)
             while True:
                 img = self.source.radiance(t + dt)
                 log_new = self._log(img)

@@ -17,7 +17,7 @@ import h5py
 
 from sim import EvsimInputError
 
-from ..format_names import EXPORT_FORMATS, FORMATS
+from ..choices import EXPORT_FORMATS, FORMATS
 from ..recording import Recording
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat

@@ -1,0 +1,125 @@
+"""Benchmark of video conversion (not a test): input frames per second and events per second at 346x260.
+
+The clip (--clip): ../shared/data/video/bikes.mp4 (real footage, 640x272 at 25 fps, cropped and area-resized to
+346x260; fast motion: 20-45 px per frame at that size) when present, or "synthetic": the built-in astronaut scene
+under a 30 px/s pan and 1 px shake rendered at 30 fps into a float .npy stack. For each
+upsampling mode (none, linear, flow):
+- events only: the VideoScene sampled by the adaptive sampler into the DVS emulator (davis346), which is what
+  "converting to events" costs; reported as input frames/s, events/s and the real-time factor (clip seconds per
+  second of processing, > 1 is faster than real time), in wall-clock and process CPU time;
+- the whole pipeline (generate_ahdr: events, the LDR camera's frames and the HDR reference, HDF5 writing), with
+  its time split.
+
+    python bench/bench_convert.py [--duration-s 10] [--clip bikes|synthetic] [--modes none linear flow]
+                                  [--flow-preset medium] [--full]
+
+Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short
+warm-up first. Wall-clock figures depend on whatever else the machine runs; CPU time (time.process_time, all threads) is the steadier figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import sim  # noqa: E402
+from generators.ahdr import AHDRConfig, generate_ahdr  # noqa: E402
+from generators.sampling import AdaptiveSampler  # noqa: E402
+from generators.scenes import Trajectory, VideoScene, builtin_image_scene  # noqa: E402
+
+BIKES = Path(__file__).resolve().parents[2] / "shared" / "data" / "video" / "bikes.mp4"
+HEIGHT, WIDTH = 260, 346
+_CHUNK = 16
+
+
+def make_clip(folder: Path, duration_s: float, which: str) -> tuple[Path, dict]:
+    if which == "bikes" and BIKES.is_file():
+        return BIKES, {"stop_s": duration_s}
+    fps = 30.0
+    scene = builtin_image_scene(HEIGHT, WIDTH, int(duration_s * 1e6) + 1,
+                                Trajectory(pan_px_per_s=(30.0, 8.0), shake_px=1.0, shake_hz=2.0))
+    times = np.arange(0, duration_s * 1e6 + 1, 1e6 / fps).astype(np.int64)
+    path = folder / "astronaut_30fps.npy"
+    np.save(path, np.stack([scene.radiance(int(t)) for t in times]))
+    return path, {"fps": fps}
+
+
+def events_only(path: Path, options: dict, mode: str, preset: str) -> dict:
+    """Sample the VideoScene into the DVS emulator; return counts and timings."""
+    params = sim.DVSParams.preset("davis346")
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
+    scene = VideoScene(path, height=HEIGHT, width=WIDTH, upsample=mode, flow_preset=preset, **options)
+    params = sim.DVSParams.preset("davis346", full_illumination=float(np.percentile(scene.radiance(0), 99)))
+    dvs = sim.DVSEmulator(HEIGHT, WIDTH, params, 0)
+    sampler = AdaptiveSampler(scene, threshold=min(params.pos_threshold, params.neg_threshold), fraction=0.5,
+                              min_step_us=10, max_step_us=5000,
+                              log_eps=params.dark_fraction * params.full_illumination)
+    n_events, stack, times = 0, [], []
+    for t, img in sampler:
+        stack.append(img)
+        times.append(t)
+        if len(stack) == _CHUNK:
+            n_events += dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64)).size
+            stack, times = [], []
+    if stack:
+        n_events += dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64)).size
+    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
+    clip_s = scene.duration_us / 1e6
+    n_in = scene.times.size
+    return {"mode": mode, "clip_s": clip_s, "input_frames": n_in, "events": n_events,
+            "dvs_samples": sampler.n_samples, "wall_s": wall, "cpu_s": cpu,
+            "frames_per_s": n_in / wall, "events_per_s": n_events / wall, "realtime_x": clip_s / wall,
+            "realtime_x_cpu": clip_s / cpu}
+
+
+def full_pipeline(path: Path, options: dict, mode: str, preset: str, out: Path) -> dict:
+    scene = VideoScene(path, height=HEIGHT, width=WIDTH, upsample=mode, flow_preset=preset, **options)
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
+    r = generate_ahdr(scene, out, AHDRConfig(), 0, progress=False)
+    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
+    return {"mode": mode, "events": r.n_events, "frames": r.n_frames, "wall_s": wall, "cpu_s": cpu,
+            "realtime_x": scene.duration_us / 1e6 / wall, "split_s": {k: round(v, 2) for k, v in r.timings_s.items()}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--duration-s", type=float, default=10.0, help="clip length in seconds (default 10)")
+    ap.add_argument("--modes", nargs="+", default=["none", "linear", "flow"], choices=["none", "linear", "flow"])
+    ap.add_argument("--flow-preset", default="medium", choices=["ultrafast", "fast", "medium"])
+    ap.add_argument("--clip", choices=["bikes", "synthetic"], default="bikes",
+                    help="bikes.mp4 (when present; else synthetic) or the synthetic astronaut clip")
+    ap.add_argument("--full", action="store_true", help="also run the whole pipeline (frames, reference, HDF5)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        path, options = make_clip(d, args.duration_s, args.clip)
+        warm = d / "warm.npy"
+        np.save(warm, np.random.default_rng(0).random((3, 16, 16)).astype(np.float32))
+        events_only(warm, {"fps": 30.0}, "flow", args.flow_preset)  # numba compile / cache load
+        print(f"clip: {path.name} ({options}), sensor {WIDTH}x{HEIGHT}, DIS preset {args.flow_preset}")
+        print(f"{'mode':8s} {'in frames':>9s} {'events':>10s} {'samples':>8s} {'wall s':>7s} {'cpu s':>7s} "
+              f"{'frames/s':>9s} {'events/s':>10s} {'x real time (wall / cpu)':>25s}")
+        for mode in args.modes:
+            r = events_only(path, options, mode, args.flow_preset)
+            print(f"{mode:8s} {r['input_frames']:9d} {r['events']:10d} {r['dvs_samples']:8d} {r['wall_s']:7.2f} "
+                  f"{r['cpu_s']:7.2f} {r['frames_per_s']:9.1f} {r['events_per_s']:10.3g} "
+                  f"{r['realtime_x']:12.2f} / {r['realtime_x_cpu']:.2f}")
+        print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+        if args.full:
+            print("whole pipeline (events + LDR frames + HDR reference + HDF5):")
+            for mode in args.modes:
+                r = full_pipeline(path, options, mode, args.flow_preset, d / f"{mode}.h5")
+                print(f"  {mode:8s} events {r['events']}, frames {r['frames']}, wall {r['wall_s']:.2f} s, "
+                      f"cpu {r['cpu_s']:.2f} s, x{r['realtime_x']:.2f} real time, split {r['split_s']}")
+
+
+if __name__ == "__main__":
+    main()

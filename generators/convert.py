@@ -1,0 +1,96 @@
+"""Videos to datasets (`evsim convert`): each clip is a VideoScene run through the dataset pipeline of
+`evsim generate` (generators.dataset.generate_dataset: DVS emulator, LDR camera, HDR reference, writers).
+
+convert(inputs, out_dir, ...) takes video files, image folders and .npy stacks (generators.scenes.video), or
+folders of video files, and writes one sequence per clip. Each sequence's metadata (its "scene") records the
+input's path and sha256, its frame rate or timestamps, the part used, the linearisation, the luminance weighting,
+the crop and resize and the upsampling.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sim import EvsimInputError
+
+from .config import parse_config
+from .dataset import generate_dataset
+from .scenes.video import LDR_IMAGE_SUFFIXES, HDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
+
+# keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
+SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "key_step_px",
+                 "input_crf", "input_crf_params", "channel")
+
+
+def clips(inputs) -> list[Path]:
+    """The clips of `inputs` (a path or a list of paths): each video file, image folder or .npy stack is one
+    clip; a folder that holds video files and no images stands for its videos, in name order."""
+    paths = [Path(inputs)] if isinstance(inputs, (str, Path)) else [Path(p) for p in inputs]
+    if not paths:
+        raise EvsimInputError("no input given")
+    out = []
+    for p in paths:
+        if not p.exists():
+            raise EvsimInputError(f"input not found: {p}")
+        if p.is_dir():
+            files = [f for f in sorted(p.iterdir()) if f.is_file()]
+            videos = [f for f in files if f.suffix.lower() in VIDEO_SUFFIXES]
+            images = [f for f in files if f.suffix.lower() in LDR_IMAGE_SUFFIXES + HDR_IMAGE_SUFFIXES]
+            if videos and images:
+                raise EvsimInputError(f"{p}: holds both videos and images; convert the videos or the image "
+                                      "sequence, not a mix")
+            out.extend(videos or [p])
+        else:
+            out.append(p)
+    return out
+
+
+def _sensor_size(path: Path, height: int | None, width: int | None) -> tuple[int, int]:
+    """height, width: as given; one alone keeps the input's aspect ratio; none gives the input's size."""
+    if height is not None and width is not None:
+        return height, width
+    h0, w0 = input_size(path)
+    if height is None and width is None:
+        return h0, w0
+    return (max(1, round(width * h0 / w0)), width) if height is None else (height, max(1, round(height * w0 / h0)))
+
+
+def convert_config(inputs, *, settings: dict | None = None, height: int | None = None, width: int | None = None,
+                   seed: int = 0, **scene_options):
+    """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
+
+    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output); height,
+    width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
+    VideoScene default).
+    """
+    unknown = set(scene_options) - set(SCENE_OPTIONS)
+    if unknown:
+        raise EvsimInputError(f"unknown conversion option(s) {', '.join(sorted(unknown))}; "
+                              f"known: {', '.join(SCENE_OPTIONS)}")
+    options = {k: (str(Path(v).resolve()) if k == "timestamps" else v)
+               for k, v in scene_options.items() if v is not None}
+    sequences, names = [], set()
+    for path in clips(inputs):
+        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy",) else path.name
+        base, i = name, 1
+        while name in names:
+            i += 1
+            name = f"{base}_{i}"
+        names.add(name)
+        h, w = _sensor_size(path, height, width)
+        sequences.append({"name": name, "height": h, "width": w,
+                          "scene": {"type": "video", "path": str(path.resolve()), **options}})
+    return parse_config({"seed": seed, "defaults": dict(settings or {}), "sequence": sequences},
+                        source="<convert>")
+
+
+def convert(inputs, out_dir, *, settings: dict | None = None, height: int | None = None, width: int | None = None,
+            seed: int = 0, fmt: str = "native", overwrite: bool = False, progress: bool = True,
+            workers: int | None = None, scheduler: str | None = None, resume: bool = False,
+            **scene_options) -> Path:
+    """Convert video(s) into a dataset folder (one native HDF5 file per clip, an optional export, index.json);
+    return the index path. Arguments as for convert_config; fmt, workers, scheduler, resume: as for
+    generate_dataset (one task per clip)."""
+    cfg = convert_config(inputs, settings=settings, height=height, width=width, seed=seed, **scene_options)
+    return generate_dataset(cfg, out_dir, overwrite=overwrite, progress=progress, fmt=fmt, workers=workers,
+                            scheduler=scheduler, resume=resume)

@@ -1,0 +1,538 @@
+"""A video as a radiance source: a video file, a folder of images or a .npy stack, upsampled in time.
+
+Inputs (open_frames):
+- a video file OpenCV's VideoCapture reads (.mp4, .avi, .mov, .mkv, ...): 8-bit frames; times k / fps with the
+  container's frame rate (or `fps`, or a timestamps file);
+- a folder of images in name order, all of one kind and size: PNG/JPG/TIFF/BMP (8 or 16 bit, OpenCV), OpenEXR
+  (.exr, the OpenEXR File API) or Radiance (.hdr/.pic, OpenCV); times from `timestamps` (default: the folder's
+  timestamps.txt) or `fps`;
+- a .npy stack (N, H, W) or (N, H, W, C), integer (LDR) or float (linear); times from `timestamps` or `fps`.
+A timestamps file holds one time per input frame and line: integers are microseconds, decimal numbers seconds
+(the vid2e convention); they must increase strictly.
+
+Each frame becomes linear luminance: integer (LDR) values are normalised by the type's maximum and linearised
+through the inverse of `input_crf` (a crf_models curve, sRGB by default), float (HDR) values are taken as linear;
+colour becomes Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. The frame
+is then cropped to the sensor's aspect ratio (centred) and area-integrated to height x width (cv2.INTER_AREA), in
+linear radiance. The clip runs from the first input frame at or after start_s to the last at or before stop_s
+(seconds from the input's first frame); the scene's time 0 is that first frame.
+
+Between input frames (`upsample`):
+- "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
+  occlusion by forward-backward consistency, both neighbours warped to the intermediate time and blended in log
+  radiance;
+- "linear": linear in time in log radiance, log(I + eps) (a cross-fade: moving edges fade instead of moving);
+- "none": each input frame is held until the next (what feeding raw frames to a DVS model gives: every change at
+  the frame times).
+With "flow", the number of key frames between two input frames follows the pair's largest motion (one per
+key_step_px pixels); between keys, and between frames with "linear", the log radiance is linear in time, which
+log_linear_until tells the adaptive sampler (generators.sampling), so that the DVS is fed exactly the key frames
+(its own interpolation between samples is linear in log too).
+
+Memory does not depend on the video's length: the scene decodes the input sequentially and holds three frames and
+the flows of the last two intervals; radiance(t) is meant for increasing t. Going back further restarts the
+decoding from the first frame (generate_ahdr does this once, between its DVS pass and its camera pass).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sim import EvsimInputError, InvalidParameterError
+
+from ..choices import UPSAMPLE_MODES
+from ..formats.common import DatasetFormatError, fail
+from .base import Scene, positive
+from .flow_interpolation import FlowEstimator, FlowPair
+from .image_motion import _read_exr
+from .luminance import REC709_WEIGHTS, to_luminance
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
+LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
+TIMESTAMPS_FILE = "timestamps.txt"
+LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
+_HASH_CHUNK = 1 << 20
+
+
+def _sha256(paths: list[Path]) -> str:
+    """sha256 of one file's bytes, or of the names and bytes of several files in order."""
+    h = hashlib.sha256()
+    for p in paths:
+        if len(paths) > 1:
+            h.update(p.name.encode() + b"\0")
+        with open(p, "rb") as f:
+            while chunk := f.read(_HASH_CHUNK):
+                h.update(chunk)
+    return h.hexdigest()
+
+
+def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
+    """Times from a text file, one per line, as int64 microseconds, and the unit found: integers are
+    microseconds, decimal numbers seconds. Raises DatasetFormatError when unreadable or not strictly increasing."""
+    path = Path(path)
+    try:
+        tokens = path.read_text().split()
+    except OSError as e:
+        raise fail(path, f"cannot read the timestamps file: {e}") from None
+    try:
+        if all(t.lstrip("+-").isdigit() for t in tokens):
+            times, unit = np.array([int(t) for t in tokens], dtype=np.int64), "us"
+        else:
+            times, unit = np.round(np.array([float(t) for t in tokens]) * 1e6).astype(np.int64), "s"
+    except ValueError:
+        raise fail(path, "expected one time per line: integer microseconds or decimal seconds") from None
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise DatasetFormatError(f"{path}: timestamps must increase strictly, but line {i + 1} ({tokens[i]}) "
+                                 f"does not come after line {i} ({tokens[i - 1]})")
+    return times, unit
+
+
+class _Frames:
+    """Sequential access to the raw frames of an input: times_us (int64, from the input's first frame), size,
+    frames(first) yields the raw images (H, W) or (H, W, 3) RGB from index `first` on."""
+
+    kind: str
+    counted_to_end = True  # False when a video was counted only up to the stop time
+    path: Path
+    times_us: np.ndarray
+    size: tuple[int, int]
+    sha256: str
+    rate: dict
+
+    def _set_times(self, n: int, fps: float | None, timestamps, default_ts: Path | None = None) -> None:
+        ts = Path(timestamps) if timestamps is not None else default_ts
+        if ts is not None and (timestamps is not None or ts.is_file()):
+            times, unit = read_timestamps(ts)
+            if times.size != n:
+                raise fail(ts, f"{times.size} timestamps for {n} frames of {self.path}")
+            self.rate = {"timestamps": str(ts), "unit": unit}
+        elif fps is not None:
+            times = np.round(np.arange(n) * 1e6 / positive("fps", fps, "video")).astype(np.int64)
+            self.rate = {"fps": float(fps)}
+        else:
+            raise EvsimInputError(f"{self.path}: no frame times: give fps or a timestamps file"
+                                  + (f" (or put {TIMESTAMPS_FILE} in the folder)" if default_ts else ""))
+        self.times_us = times - times[0]
+
+    def frames(self, first: int = 0):
+        raise NotImplementedError
+
+
+class _VideoFile(_Frames):
+    kind = "video"
+
+    def __init__(self, path: Path, fps: float | None, timestamps, stop_us: int | None):
+        self.path = path
+        cap = self._open()
+        container_fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        self.size = (int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)))
+        use_fps = fps if fps is not None else (container_fps if np.isfinite(container_fps) and container_fps > 0
+                                                else None)
+        if timestamps is None and use_fps is None:
+            cap.release()
+            raise fail(path, "the container gives no frame rate: pass fps (--fps) or a timestamps file")
+        # Count the frames by decoding (the container's count can be wrong), up to the stop time when known.
+        last = None if stop_us is None or use_fps is None else int(np.floor(stop_us * use_fps / 1e6 + 1e-6))
+        n = 0
+        while (last is None or n <= last) and cap.grab():
+            n += 1
+        self.counted_to_end = last is None or n <= last
+        cap.release()
+        if n == 0:
+            raise fail(path, "the video holds no frames (empty or unreadable)")
+        self._set_times(n, use_fps, timestamps)
+        if fps is None and timestamps is None:
+            self.rate = {"fps": use_fps, "from": "container"}
+        self.sha256 = _sha256([path])
+
+    def _open(self):
+        cap = cv2.VideoCapture(str(self.path))
+        if not cap.isOpened():
+            raise fail(self.path, "cannot open as a video (OpenCV VideoCapture: unknown container or codec, or "
+                                  "not a video)")
+        return cap
+
+    def frames(self, first: int = 0):
+        cap = self._open()
+        try:
+            for _ in range(first):
+                if not cap.grab():
+                    raise fail(self.path, f"the video ended before frame {first}")
+            for k in range(first, self.times_us.size):
+                ok, bgr = cap.read()
+                if not ok:
+                    raise fail(self.path, f"cannot decode frame {k}")
+                yield bgr[..., ::-1] if bgr.ndim == 3 else bgr
+        finally:
+            cap.release()
+
+
+def _image_size(path: Path) -> tuple[int, int]:
+    """(height, width) of an image file from its header where possible."""
+    suffix = path.suffix.lower()
+    if suffix == ".exr":
+        import OpenEXR
+
+        try:
+            (x0, y0), (x1, y1) = OpenEXR.File(str(path), header_only=True).header()["dataWindow"]
+        except Exception as e:  # the OpenEXR binding raises plain exceptions for unreadable files
+            raise fail(path, f"cannot read OpenEXR header: {e}") from None
+        return int(y1 - y0 + 1), int(x1 - x0 + 1)
+    if suffix in LDR_IMAGE_SUFFIXES:
+        from PIL import Image, UnidentifiedImageError
+
+        try:
+            with Image.open(path) as im:
+                return im.size[1], im.size[0]
+        except (OSError, UnidentifiedImageError) as e:
+            raise fail(path, f"cannot read image header: {e}") from None
+    return _read_image(path).shape[:2]
+
+
+def _read_image(path: Path) -> np.ndarray:
+    if path.suffix.lower() == ".exr":
+        try:
+            return _read_exr(path)
+        except EvsimInputError as e:
+            raise fail(path, str(e)) from None
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise fail(path, "cannot read the image (OpenCV)")
+    if img.ndim == 3:
+        img = img[..., :3][..., ::-1]
+    return img
+
+
+class _ImageFolder(_Frames):
+    kind = "folder"
+
+    def __init__(self, folder: Path, fps: float | None, timestamps):
+        self.path = folder
+        suffixes = LDR_IMAGE_SUFFIXES + HDR_IMAGE_SUFFIXES
+        self.paths = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in suffixes)
+        if not self.paths:
+            raise fail(folder, f"no images ({', '.join(suffixes)}) in the folder")
+        kinds = {p.suffix.lower().replace(".jpeg", ".jpg").replace(".tiff", ".tif") for p in self.paths}
+        if len(kinds) > 1:
+            raise fail(folder, f"the folder mixes image formats ({', '.join(sorted(kinds))}): one kind per clip")
+        sizes = {}
+        for p in self.paths:
+            sizes.setdefault(_image_size(p), p)
+        if len(sizes) > 1:
+            (s0, p0), (s1, p1) = list(sizes.items())[:2]
+            raise fail(folder, f"the images have different sizes: {p0.name} is {s0[1]}x{s0[0]}, "
+                               f"{p1.name} is {s1[1]}x{s1[0]}")
+        self.size = next(iter(sizes))
+        self._set_times(len(self.paths), fps, timestamps, folder / TIMESTAMPS_FILE)
+        ts = [Path(self.rate["timestamps"])] if "timestamps" in self.rate else []
+        self.sha256 = _sha256(self.paths + ts)
+
+    def frames(self, first: int = 0):
+        for p in self.paths[first:]:
+            img = _read_image(p)
+            if img.shape[:2] != self.size:
+                raise fail(p, f"size {img.shape[1]}x{img.shape[0]} differs from the folder's "
+                              f"{self.size[1]}x{self.size[0]}")
+            yield img
+
+
+class _NpyStack(_Frames):
+    kind = "npy"
+
+    def __init__(self, path: Path, fps: float | None, timestamps):
+        self.path = path
+        self._stack = s = self._load(path)
+        self.size = tuple(s.shape[1:3])
+        self._set_times(s.shape[0], fps, timestamps)
+        self.sha256 = _sha256([path])
+
+    @staticmethod
+    def _load(path: Path) -> np.ndarray:
+        """The stack, memory-mapped (read frame by frame), checked."""
+        try:
+            s = np.load(path, mmap_mode="r", allow_pickle=False)
+        except (OSError, ValueError) as e:
+            raise fail(path, f"not a readable .npy array: {e}") from None
+        if s.ndim not in (3, 4) or s.shape[0] == 0 or (s.ndim == 4 and s.shape[3] not in (1, 3, 4)):
+            raise fail(path, f"expected a stack (N, H, W) or (N, H, W, C) of N >= 1 frames, got shape {s.shape}")
+        if not (np.issubdtype(s.dtype, np.integer) or np.issubdtype(s.dtype, np.floating)):
+            raise fail(path, f"expected integer (LDR) or float (linear) frames, got {s.dtype}")
+        return s
+
+    @classmethod
+    def shape(cls, path: Path) -> tuple[int, ...]:
+        return cls._load(path).shape
+
+    def frames(self, first: int = 0):
+        for k in range(first, self._stack.shape[0]):
+            yield np.asarray(self._stack[k])
+
+
+def open_frames(path: str | Path, *, fps: float | None = None, timestamps=None, stop_us: int | None = None) -> _Frames:
+    """The frame source for a video file, an image folder or a .npy stack (module docstring). stop_us lets a
+    video be counted only up to where it is used."""
+    path = Path(path)
+    if not path.exists():
+        raise fail(path, "no such file or folder")
+    if path.is_dir():
+        return _ImageFolder(path, fps, timestamps)
+    if path.suffix.lower() == ".npy":
+        return _NpyStack(path, fps, timestamps)
+    return _VideoFile(path, fps, timestamps, stop_us)
+
+
+def input_size(path: str | Path) -> tuple[int, int]:
+    """(height, width) of an input's frames, read cheaply (no decoding of the whole input)."""
+    path = Path(path)
+    if not path.exists():
+        raise fail(path, "no such file or folder")
+    if path.is_dir():
+        frames = sorted(p for p in path.iterdir() if p.suffix.lower() in LDR_IMAGE_SUFFIXES + HDR_IMAGE_SUFFIXES)
+        if not frames:
+            raise fail(path, "no images in the folder")
+        return _image_size(frames[0])
+    if path.suffix.lower() == ".npy":
+        return _NpyStack.shape(path)[1:3]
+    cap = cv2.VideoCapture(str(path))
+    try:
+        opened = cap.isOpened()
+        size = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+    finally:
+        cap.release()
+    if not opened or min(size) <= 0:
+        raise fail(path, "cannot open as a video (OpenCV VideoCapture: unknown container or codec, or not a video)")
+    return size
+
+
+class VideoScene(Scene):
+    """Radiance from a video file, image folder or .npy stack (module docstring), upsampled in time.
+
+    height, width: sensor size in pixels (default: the input's; one of them alone keeps the aspect ratio).
+    fps: input frame rate (frames per second; overrides a video container's); timestamps: a timestamps file.
+    start_s, stop_s: the part of the input to use, in seconds from its first frame.
+    upsample: "flow" | "linear" | "none"; flow: "dis" | "farneback"; flow_preset: DIS preset (ultrafast, fast,
+        medium); key_step_px: largest motion between motion-compensated key frames (pixels; flow_interpolation).
+    input_crf, input_crf_params: the crf_models curve whose inverse linearises LDR (integer) input.
+    channel: None for Rec. 709 luminance, or "R" / "G" / "B" / an index.
+    log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
+        99th percentile).
+    """
+
+    def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
+                 fps: float | None = None, timestamps=None, start_s: float = 0.0, stop_s: float | None = None,
+                 upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", key_step_px: float = 0.5,
+                 input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
+                 log_eps: float | None = None):
+        if upsample not in UPSAMPLE_MODES:
+            raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
+        start_us = int(round(positive("start_s", start_s, "VideoScene", allow_zero=True) * 1e6))
+        stop_us = None if stop_s is None else int(round(positive("stop_s", stop_s, "VideoScene") * 1e6))
+        if stop_us is not None and stop_us <= start_us:
+            raise InvalidParameterError(f"VideoScene: start_s={start_s} must come before stop_s={stop_s}")
+        self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us)
+        self.path = Path(path)
+        t = self._input.times_us
+        keep = np.flatnonzero((t >= start_us) & (t <= (t[-1] if stop_us is None else stop_us)))
+        if keep.size < 2:
+            raise EvsimInputError(f"{path}: {keep.size} input frame(s) between start_s={start_s} and "
+                                  f"stop_s={stop_s} (the input has {t.size} frames over {t[-1] / 1e6:g} s); "
+                                  "need at least 2")
+        self._first = int(keep[0])
+        self.times = t[keep] - t[keep[0]]
+        self.start_s, self.stop_s = start_s, stop_s
+        self.upsample, self.channel = upsample, channel
+        self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
+        self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
+        h0, w0 = self._input.size
+        if height is None and width is None:
+            height, width = h0, w0
+        elif height is None:
+            height = max(1, round(width * h0 / w0))
+        elif width is None:
+            width = max(1, round(height * w0 / h0))
+        self._init_size(height, width, int(self.times[-1]))
+        self._crop = self._crop_box(h0, w0)
+        self._luts: dict = {}
+        self._is_ldr = None
+        first = self._luminance(next(iter(self._input.frames(self._first))), 0)
+        self.log_eps = (positive("log_eps", log_eps, "VideoScene") if log_eps is not None
+                        else max(float(np.percentile(first, 99)), 1e-30) * LOG_EPS_FRACTION)
+        self._flow = None
+        if upsample == "flow":
+            low, high = np.percentile(np.log(first + np.float32(self.log_eps)), [0.5, 99.5])
+            pad = 0.25 * (high - low) + 0.5  # room for brightness changes later in the clip
+            self._flow = FlowEstimator((float(low - pad), float(high + pad)), flow, flow_preset)
+        self._window: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._pairs: dict[int, FlowPair] = {}
+        self._pair_motion = np.full(self.times.size - 1, np.nan)  # largest displacement per interval (px)
+        self._restart()
+
+    # ----- geometry and linearisation ------------------------------------------------------------------
+    def _crop_box(self, h0: int, w0: int) -> tuple[int, int, int, int]:
+        """(y0, y1, x0, x1): the largest centred window of the input with the sensor's aspect ratio."""
+        if w0 * self.height > h0 * self.width:  # the input is wider: crop the sides
+            cw = max(1, min(w0, round(h0 * self.width / self.height)))
+            x0 = (w0 - cw) // 2
+            return 0, h0, x0, x0 + cw
+        ch = max(1, min(h0, round(w0 * self.height / self.width)))
+        y0 = (h0 - ch) // 2
+        return y0, y0 + ch, 0, w0
+
+    def _linear(self, raw: np.ndarray) -> np.ndarray:
+        """Linear radiance of a raw frame (any channels): the inverse CRF of integer values, floats as they are."""
+        is_ldr = np.issubdtype(raw.dtype, np.integer)
+        if self._is_ldr is None:
+            self._is_ldr = is_ldr
+        if not is_ldr:
+            return raw.astype(np.float32, copy=False)
+        if raw.dtype not in self._luts:
+            if raw.dtype.itemsize > 2:
+                raise DatasetFormatError(f"{self.path}: integer frames of {raw.dtype} are not supported (8 or 16 bit)")
+            import crf_models
+
+            try:
+                crf = crf_models.get(self.input_crf["name"], **self.input_crf["params"])
+            except crf_models.CRFError as e:
+                raise InvalidParameterError(f"input_crf: {e}") from None
+            top = np.iinfo(raw.dtype).max
+            levels = np.arange(top + 1, dtype=np.float64) / top
+            self._luts[raw.dtype] = np.asarray(crf.inverse(levels), dtype=np.float32)
+        lut = self._luts[raw.dtype]
+        return lut[raw.astype(np.int64) - np.iinfo(raw.dtype).min] if raw.dtype.kind == "i" else lut[raw]
+
+    def _luminance(self, raw: np.ndarray, index: int) -> np.ndarray:
+        """Linear luminance (float32) of a raw frame at the sensor size (clip frame `index`, for messages)."""
+        try:
+            y = to_luminance(self._linear(raw), self.channel)
+        except EvsimInputError as e:
+            raise DatasetFormatError(f"{self.path}: frame {self._first + index}: {e}") from None
+        y0, y1, x0, x1 = self._crop
+        y = np.ascontiguousarray(y[y0:y1, x0:x1])
+        if y.shape != (self.height, self.width):
+            y = cv2.resize(y, (self.width, self.height), interpolation=cv2.INTER_AREA)
+        return y
+
+    def _process(self, raw: np.ndarray, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """(linear luminance, log(luminance + log_eps)) of a raw frame at the sensor size."""
+        y = self._luminance(raw, index)
+        return y, np.log(y + np.float32(self.log_eps))
+
+    # ----- the sliding window --------------------------------------------------------------------------
+    def _restart(self) -> None:
+        """Decode from the first frame of the clip again (forgetting the window)."""
+        self._window.clear()
+        self._pairs.clear()
+        self._raw = iter(self._input.frames(self._first))
+        self._next = 0
+
+    def _frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """(linear, log) of clip frame i; keeps the last three decoded frames."""
+        if i in self._window:
+            return self._window[i]
+        if i < self._next:  # behind the window: decode again from the start of the clip
+            self._restart()
+        while self._next <= i:
+            raw = next(self._raw, None)
+            if raw is None:
+                raise fail(self.path, f"the input ended before frame {self._first + self._next}")
+            self._window[self._next] = self._process(raw, self._next)
+            self._next += 1
+            while len(self._window) > 3:
+                self._window.pop(min(self._window))
+        return self._window[i]
+
+    def _pair(self, k: int) -> FlowPair:
+        """The flows of interval k (frames k, k + 1); keeps the last two intervals."""
+        if k not in self._pairs:
+            log1 = self._frame(k + 1)[1]
+            log0 = self._frame(k)[1]
+            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px)
+            self._pair_motion[k] = pair.max_motion_px
+            while len(self._pairs) > 2:
+                self._pairs.pop(min(self._pairs))
+        return self._pairs[k]
+
+    # ----- the radiance source -------------------------------------------------------------------------
+    def _render(self, t_us):
+        n = self.times.size
+        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
+        a = (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
+        if a >= 1:
+            return self._frame(k + 1)[0]
+        if a == 0 or self.upsample == "none":
+            return self._frame(k)[0]
+        if self.upsample == "flow":
+            log = self._pair(k).log_at(a)
+        else:
+            log = (1 - np.float32(a)) * self._frame(k)[1] + np.float32(a) * self._frame(k + 1)[1]
+        out = np.exp(log) - np.float32(self.log_eps)
+        return np.maximum(out, 0.0, out=out)
+
+    def log_linear_until(self, t_us: int) -> int:
+        """The end of the piece from t_us over which log(radiance + log_eps) is linear in time (microseconds): the
+        next key frame (flow), the next input frame (linear), or, holding frames (none), one microsecond before
+        the next input frame and then that frame (a switch within a microsecond). Used by the adaptive sampler."""
+        n = self.times.size
+        t_us = int(t_us)
+        if t_us >= self.duration_us:
+            return self.duration_us
+        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
+        t0, t1 = int(self.times[k]), int(self.times[k + 1])
+        if self.upsample == "none":
+            return t1 - 1 if t_us < t1 - 1 else t1
+        if self.upsample == "linear":
+            return t1
+        keys = self._pair(k).n_keys
+        j = int((t_us - t0) * keys // (t1 - t0)) + 1  # the first key after t_us
+        return min(t0 + -(-(j * (t1 - t0)) // keys), t1)  # rounded up to the microsecond
+
+    def max_speed_px_per_s(self) -> float:
+        """flow: the largest optical-flow speed over the clip (intervals not yet decoded are scanned first, so
+        asking before the first pass costs one pass of flow); otherwise one pixel per shortest input interval."""
+        intervals = np.diff(self.times).astype(np.float64)
+        if self.upsample != "flow":
+            return 1e6 / float(intervals.min())
+        if np.isnan(self._pair_motion).any():
+            self._scan_motion()
+        return float(np.max(self._pair_motion * 1e6 / intervals))
+
+    def _scan_motion(self) -> None:
+        """Fill _pair_motion for the intervals not yet seen, with a separate decoder (the window is untouched)."""
+        prev = None
+        for i, raw in enumerate(self._input.frames(self._first)):
+            if i >= self.times.size:
+                break
+            cur = self._process(raw, i)[1]
+            if prev is not None and np.isnan(self._pair_motion[i - 1]):
+                self._pair_motion[i - 1] = self._flow.pair(prev, cur, key_step_px=self.key_step_px).max_motion_px
+            prev = cur
+
+    def _params(self):
+        inp = self._input
+        lin = (f"inverse {self.input_crf['name']} CRF of the integer values normalised to [0, 1]"
+               if self._is_ldr else "none (float input taken as linear radiance)")
+        up = {"mode": self.upsample}
+        if self.upsample == "flow":
+            up.update(self._flow.describe(), occlusion="forward-backward consistency", blend="log radiance",
+                      key_step_px=self.key_step_px)
+        elif self.upsample == "linear":
+            up["blend"] = "linear in time in log(I + log_eps)"
+        return {
+            "input": {"path": str(self.path), "kind": inp.kind, "sha256": inp.sha256, "size": list(inp.size),
+                      ("n_frames" if inp.counted_to_end else "n_frames_read"): int(inp.times_us.size), **inp.rate},
+            "frames_used": [self._first, self._first + int(self.times.size) - 1],
+            "frame_rate_hz": float((self.times.size - 1) * 1e6 / self.times[-1]),
+            "start_s": self.start_s, "stop_s": self.stop_s,
+            "linearisation": {"method": lin, **({"crf": self.input_crf} if self._is_ldr else {})},
+            "luminance": ("Rec. 709: Y = %.4f R + %.4f G + %.4f B" % REC709_WEIGHTS if self.channel is None
+                          else f"channel {self.channel}"),
+            "crop": list(self._crop), "resize": "cv2.INTER_AREA (area integration in linear radiance)",
+            "upsample": up, "log_eps": self.log_eps,
+        }
