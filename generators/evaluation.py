@@ -249,13 +249,14 @@ def recording_contrast_or_estimate(rec: Recording, crf, fed) -> tuple[tuple, str
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=DEFAULT_METHODS,
                        metrics=DEFAULT_METRICS, method_options=None) -> tuple[dict, str]:
     """Score methods on one recording, every scored time: ({method: {metric: value}}, notes joined by "; ")."""
-    _check_names(methods, metrics)
+    check_names(methods, metrics)
     task, notes = recording_task(rec, protocol, method_options)
     every = np.arange(task.times.size)
     return {name: task.scores(task.run(name, every), every, metrics) for name in methods}, "; ".join(notes)
 
 
-def _check_names(methods, metrics) -> None:
+def check_names(methods, metrics) -> None:
+    """EvsimInputError naming the methods or metrics that akf does not have."""
     unknown = [m for m in methods if m not in akf.METHODS] + [m for m in metrics if m not in akf.METRICS]
     if unknown:
         raise EvsimInputError(f"unknown methods/metrics {unknown}; methods: {sorted(akf.METHODS)}, "
@@ -285,7 +286,7 @@ def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHO
     """
     if protocol not in PROTOCOLS:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    _check_names(methods, metrics)
+    check_names(methods, metrics)
     if tune and tune_metric not in akf.METRICS:
         raise EvsimInputError(f"unknown tuning metric {tune_metric!r}; one of {', '.join(akf.METRICS)}")
     if not 0 < tune_fraction < 1:

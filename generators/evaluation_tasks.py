@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-import akf
 from sim import EvsimInputError
 
-from .evaluation import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, dataset_sequences, evaluate_recording
+from .evaluation import (DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, check_names, dataset_sequences,
+                         evaluate_recording)
 from .formats import load
 from .runner import TaskOutcome, run_tasks
 
@@ -30,10 +30,7 @@ def evaluate_dataset_tasks(path, *, protocol: str = "reference", methods=DEFAULT
     """Score every sequence of a dataset, one task each: (result as evaluate_dataset's, notes, failures)."""
     if protocol not in PROTOCOLS:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    unknown = [m for m in methods if m not in akf.METHODS] + [m for m in metrics if m not in akf.METRICS]
-    if unknown:  # refused once here rather than by every task
-        raise EvsimInputError(f"unknown methods/metrics {unknown}; methods: {sorted(akf.METHODS)}, "
-                              f"metrics: {sorted(akf.METRICS)}")
+    check_names(methods, metrics)  # refused once here rather than by every task
     sequences = dataset_sequences(path)
     options = {"protocol": protocol, "methods": tuple(methods), "metrics": tuple(metrics),
                "method_options": method_options}
