@@ -3,7 +3,8 @@
 For a pair of frames 0 and 1 (log radiance L0, L1):
 1. bidirectional dense optical flow F01 (pixel p of frame 0 is at p + F01(p) in frame 1) and F10, with OpenCV's
    DIS (default) or Farneback, computed on the log radiance mapped to 8 bits over a fixed range (so that a change
-   of exposure or illumination by a constant factor is an offset, not a change of contrast);
+   of exposure or illumination by a constant factor is an offset, not a change of contrast), by default on the
+   frames area-resized to half size and resized back (FlowEstimator's scale);
 2. occlusion by forward-backward consistency (Sundaram et al., ECCV 2010): p is occluded in the other frame when
    |F01(p) + F10(p + F01(p))|^2 > 0.01 (|F01|^2 + |F10|^2) + 0.5 px^2, or when p + F01(p) leaves the image;
 3. at a fraction a in (0, 1) of the interval (the key fractions chosen from the motion: FlowPair), the flows from
@@ -36,6 +37,7 @@ _FARNEBACK = (0.5, 4, 15, 3, 5, 1.2, 0)
 _FB_ALPHA, _FB_BETA = 0.01, 0.5  # forward-backward consistency: relative (1) and absolute (px^2) tolerance
 _WEIGHT_FLOOR = 1e-3
 _MIN_ROWS = 32  # rows per thread, at least
+FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
 
 
 class FlowEstimator:
@@ -44,11 +46,11 @@ class FlowEstimator:
     method: "dis" (OpenCV's DISOpticalFlow with `preset` ultrafast | fast | medium) or "farneback".
     log_range: (low, high) log radiance mapped to 0..255 for the flow computation (values outside are clipped).
     scale: the flow is computed on the frames area-resized by this factor (0 < scale <= 1) and resized back
-        (bilinear, vectors divided by the factor); 0.5 costs about a quarter of the full-size flow.
+        (bilinear, vectors divided by the factor); 0.5 (default) costs about a quarter of the full-size flow.
     """
 
     def __init__(self, log_range: tuple[float, float], method: str = "dis", preset: str = "medium",
-                 scale: float = 1.0):
+                 scale: float = FLOW_SCALE):
         if method not in FLOW_METHODS:
             raise InvalidParameterError(f"flow method must be one of {', '.join(FLOW_METHODS)}, got {method!r}")
         if method == "dis" and preset not in DIS_PRESETS:

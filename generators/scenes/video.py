@@ -47,7 +47,7 @@ from sim import EvsimInputError, InvalidParameterError
 from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
-from .flow_interpolation import FlowEstimator, FlowPair
+from .flow_interpolation import FLOW_SCALE, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 
@@ -57,7 +57,6 @@ HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
 _HASH_CHUNK = 1 << 20
-FLOW_SCALE = 0.5  # default flow_scale: half size, as accurate as full size at 346x260 (README) for 1/4 the cost
 
 
 def _sha256(paths: list[Path]) -> str:
