@@ -131,8 +131,8 @@ def _cmd_convert(args) -> int:
                     seed=0 if args.seed is None else args.seed, fmt=args.format or "native",
                     overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
                     stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
-                    flow=args.flow, flow_preset=args.flow_preset, input_crf=args.input_crf,
-                    **_run_options(args))
+                    flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
+                    input_crf=args.input_crf, **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
@@ -391,6 +391,8 @@ def _add_convert_parser(sub) -> None:
                         "none (hold each frame)")
     g.add_argument("--flow", choices=FLOW_METHODS, default="dis", help="optical flow (OpenCV; default dis)")
     g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, default="medium", help="DIS preset (default medium)")
+    g.add_argument("--flow-scale", type=float, help="compute the flow on the frames resized by this factor "
+                                                    "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
     s.add_argument("--height", type=int, help="sensor height in pixels (default: the input's; alone, it keeps "
                                               "the aspect ratio; the input is cropped to the sensor's aspect ratio "

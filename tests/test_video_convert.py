@@ -84,13 +84,14 @@ def test_converted_video_matches_the_events_of_the_full_rate_frames(tmp_path):
     assert flow["rate_corr"] > linear["rate_corr"]
 
 
-def test_flow_interpolation_moves_a_texture_where_the_cross_fade_blends_it():
+@pytest.mark.parametrize("scale", [1.0, 0.5])  # flow at full size, and at half size with vectors scaled back
+def test_flow_interpolation_moves_a_texture_where_the_cross_fade_blends_it(scale):
     tex = np.log(_texture(64, 96))
     shift = 4.0  # pixels per interval, to the right
     warp = lambda img, dx: cv2.warpAffine(img, np.float32([[1, 0, dx], [0, 1, 0]]), (96, 64),
                                           flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT_101)
     log0, log1, mid = tex, warp(tex, shift), warp(tex, shift / 2)
-    pair = FlowEstimator((float(tex.min()), float(tex.max()))).pair(log0, log1)
+    pair = FlowEstimator((float(tex.min()), float(tex.max())), scale=scale).pair(log0, log1)
     inner = (slice(8, -8), slice(8, -8))
     flow_err = np.abs(pair.log_at(0.5) - mid)[inner].mean()
     fade_err = np.abs(0.5 * (log0 + log1) - mid)[inner].mean()

@@ -3,7 +3,8 @@
 For a pair of frames 0 and 1 (log radiance L0, L1):
 1. bidirectional dense optical flow F01 (pixel p of frame 0 is at p + F01(p) in frame 1) and F10, with OpenCV's
    DIS (default) or Farneback, computed on the log radiance mapped to 8 bits over a fixed range (so that a change
-   of exposure or illumination by a constant factor is an offset, not a change of contrast);
+   of exposure or illumination by a constant factor is an offset, not a change of contrast), by default on the
+   frames area-resized to half size and resized back (FlowEstimator's scale);
 2. occlusion by forward-backward consistency (Sundaram et al., ECCV 2010): p is occluded in the other frame when
    |F01(p) + F10(p + F01(p))|^2 > 0.01 (|F01|^2 + |F10|^2) + 0.5 px^2, or when p + F01(p) leaves the image;
 3. at a fraction a in (0, 1) of the interval (the key fractions chosen from the motion: FlowPair), the flows from
@@ -25,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from sim import InvalidParameterError
+from sim.dvs import _in_parallel as in_parallel  # row blocks on numba's thread count (the kernels are nogil)
 
 from ..choices import DIS_PRESET_NAMES, FLOW_METHODS
 
@@ -34,6 +36,8 @@ DIS_PRESETS = dict(zip(DIS_PRESET_NAMES, (cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST, 
 _FARNEBACK = (0.5, 4, 15, 3, 5, 1.2, 0)
 _FB_ALPHA, _FB_BETA = 0.01, 0.5  # forward-backward consistency: relative (1) and absolute (px^2) tolerance
 _WEIGHT_FLOOR = 1e-3
+_MIN_ROWS = 32  # rows per thread, at least
+FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
 
 
 class FlowEstimator:
@@ -41,9 +45,12 @@ class FlowEstimator:
 
     method: "dis" (OpenCV's DISOpticalFlow with `preset` ultrafast | fast | medium) or "farneback".
     log_range: (low, high) log radiance mapped to 0..255 for the flow computation (values outside are clipped).
+    scale: the flow is computed on the frames area-resized by this factor (0 < scale <= 1) and resized back
+        (bilinear, vectors divided by the factor); 0.5 (default) costs about a quarter of the full-size flow.
     """
 
-    def __init__(self, log_range: tuple[float, float], method: str = "dis", preset: str = "medium"):
+    def __init__(self, log_range: tuple[float, float], method: str = "dis", preset: str = "medium",
+                 scale: float = FLOW_SCALE):
         if method not in FLOW_METHODS:
             raise InvalidParameterError(f"flow method must be one of {', '.join(FLOW_METHODS)}, got {method!r}")
         if method == "dis" and preset not in DIS_PRESETS:
@@ -51,16 +58,23 @@ class FlowEstimator:
         low, high = (float(v) for v in log_range)
         if not (np.isfinite(low) and np.isfinite(high) and high > low):
             raise InvalidParameterError(f"log_range must be finite with high > low, got {log_range!r}")
-        self.method, self.preset, self.log_range = method, preset, (low, high)
+        if not (0 < scale <= 1):
+            raise InvalidParameterError(f"flow scale must be in (0, 1], got {scale!r}")
+        self.method, self.preset, self.log_range, self.scale = method, preset, (low, high), float(scale)
         self._dis = cv2.DISOpticalFlow_create(DIS_PRESETS[preset]) if method == "dis" else None
 
     def describe(self) -> dict:
         return {"method": self.method, **({"preset": self.preset} if self.method == "dis" else {}),
-                "log_range": list(self.log_range)}
+                "log_range": list(self.log_range), "scale": self.scale}
 
     def to_u8(self, log_img: np.ndarray) -> np.ndarray:
         low, high = self.log_range
-        return cv2.convertScaleAbs(log_img, alpha=255.0 / (high - low), beta=-255.0 * low / (high - low))
+        u8 = cv2.convertScaleAbs(log_img, alpha=255.0 / (high - low), beta=-255.0 * low / (high - low))
+        if self.scale == 1:
+            return u8
+        h, w = u8.shape
+        size = (max(1, round(w * self.scale)), max(1, round(h * self.scale)))
+        return cv2.resize(u8, size, interpolation=cv2.INTER_AREA)
 
     def flow(self, u8_from: np.ndarray, u8_to: np.ndarray) -> np.ndarray:
         """float32 (H, W, 2) flow (dx, dy) in pixels: pixel p of `from` is at p + flow(p) in `to`."""
@@ -71,14 +85,29 @@ class FlowEstimator:
     def pair(self, log0: np.ndarray, log1: np.ndarray, **kwargs) -> FlowPair:
         """The FlowPair of two log-radiance frames (kwargs: key_step_px, max_keys)."""
         u8_0, u8_1 = self.to_u8(log0), self.to_u8(log1)
-        return FlowPair(log0, log1, self.flow(u8_0, u8_1), self.flow(u8_1, u8_0), **kwargs)
+        f01, f10 = self.flow(u8_0, u8_1), self.flow(u8_1, u8_0)
+        if self.scale != 1:
+            f01, f10 = (self._full_size(f, log0.shape) for f in (f01, f10))
+        return FlowPair(log0, log1, f01, f10, **kwargs)
+
+    @staticmethod
+    def _full_size(flow: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+        """A flow computed on resized frames, resized back to shape (H, W) with its vectors in full-size pixels."""
+        h, w = shape
+        sy, sx = h / flow.shape[0], w / flow.shape[1]
+        out = cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR)
+        out[..., 0] *= np.float32(sx)
+        out[..., 1] *= np.float32(sy)
+        return out
 
 
 def occlusion(flow_ab: np.ndarray, flow_ba: np.ndarray) -> tuple[np.ndarray, float]:
     """float32 (H, W) mask, 1 where the pixel of frame a is not visible in frame b (forward-backward check, or
     its flow leaves the image), else 0; and the largest |flow_ab| among the visible pixels (pixels)."""
     out = np.empty(flow_ab.shape[:2], dtype=np.float32)
-    return out, float(_occlusion(flow_ab, flow_ba, out))
+    largest = []
+    in_parallel(lambda y0, y1: largest.append(_occlusion(flow_ab, flow_ba, out, y0, y1)), out.shape[0], _MIN_ROWS)
+    return out, float(max(largest))
 
 
 class FlowPair:
@@ -106,8 +135,9 @@ class FlowPair:
         """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys."""
         if j not in self._keys:
             out = np.empty(self.log0.shape, dtype=np.float32)
-            _synthesise(self.log0, self.occlusion0, self.flow01, self.log1, self.occlusion1, self.flow10,
-                        j / self.n_keys, out)
+            in_parallel(lambda y0, y1: _synthesise(self.log0, self.occlusion0, self.flow01, self.log1,
+                                                   self.occlusion1, self.flow10, j / self.n_keys, out, y0, y1),
+                        out.shape[0], _MIN_ROWS)
             self._keys[j] = out
         return self._keys[j]
 
@@ -121,13 +151,13 @@ class FlowPair:
         return (1 - f) * self.key(j) + f * self.key(j + 1)
 
 
-@njit(cache=True)
-def _occlusion(fab, fba, out):
-    """out = 1 where the forward-backward check fails or the flow leaves the image, else 0; returns the largest
-    |fab| among the other pixels (0 when there are none)."""
+@njit(cache=True, nogil=True)
+def _occlusion(fab, fba, out, y0, y1):
+    """out[y0:y1] = 1 where the forward-backward check fails or the flow leaves the image, else 0; returns the
+    largest |fab| among the other pixels of those rows (0 when there are none)."""
     h, w = out.shape
     largest = 0.0
-    for y in range(h):
+    for y in range(y0, y1):
         for x in range(w):
             ux, uy = fab[y, x, 0], fab[y, x, 1]
             tx, ty = x + ux, y + uy
@@ -180,14 +210,14 @@ def _sample(img, occ, x, y):
     return v, o
 
 
-@njit(cache=True)
-def _synthesise(log0, occ0, f01, log1, occ1, f10, a, out):
-    """out = the occlusion-weighted blend of both frames' log radiance warped to fraction a."""
+@njit(cache=True, nogil=True)
+def _synthesise(log0, occ0, f01, log1, occ1, f10, a, out, y0, y1):
+    """out[y0:y1] = the occlusion-weighted blend of both frames' log radiance warped to fraction a."""
     h, w = log0.shape
     b = 1.0 - a
     c00, c01 = -b * a, a * a  # F_a0 = c00 F01 + c01 F10
     c10, c11 = b * b, -a * b  # F_a1 = c10 F01 + c11 F10
-    for y in range(h):
+    for y in range(y0, y1):
         for x in range(w):
             ux, uy, vx, vy = f01[y, x, 0], f01[y, x, 1], f10[y, x, 0], f10[y, x, 1]
             l0, o0 = _sample(log0, occ0, x + c00 * ux + c01 * vx, y + c00 * uy + c01 * vy)

@@ -47,7 +47,7 @@ from sim import EvsimInputError, InvalidParameterError
 from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
-from .flow_interpolation import FlowEstimator, FlowPair
+from .flow_interpolation import FLOW_SCALE, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 
@@ -318,7 +318,9 @@ class VideoScene(Scene):
     fps: input frame rate (frames per second; overrides a video container's); timestamps: a timestamps file.
     start_s, stop_s: the part of the input to use, in seconds from its first frame.
     upsample: "flow" | "linear" | "none"; flow: "dis" | "farneback"; flow_preset: DIS preset (ultrafast, fast,
-        medium); key_step_px: largest motion between motion-compensated key frames (pixels; flow_interpolation).
+        medium); flow_scale: the flow is computed on the frames resized by this factor (0 < flow_scale <= 1) and
+        resized back; key_step_px: largest motion between motion-compensated key frames (pixels;
+        flow_interpolation).
     input_crf, input_crf_params: the crf_models curve whose inverse linearises LDR (integer) input.
     channel: None for Rec. 709 luminance, or "R" / "G" / "B" / an index.
     log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
@@ -327,7 +329,8 @@ class VideoScene(Scene):
 
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps=None, start_s: float = 0.0, stop_s: float | None = None,
-                 upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", key_step_px: float = 0.5,
+                 upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", flow_scale: float = FLOW_SCALE,
+                 key_step_px: float = 0.5,
                  input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
                  log_eps: float | None = None):
         if upsample not in UPSAMPLE_MODES:
@@ -368,7 +371,7 @@ class VideoScene(Scene):
         if upsample == "flow":
             low, high = np.percentile(np.log(first + np.float32(self.log_eps)), [0.5, 99.5])
             pad = 0.25 * (high - low) + 0.5  # room for brightness changes later in the clip
-            self._flow = FlowEstimator((float(low - pad), float(high + pad)), flow, flow_preset)
+            self._flow = FlowEstimator((float(low - pad), float(high + pad)), flow, flow_preset, flow_scale)
         self._window: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._pairs: dict[int, FlowPair] = {}
         self._pair_motion = np.full(self.times.size - 1, np.nan)  # largest displacement per interval (px)
