@@ -52,8 +52,9 @@ class AHDRConfig:
         t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
         radiance units; the resolved values are recorded in the metadata.
     sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample for the sampling_quantile of
-        the per-pixel log change (1.0: the worst pixel, the denser pre-0.99 default; 0.99 counts the same events
-        within 0.1 % with a fifth of the samples), min/max step in microseconds)
+        the per-pixel log change (1.0: the worst pixel, the former rule, ~10x denser; on the built-in 346x260 pans
+        and zooms 0.95 gives the same event count within 0.2 %, per-pixel count correlation 0.9998, event times
+        within 14 us median, 277 us at the 99th percentile), min/max step in microseconds)
         or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
@@ -69,7 +70,7 @@ class AHDRConfig:
     auto_illumination: bool = True
     sampling: str = "adaptive"
     sampling_fraction: float = 0.5
-    sampling_quantile: float = 0.99
+    sampling_quantile: float = 0.95
     min_step_us: int = 10
     max_step_us: int = 5000
     rate_hz: float = 2000.0

@@ -10,7 +10,7 @@ pairs (one image alive at a time, so memory stays flat) that count the samples t
   max_step_us. With quantile < 1 the bound holds for that quantile of the per-pixel changes instead of the
   maximum, so that a few high-contrast pixels (a fine edge, a dark pixel) do not set the step of the whole image:
   the DVS interpolates their log intensity linearly over a step that is longer for them, which moves their event
-  times within the step but rarely the count (generation uses 0.99: tests/test_generate_ahdr.py checks the
+  times within the step but rarely the count (generation uses 0.95: tests/test_generate_ahdr.py checks the
   agreement with the maximum).
   A source that is log-linear between known times (a video upsampled into key frames: scenes.video) says so
   with log_linear_until(t_us) -> the end of the piece that starts at t_us; the sampler then steps from piece end
