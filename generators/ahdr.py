@@ -51,7 +51,10 @@ class AHDRConfig:
         (crf.inverse(0.5)); auto_illumination: set dvs.full_illumination to the scene's 99th-percentile radiance at
         t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
         radiance units; the resolved values are recorded in the metadata.
-    sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample, min/max step in microseconds)
+    sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample for the sampling_quantile of
+        the per-pixel log change (1.0: the worst pixel, the former rule, ~10x denser; on the built-in 346x260 pans
+        and zooms 0.95 gives the same event count within 0.2 %, per-pixel count correlation 0.9998, event times
+        within 14 us median, 277 us at the 99th percentile), min/max step in microseconds)
         or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
@@ -67,6 +70,7 @@ class AHDRConfig:
     auto_illumination: bool = True
     sampling: str = "adaptive"
     sampling_fraction: float = 0.5
+    sampling_quantile: float = 0.95
     min_step_us: int = 10
     max_step_us: int = 5000
     rate_hz: float = 2000.0
@@ -87,6 +91,8 @@ class AHDRConfig:
             raise InvalidParameterError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate_hz}")
         if self.compression not in ("gzip", "lzf", None):
             raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {self.compression!r}")
+        if not 0.5 <= self.sampling_quantile <= 1:
+            raise InvalidParameterError(f"sampling_quantile must be in [0.5, 1], got {self.sampling_quantile!r}")
         if self.sampling not in ("adaptive", "fixed"):
             raise InvalidParameterError(f"sampling must be 'adaptive' or 'fixed', got {self.sampling!r}")
 
@@ -209,6 +215,7 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
     if config.sampling == "adaptive":
         threshold = min(dvs_params.pos_threshold, dvs_params.neg_threshold)
         sampler = make_sampler(src, "adaptive", threshold=threshold, fraction=config.sampling_fraction,
+                               quantile=config.sampling_quantile,
                                min_step_us=config.min_step_us, max_step_us=config.max_step_us,
                                log_eps=dvs_params.dark_fraction * dvs_params.full_illumination,
                                breakpoints_us=breakpoints)

@@ -40,6 +40,8 @@ def _settings_from_flags(args) -> dict:
         s["crf"] = {"name": args.crf, "params": {}}
     if args.sampling is not None:
         s["sampling"] = {"mode": args.sampling}
+    if args.sampling_quantile is not None:
+        s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
     s["output"] = {"labels": args.labels}
     if args.reference_rate_hz is not None:
         s["output"]["reference_rate_hz"] = args.reference_rate_hz
@@ -340,6 +342,9 @@ def _add_sensor_flags(g) -> None:
     g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
     g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
     g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
+    g.add_argument("--sampling-quantile", type=float,
+                   help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
+                        "sample (default 0.95; 1 = the worst pixel, the former denser rule)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")

@@ -14,7 +14,8 @@ A configuration describes a dataset of sequences. Every key is optional except [
     dvs = { pos_threshold = 0.2 } # sim.DVSParams fields (log units, Hz, microseconds as named)
     camera = { fps = 20.0 }       # sim.CameraParams fields
     crf = { name = "window", params = {} }   # crf_models.get(name, **params)
-    sampling = { mode = "adaptive", fraction = 0.5, min_step_us = 10, max_step_us = 5000, rate_hz = 2000.0 }
+    sampling = { mode = "adaptive", fraction = 0.5, quantile = 0.95, min_step_us = 10, max_step_us = 5000,
+                 rate_hz = 2000.0 }   # quantile: of the per-pixel log change held below fraction x threshold
     output = { labels = false, threshold_maps = true, reference_times_us = [], reference_rate_hz = 0.0,
                compression = "gzip" }   # or "lzf" (faster to write, larger) or "none"
 
@@ -67,7 +68,8 @@ _TRAJECTORY_SPEED_KEYS = ("pan_px_per_s", "zoom_per_s", "rotation_deg_per_s", "s
 
 MAX_SIDE_PX = 65535  # event coordinates are uint16
 MAX_PIXELS = 1 << 25  # about 33 M pixels (8K UHD): larger sensors are refused as almost surely a typo
-SAMPLING_KEYS = {"mode": str, "fraction": float, "min_step_us": int, "max_step_us": int, "rate_hz": float}
+SAMPLING_KEYS = {"mode": str, "fraction": float, "quantile": float, "min_step_us": int, "max_step_us": int,
+                 "rate_hz": float}
 OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": list, "reference_rate_hz": float,
                "compression": str}
 SEQUENCE_KEYS = {"duration_s": float, "height": int, "width": int, "sensor": str, "dvs": dict, "camera": dict,
@@ -77,7 +79,8 @@ SWEEP_KEYS = ("threshold_sigma", "shot_noise_hz", "leak_hz", "refractory_us", "h
 DEFAULTS = {
     "duration_s": 1.0, "height": 180, "width": 240, "sensor": "davis346", "dvs": {}, "camera": {},
     "crf": {"name": "window", "params": {}},
-    "sampling": {"mode": "adaptive", "fraction": 0.5, "min_step_us": 10, "max_step_us": 5000, "rate_hz": 2000.0},
+    "sampling": {"mode": "adaptive", "fraction": 0.5, "quantile": 0.95, "min_step_us": 10, "max_step_us": 5000,
+                 "rate_hz": 2000.0},
     "output": {"labels": False, "threshold_maps": True, "reference_times_us": [], "reference_rate_hz": 0.0,
                "compression": "gzip"},
 }
@@ -365,8 +368,8 @@ def to_ahdr_config(settings: dict, *, where: str = "settings"):
             dvs=dvs, camera=camera, crf=settings["crf"].get("name", "window"),
             crf_params=settings["crf"].get("params", {}), auto_exposure="reference_radiance" not in cam_over,
             auto_illumination="full_illumination" not in dvs_over, sampling=sampling["mode"],
-            sampling_fraction=sampling["fraction"], min_step_us=sampling["min_step_us"],
-            max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
+            sampling_fraction=sampling["fraction"], sampling_quantile=sampling["quantile"],
+            min_step_us=sampling["min_step_us"], max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
             reference_times_us=tuple(output["reference_times_us"]), reference_rate_hz=output["reference_rate_hz"],
             threshold_maps=output["threshold_maps"], labels=output["labels"],
             compression=None if output["compression"] == "none" else output["compression"],

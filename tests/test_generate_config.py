@@ -52,6 +52,9 @@ def test_config_resolves_defaults_overrides_speeds_and_paths(tmp_path):
     ahdr = to_ahdr_config(pic.settings)
     assert ahdr.dvs.pos_threshold == 0.3 and ahdr.dvs.threshold_sigma == sim.DVSParams().threshold_sigma
     assert ahdr.camera.fps == 50.0 and ahdr.camera.exposure_us == 3000 and ahdr.labels
+    assert ahdr.sampling_quantile == 0.95  # untouched default; a sampling.quantile key reaches the config:
+    dense = {**pic.settings, "sampling": {**pic.settings["sampling"], "quantile": 1.0}}
+    assert to_ahdr_config(dense).sampling_quantile == 1.0
     scene = build_scene(pic.scene, 12, 16, pic.duration_us)
     assert (scene.height, scene.width, scene.duration_us) == (12, 16, 60_000)
     assert scene.max_speed_px_per_s() == pytest.approx(20.0)

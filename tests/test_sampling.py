@@ -142,3 +142,19 @@ def test_ideal_dvs_event_times_match_analytic_crossings_within_the_sampling_boun
         assert np.all(mine - t_true <= np.where(inside, g * step, step) + 1.0), f"pixel {x}"
         checked += inside.sum()
     assert checked > 100
+
+
+def test_quantile_bounds_that_quantile_of_the_change_not_the_worst_pixel():
+    # The 400 px/s edge covers one or two of 64 columns: with quantile 0.9 the still pixels set the step, which
+    # grows to max_step_us, while the bound holds for the 90th percentile of the per-pixel change at every step.
+    scene = MovingEdge(4, 64, 100_000, speed_px_per_s=400.0, x0=10.0, low=0.05, high=1.0)
+    worst = AdaptiveSampler(scene, threshold=0.2, fraction=0.5, min_step_us=5, max_step_us=2_000, log_eps=EPS)
+    q90 = AdaptiveSampler(scene, threshold=0.2, fraction=0.5, min_step_us=5, max_step_us=2_000, log_eps=EPS,
+                          quantile=0.9)
+    _, worst_steps = _max_log_steps(worst)
+    logs = [np.log(img.astype(np.float64) + EPS) for _, img in q90]
+    q_steps = [np.quantile(np.abs(b - a), 0.9) for a, b in zip(logs[:-1], logs[1:])]
+    assert max(q_steps) <= 0.1 + 1e-6 and worst_steps.max() <= 0.1 + 1e-6
+    assert q90.n_samples == 100_000 // 2_000 + 1 < worst.n_samples / 10
+    with pytest.raises(sim.InvalidParameterError):
+        AdaptiveSampler(scene, threshold=0.2, quantile=0.3)

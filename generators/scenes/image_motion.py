@@ -1,9 +1,10 @@
 """A still HDR image under continuous camera motion (pan, zoom, rotation, hand-held shake).
 
 The output image at time t samples the source image through a homography H(t) that maps output pixel coordinates
-to source pixel coordinates (cv2.warpPerspective with WARP_INVERSE_MAP, bilinear or bicubic interpolation, a
-reflective or constant border). Loading: OpenEXR (.exr, the OpenEXR File API), Radiance (.hdr/.pic, OpenCV),
-numpy (.npy), or an LDR image (.png, .jpg, .tif, ...) linearised through an inverse CRF from crf_models.
+to source pixel coordinates (cv2.warpPerspective, or the equivalent warpAffine when bilinear and H is affine, with
+WARP_INVERSE_MAP, bilinear or bicubic interpolation, a reflective or constant border). Loading: OpenEXR (.exr, the
+OpenEXR File API), Radiance (.hdr/.pic, OpenCV), numpy (.npy), or an LDR image (.png, .jpg, .tif, ...) linearised
+through an inverse CRF from crf_models.
 Colour is reduced to luminance (see luminance.py) unless a channel is selected.
 """
 
@@ -243,10 +244,14 @@ class ImageMotionScene(Scene):
         # fine grid -> output pixels -> view units -> source pixels (pixel centres at integer coordinates)
         fine_to_out = np.array([[1 / k, 0, (1 - k) / (2 * k)], [0, 1 / k, (1 - k) / (2 * k)], [0, 0, 1]])
         view_to_src = np.array([[u, 0, (u - 1) / 2], [0, u, (u - 1) / 2], [0, 0, 1]])
-        img = cv2.warpPerspective(self._src, view_to_src @ self.homography(t_us) @ fine_to_out,
-                                  (k * self.width, k * self.height),
-                                  flags=_INTERPOLATION[self.interpolation] | cv2.WARP_INVERSE_MAP,
-                                  borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
+        m = view_to_src @ self.homography(t_us) @ fine_to_out
+        # pans, zooms, rotations and shake are affine: bilinear warpAffine gives the same image, about 15 % faster
+        # (bicubic ones differ by ~1e-5 in rounding, so they keep warpPerspective)
+        affine = self.interpolation == "linear" and np.array_equal(m[2], [0.0, 0.0, 1.0])
+        warp, m = (cv2.warpAffine, m[:2]) if affine else (cv2.warpPerspective, m)
+        img = warp(self._src, m, (k * self.width, k * self.height),
+                   flags=_INTERPOLATION[self.interpolation] | cv2.WARP_INVERSE_MAP,
+                   borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
         if self.interpolation == "cubic":
             np.maximum(img, 0.0, out=img)
         return img if k == 1 else cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_AREA)
