@@ -134,11 +134,16 @@ def originals(tmp_path_factory):
     export(rec, d / "e2vid.h5", "e2vid")
     export(rec, d / "ijrr", "ijrr")
     export(rec, d / "akf.mat", "akf-mat")
-    for p in (d / "native.h5", d / "e2vid.h5", d / "ijrr", d / "akf.mat"):
+    with pytest.warns(UserWarning):  # events-only formats say what they leave out
+        for name, fmt in EVENTS_ONLY.items():
+            export(rec, d / name, fmt)
+    for p in (d / "native.h5", d / "e2vid.h5", d / "ijrr", d / "akf.mat", *(d / n for n in EVENTS_ONLY)):
         assert run_case(p) == "valid", p
     return d
 
 
+EVENTS_ONLY = {"evt3.raw": "evt3", "evt2.raw": "evt2", "td.dat": "dat", "events.txt.zip": "e2vid-txt",
+               "e2vid.txt": "e2vid-txt"}
 LAYOUTS = {
     "native-structure": ("native.h5", fm.mutate_h5),
     "native-bytes": ("native.h5", fm.mutate_bytes),
@@ -147,6 +152,11 @@ LAYOUTS = {
     "ijrr+exr": ("ijrr", fm.mutate_folder),
     "akf-mat-structure": ("akf.mat", fm.mutate_mat),
     "akf-mat-bytes": ("akf.mat", fm.mutate_bytes),
+    "evt3-bytes": ("evt3.raw", fm.mutate_bytes),
+    "evt2-bytes": ("evt2.raw", fm.mutate_bytes),
+    "dat-bytes": ("td.dat", fm.mutate_bytes),
+    "e2vid-txt-zip-bytes": ("events.txt.zip", fm.mutate_bytes),
+    "e2vid-txt-text": ("e2vid.txt", fm.mutate_text),
 }
 
 

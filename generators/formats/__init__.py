@@ -90,9 +90,8 @@ def load(path) -> Recording:
     readers = {"native": read_native, "e2vid": read_e2vid, "ijrr": read_ijrr, "akf-mat": read_akf_mat,
                "aedat4": read_aedat4, "e2vid-txt": read_e2vid_txt,
                **{fmt: read_prophesee for fmt in PROPHESEE_FORMATS}}
-    kind = detect(path)
-    with reading(path):
-        rec = readers[kind](path)
+    with reading(path):  # detection reads the content too
+        rec = readers[detect(path)](path)
     return validated(path, rec)
 
 

@@ -26,6 +26,7 @@ import io
 import json
 import warnings
 import zipfile
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -230,7 +231,7 @@ def is_e2vid_txt(path) -> bool:
     try:
         with _open_e2vid_text(path) as f:
             first = f.readline().split()
-    except (OSError, zipfile.BadZipFile, UnicodeDecodeError, DatasetFormatError):
+    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, DatasetFormatError):
         return False
     return len(first) == 2 and all(tok.isdigit() for tok in first)
 
@@ -259,7 +260,7 @@ def read_e2vid_txt(path) -> Recording:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
                 ev = np.loadtxt(f, dtype=np.float64, ndmin=2, comments="#")
-    except (zipfile.BadZipFile, UnicodeDecodeError, OSError, EOFError) as e:
+    except (zipfile.BadZipFile, zlib.error, UnicodeDecodeError, OSError, EOFError) as e:
         raise fail(path, f"unreadable E2VID text file (truncated or corrupt?): {e}") from e
     except ValueError as e:
         raise fail(path, f"malformed line: {e}") from e
