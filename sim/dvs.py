@@ -50,17 +50,15 @@ from a thread pool); feed stacks of frames where possible, since every call has 
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 
 from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
 from .events import EVENT_DTYPE, check_times_us, empty_events
+from .parallel import in_parallel
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -231,7 +229,7 @@ class DVSEmulator:
             valid.append(K.frames_valid(frames[a:b]))
 
         if frames.size:
-            _in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
+            in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
         if not all(valid):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
                 idx = np.argwhere(bad(frames))
@@ -280,7 +278,7 @@ class DVSEmulator:
             K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
                             labels)
 
-        _in_parallel(gather, n, 4)
+        in_parallel(gather, n, 4)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
@@ -292,36 +290,13 @@ class DVSEmulator:
             K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal,
                            *(buf[a * cap:b * cap] for buf in bufs), ends[a:b])
 
-        _in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
+        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
         if self._bufs is None or self._bufs[0].size < n:
             self._bufs = _new_buffers(n)
         return self._bufs
-
-
-_POOL: ThreadPoolExecutor | None = None
-_POOL_PID = 0  # the process that made _POOL: a forked child has its object but not its threads
-
-
-def _in_parallel(fn, n: int, min_part: int) -> None:
-    """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
-    numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
-    global _POOL, _POOL_PID
-    parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
-    bounds = [n * i // parts for i in range(parts + 1)]
-    if parts == 1:
-        fn(0, n)
-        return
-    if _POOL is None or _POOL._max_workers < parts - 1 or _POOL_PID != os.getpid():
-        _POOL_PID = os.getpid()
-        _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
-                                   thread_name_prefix="evsim-dvs")
-    futures = [_POOL.submit(fn, bounds[i], bounds[i + 1]) for i in range(1, parts)]
-    fn(bounds[0], bounds[1])
-    for f in futures:
-        f.result()
 
 
 def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

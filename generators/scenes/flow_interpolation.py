@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from sim import InvalidParameterError
-from sim.dvs import _in_parallel as in_parallel  # row blocks on numba's thread count (the kernels are nogil)
+from sim.parallel import in_parallel  # row blocks on numba's thread count (the kernels are nogil)
 
 from ..choices import DIS_PRESET_NAMES, FLOW_METHODS
 
