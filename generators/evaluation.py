@@ -249,18 +249,29 @@ def recording_contrast_or_estimate(rec: Recording, crf, fed) -> tuple[tuple, str
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=DEFAULT_METHODS,
                        metrics=DEFAULT_METRICS, method_options=None) -> tuple[dict, str]:
     """Score methods on one recording, every scored time: ({method: {metric: value}}, notes joined by "; ")."""
-    check_names(methods, metrics)
+    check_request(protocol, methods, metrics)
     task, notes = recording_task(rec, protocol, method_options)
     every = np.arange(task.times.size)
     return {name: task.scores(task.run(name, every), every, metrics) for name in methods}, "; ".join(notes)
 
 
-def check_names(methods, metrics) -> None:
-    """EvsimInputError naming the methods or metrics that akf does not have."""
+def check_request(protocol: str, methods, metrics) -> None:
+    """EvsimInputError naming an unknown protocol, or the methods or metrics that akf does not have."""
+    if protocol not in PROTOCOLS:
+        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
     unknown = [m for m in methods if m not in akf.METHODS] + [m for m in metrics if m not in akf.METRICS]
     if unknown:
         raise EvsimInputError(f"unknown methods/metrics {unknown}; methods: {sorted(akf.METHODS)}, "
                               f"metrics: {sorted(akf.METRICS)}")
+
+
+def add_means(result: dict, metrics) -> dict:
+    """Add {"mean": {metric: mean over the sequences}} to every method of {method: {sequence: {metric: value}}}
+    that scored any sequence; returns result."""
+    for rows in result.values():
+        if rows:
+            rows["mean"] = {k: float(np.mean([r[k] for r in rows.values()])) for k in metrics}
+    return result
 
 
 def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
@@ -284,9 +295,7 @@ def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHO
     are in the notes ("tuned ...") and, when tuning_out is a dict, stored in it as {method: setting}.
     progress(text): optional callback with the progress of the tuning.
     """
-    if protocol not in PROTOCOLS:
-        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    check_names(methods, metrics)
+    check_request(protocol, methods, metrics)
     if tune and tune_metric not in akf.METRICS:
         raise EvsimInputError(f"unknown tuning metric {tune_metric!r}; one of {', '.join(akf.METRICS)}")
     if not 0 < tune_fraction < 1:
@@ -326,9 +335,7 @@ def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHO
             else:
                 contrast, opts = None, None
             result[m][name] = task.scores(task.run(m, sel, contrast, opts), sel, metrics)
-    for m in methods:
-        rows = list(result[m].values())
-        result[m]["mean"] = {k: float(np.mean([r[k] for r in rows])) for k in metrics}
+    add_means(result, metrics)
     if tuning_out is not None:
         tuning_out.update(settings)
     return result, notes

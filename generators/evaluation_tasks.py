@@ -8,11 +8,7 @@ separately, so the caller reports them with the scores of the others.
 
 from __future__ import annotations
 
-import numpy as np
-
-from sim import EvsimInputError
-
-from .evaluation import (DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, check_names, dataset_sequences,
+from .evaluation import (DEFAULT_METHODS, DEFAULT_METRICS, add_means, check_request, dataset_sequences,
                          evaluate_recording)
 from .formats import load
 from .runner import TaskOutcome, run_tasks
@@ -28,9 +24,7 @@ def evaluate_dataset_tasks(path, *, protocol: str = "reference", methods=DEFAULT
                            method_options=None, workers: int | None = None, scheduler: str | None = None,
                            progress: bool | None = None) -> tuple[dict, list[str], list[TaskOutcome]]:
     """Score every sequence of a dataset, one task each: (result as evaluate_dataset's, notes, failures)."""
-    if protocol not in PROTOCOLS:
-        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    check_names(methods, metrics)  # refused once here rather than by every task
+    check_request(protocol, methods, metrics)  # refused once here rather than by every task
     sequences = dataset_sequences(path)
     options = {"protocol": protocol, "methods": tuple(methods), "metrics": tuple(metrics),
                "method_options": method_options}
@@ -47,8 +41,4 @@ def evaluate_dataset_tasks(path, *, protocol: str = "reference", methods=DEFAULT
             notes.append(f"{outcome.name}: {note}")
         for m in methods:
             result[m][outcome.name] = table[m]
-    if any(o.ok for o in outcomes):
-        for m in methods:
-            rows = list(result[m].values())
-            result[m]["mean"] = {k: float(np.mean([r[k] for r in rows])) for k in metrics}
-    return result, notes, [o for o in outcomes if not o.ok]
+    return add_means(result, metrics), notes, [o for o in outcomes if not o.ok]

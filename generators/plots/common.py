@@ -9,6 +9,7 @@ every panel of a figure, so equal radiance gives equal grey across panels.
 
 from __future__ import annotations
 
+import json
 import types
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,17 @@ MATPLOTLIB_HINT = "matplotlib is not installed: pip install 'evsim[plot]'"
 REINHARD_KEY = 0.18
 DISPLAY_GAMMA = 2.2
 ON_COLOUR, OFF_COLOUR = (0.84, 0.15, 0.16), (0.12, 0.47, 0.71)  # RGB: red ON, blue OFF in every figure
+
+
+def read_json(path: Path, missing: str):
+    """The JSON content of the file `path`; EvsimInputError(missing) when there is no such file, one naming the
+    file when it is not valid JSON text."""
+    if not path.is_file():
+        raise EvsimInputError(missing)
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise EvsimInputError(f"{path}: not valid JSON: {e}") from None
 
 
 class PlotDependencyError(EvsimInputError):

@@ -9,12 +9,11 @@ legend. With several sequences the event counts are pooled before the rates are 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from sim import EVENT_LABELS, EvsimInputError
 
-from .common import pyplot, save_figure
+from .common import pyplot, read_json, save_figure
 
 
 def load_roc_result(source, filters=None) -> dict:
@@ -22,12 +21,7 @@ def load_roc_result(source, filters=None) -> dict:
     dataset (filters only, no reconstruction)."""
     source = Path(source)
     if source.suffix.lower() == ".json":
-        if not source.is_file():
-            raise EvsimInputError(f"{source}: no such file")
-        try:
-            result = json.loads(source.read_text())
-        except json.JSONDecodeError as e:
-            raise EvsimInputError(f"{source}: not valid JSON: {e}") from None
+        result = read_json(source, f"{source}: no such file")
         if not isinstance(result, dict) or "sequences" not in result or "filters" not in result:
             raise EvsimInputError(f"{source}: not the JSON of `evsim evaluate --task denoise`")
         if filters is not None:

@@ -20,7 +20,7 @@ from sim import EvsimInputError
 
 from ..dataset import INDEX_FILE
 from ..formats.atomic import write_text_atomic
-from .common import load_recording, pyplot, save_figure
+from .common import load_recording, pyplot, read_json, save_figure
 
 METRICS_FILE = "sweep_metrics.json"
 DEFAULT_METHODS = ("akf", "cf", "frames")
@@ -31,14 +31,9 @@ DEFAULT_FILTERS = ("correlation", "hot_pixel")  # the methods of an AUC sweep by
 def read_index(results) -> dict:
     """The sweep's index.json; EvsimInputError when the folder is not a sweep's output."""
     path = Path(results) / INDEX_FILE
-    if not path.is_file():
-        raise EvsimInputError(f"{results}: no {INDEX_FILE}; expected the folder written by `evsim generate sweep`")
-    try:
-        index = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise EvsimInputError(f"{path}: not valid JSON: {e}") from None
-    if index.get("generator") != "sweep" or "grid" not in index:
-        raise EvsimInputError(f"{path}: not a sweep index (generator {index.get('generator')!r}); "
+    index = read_json(path, f"{results}: no {INDEX_FILE}; expected the folder written by `evsim generate sweep`")
+    if not isinstance(index, dict) or index.get("generator") != "sweep" or "grid" not in index:
+        raise EvsimInputError(f"{path}: not a sweep index (generator {index.get('generator') if isinstance(index, dict) else None!r}); "
                               "use the output folder of `evsim generate sweep`")
     return index
 
