@@ -219,9 +219,7 @@ def _evaluate_tuned(args) -> int:
     """evaluate --tune: the tuning searches over the whole dataset at once, so it runs in this process."""
     from .evaluation import evaluate_dataset, format_table, write_json
 
-    if args.workers is not None or args.scheduler is not None:
-        raise sim.EvsimInputError("--tune runs in one process (its search scores every sequence per setting); "
-                                  "drop --workers/--scheduler")
+    _refuse_run_flags(args, "--tune runs in one process (its search scores every sequence per setting)")
     tuning = {}
     result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                                      metrics=_names(args.metrics), method_options=_akf_options(args),
@@ -235,9 +233,15 @@ def _evaluate_tuned(args) -> int:
     return 0
 
 
+def _refuse_run_flags(args, why: str) -> None:
+    if args.workers is not None or args.scheduler is not None:
+        raise sim.EvsimInputError(f"{why}: drop --workers/--scheduler")
+
+
 def _evaluate_denoise(args) -> int:
     from .denoising import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
 
+    _refuse_run_flags(args, "--task denoise runs in this process")
     filters = None if args.filters is None else _names(args.filters)
     result, notes = evaluate_denoise_dataset(args.dataset, filters=filters, reconstruct=not args.no_reconstruct,
                                              protocol=args.protocol, methods=_names(args.methods),

@@ -112,3 +112,10 @@ def test_demo_works_without_akf(monkeypatch, tmp_path, capsys):
                  "--no-progress"]) == 0
     assert "reconstruction skipped" in capsys.readouterr().out
     assert (tmp_path / "demo.h5").is_file() and not (tmp_path / "metrics.txt").exists()
+
+
+def test_evaluate_modes_that_run_in_one_process_refuse_workers(tmp_path, capsys):
+    # checked before the dataset is read: the tuning search and the denoising task do not run as tasks
+    for extra in (["--tune"], ["--task", "denoise"]):
+        assert main(["evaluate", str(tmp_path), *extra, "--workers", "2"]) == 2
+        assert "drop --workers/--scheduler" in capsys.readouterr().err
