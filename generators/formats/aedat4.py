@@ -17,9 +17,9 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..recording import Recording
+from ..recording import Recording, validate_recording
 from .atomic import commit
-from .common import check_recording, events_from_columns, fail, polarity_pm1
+from .common import events_from_columns, fail, polarity_pm1
 from .native import recording_event_chunks
 
 
@@ -85,7 +85,7 @@ def write_aedat4(rec: Recording, path, *, event_source: Iterator | None = None) 
     polarity (True = ON), 8-bit grey frames whose timestamp is the exposure start and whose exposure is
     t_end - t_start (deeper frames lose their low bits). The mid-exposure time reads back as (start + end) // 2.
     """
-    check_recording(rec)
+    validate_recording(rec)
     try:
         import dv_processing as dv
     except ImportError as e:

@@ -30,9 +30,9 @@ from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
-from ..recording import MAX_TIME_US, Recording
+from ..recording import MAX_TIME_US, Recording, validate_recording
 from .atomic import atomic_path
-from .common import check_recording, events_from_columns, fail, open_h5, polarity_pm1, to_json
+from .common import events_from_columns, fail, open_h5, polarity_pm1, to_json
 
 REQUIRED = ("events", "image", "time_image", "exposure", "im_height", "im_width")
 # The authors' frame noise table is f_Q = max(w(z), 0.09) * 7e5 with the Robertson weight w: i.e.
@@ -81,7 +81,7 @@ def resolve_ct(rec: Recording) -> float:
 def write_akf_mat(rec: Recording, path, *, ct: float | None = None, f_q: np.ndarray | None = None) -> None:
     """Write a Recording as the AKF authors' .mat (atomically). ct defaults to resolve_ct(rec); f_q to the CRF's
     1/Rbar (f_q_from_crf) when the recording has a CRF, else the authors' table."""
-    check_recording(rec)
+    validate_recording(rec)
     if rec.frames is None or rec.frames.shape[0] == 0:
         raise EvsimInputError("akf-mat needs frames: the recording has none")
     ct = resolve_ct(rec) if ct is None else float(ct)

@@ -172,11 +172,6 @@ def polarity_pm1(p) -> np.ndarray:
     return np.where(p > 0, 1, -1).astype(np.int8)
 
 
-def check_recording(rec) -> None:
-    """Raise EvsimInputError unless a Recording follows every documented rule (recording.validate_recording)."""
-    validate_recording(rec)
-
-
 def frame_times_check(t_start, t_mid, t_end) -> None:
     """Raise TimeOrderError unless t_start <= t_mid <= t_end (microseconds)."""
     if not (t_start <= t_mid <= t_end):

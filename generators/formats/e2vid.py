@@ -21,11 +21,10 @@ from collections.abc import Iterator
 import h5py
 import numpy as np
 
-from ..recording import Recording
+from ..recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import (
     append_rows,
-    check_recording,
     events_from_columns,
     fail,
     json_attr,
@@ -41,7 +40,7 @@ _CHUNK = 1 << 16
 
 def write_e2vid(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
     """Write a Recording in the E2VID layout (atomically). event_source optionally yields (events, labels)."""
-    check_recording(rec)
+    validate_recording(rec)
     nf = 0 if rec.frames is None else rec.frames.shape[0]
     t_mid = np.asarray(rec.frame_t_mid_us if nf else [], dtype=np.int64)
     event_idx = np.zeros(nf, dtype=np.int64)

@@ -35,9 +35,9 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..recording import Recording
+from ..recording import Recording, validate_recording
 from .atomic import atomic_path
-from .common import DatasetFormatError, check_recording, events_from_columns, fail, polarity_pm1, to_json
+from .common import DatasetFormatError, events_from_columns, fail, polarity_pm1, to_json
 from .exr import read_exr_sequence, write_exr_sequence
 from .native import recording_event_chunks
 
@@ -61,7 +61,7 @@ def _events_text(ev: np.ndarray) -> str:
 
 def write_ijrr(rec: Recording, directory, *, event_source: Iterator | None = None) -> None:
     """Write a Recording as an IJRR text folder, atomically (the whole folder appears at the end)."""
-    check_recording(rec)
+    validate_recording(rec)
     with atomic_path(directory, directory=True) as tmp:
         with open(tmp / "events.txt", "w") as fe, open(tmp / "event_labels.txt", "w") as fl:
             has_labels = False
@@ -202,7 +202,7 @@ def _read_frames(d: Path):
 def write_e2vid_txt(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
     """Write the events as rpg_e2vid's text input (header "width height"), zipped when path ends in .zip;
     streamed chunk by chunk and atomic."""
-    check_recording(rec)
+    validate_recording(rec)
     path = Path(path)
     chunks = event_source if event_source is not None else recording_event_chunks(rec)
     with atomic_path(path) as tmp:
@@ -273,5 +273,4 @@ def read_e2vid_txt(path) -> Recording:
         raise fail(path, f"event coordinates exceed the header's sensor size {width}x{height}")
     rec = Recording(events=events, height=height, width=width,
                     metadata={"source": {"format": "e2vid-txt", "path": str(path)}})
-    check_recording(rec)
-    return rec
+    return rec  # load() validates it

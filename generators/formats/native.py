@@ -30,13 +30,12 @@ import numpy as np
 
 from sim import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError, validate_events
 
-from ..recording import Recording
+from ..recording import Recording, validate_recording
 from .atomic import commit, discard, temp_sibling
 from .common import (
     EVENT_CHUNK,
     append_rows,
     add_offset,
-    check_recording,
     event_chunks,
     events_from_columns,
     fail,
@@ -252,7 +251,7 @@ def write_native(rec: Recording, path, *, event_source: Iterator[tuple[np.ndarra
                  compression: str | None = "gzip") -> None:
     """Write a Recording as a native file. event_source, when given, yields (events, labels) chunks instead of
     rec.events / rec.event_labels."""
-    check_recording(rec)
+    validate_recording(rec)
     with NativeWriter(path, rec.height, rec.width, metadata=rec.metadata, frame_bit_depth=rec.frame_bit_depth,
                       compression=compression) as w:
         for ev, lab in event_source if event_source is not None else recording_event_chunks(rec):

@@ -31,9 +31,9 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..recording import Recording
+from ..recording import Recording, validate_recording
 from .atomic import atomic_path
-from .common import EVENT_CHUNK, check_recording, events_from_columns, fail
+from .common import EVENT_CHUNK, events_from_columns, fail
 from .native import recording_event_chunks
 from .prophesee_kernels import TIME_HIGH_MAX_STEP, decode_evt3, encode_evt3
 
@@ -173,7 +173,7 @@ class PropheseeWriter:
 
 def write_prophesee(rec: Recording, path, fmt: str, *, event_source: Iterator | None = None) -> None:
     """Write a Recording's events as `fmt` (evt3, evt2 or dat), streamed chunk by chunk and atomically."""
-    check_recording(rec)
+    validate_recording(rec)
     with PropheseeWriter(path, fmt, rec.height, rec.width) as w:
         for chunk, _ in event_source if event_source is not None else recording_event_chunks(rec):
             w.add_events(chunk)
@@ -334,8 +334,4 @@ def read_prophesee(path) -> Recording:
     rec = Recording(events=events, height=h, width=w,
                     metadata={"source": {"format": prophesee_kind(path), "path": str(path),
                                          "header": keys}})
-    try:
-        check_recording(rec)
-    except EvsimInputError as e:
-        raise fail(path, str(e)) from e
-    return rec
+    return rec  # load() validates it
