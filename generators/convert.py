@@ -19,7 +19,7 @@ from .scenes.video import LDR_IMAGE_SUFFIXES, HDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "input_crf", "input_crf_params", "channel")
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")
 
 
 def clips(inputs) -> list[Path]:

@@ -25,7 +25,7 @@ Between input frames (`upsample`):
 - "none": each input frame is held until the next (what feeding raw frames to a DVS model gives: every change at
   the frame times).
 With "flow", the number of key frames between two input frames follows the pair's largest motion (one per
-key_step_px pixels); between keys, and between frames with "linear", the log radiance is linear in time, which
+key_step_px pixels, at most max_keys); between keys, and between frames with "linear", the log radiance is linear in time, which
 log_linear_until tells the adaptive sampler (generators.sampling), so that the DVS is fed exactly the key frames
 (its own interpolation between samples is linear in log too).
 
@@ -47,7 +47,7 @@ from sim import EvsimInputError, InvalidParameterError
 from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
-from .flow_interpolation import FLOW_SCALE, FlowEstimator, FlowPair
+from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 
@@ -320,7 +320,8 @@ class VideoScene(Scene):
     upsample: "flow" | "linear" | "none"; flow: "dis" | "farneback"; flow_preset: DIS preset (ultrafast, fast,
         medium); flow_scale: the flow is computed on the frames resized by this factor (0 < flow_scale <= 1) and
         resized back; key_step_px: largest motion between motion-compensated key frames (pixels;
-        flow_interpolation).
+        flow_interpolation); max_keys: at most this many key intervals per frame pair (faster motion spaces the
+        keys further apart than key_step_px).
     input_crf, input_crf_params: the crf_models curve whose inverse linearises LDR (integer) input.
     channel: None for Rec. 709 luminance, or "R" / "G" / "B" / an index.
     log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
@@ -330,7 +331,7 @@ class VideoScene(Scene):
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps=None, start_s: float = 0.0, stop_s: float | None = None,
                  upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", flow_scale: float = FLOW_SCALE,
-                 key_step_px: float = 0.5,
+                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
                  input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
                  log_eps: float | None = None):
         if upsample not in UPSAMPLE_MODES:
@@ -352,6 +353,9 @@ class VideoScene(Scene):
         self.start_s, self.stop_s = start_s, stop_s
         self.upsample, self.channel = upsample, channel
         self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
+        if isinstance(max_keys, bool) or int(max_keys) != max_keys or max_keys < 1:
+            raise InvalidParameterError(f"VideoScene: max_keys must be a positive integer, got {max_keys!r}")
+        self.max_keys = int(max_keys)
         self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
         h0, w0 = self._input.size
         if height is None and width is None:
@@ -456,7 +460,7 @@ class VideoScene(Scene):
         if k not in self._pairs:
             log1 = self._frame(k + 1)[1]
             log0 = self._frame(k)[1]
-            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px)
+            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys)
             self._pair_motion[k] = pair.max_motion_px
             while len(self._pairs) > 2:
                 self._pairs.pop(min(self._pairs))
@@ -475,7 +479,8 @@ class VideoScene(Scene):
             log = self._pair(k).log_at(a)
         else:
             log = (1 - np.float32(a)) * self._frame(k)[1] + np.float32(a) * self._frame(k + 1)[1]
-        out = np.exp(log) - np.float32(self.log_eps)
+        out = np.exp(log)
+        out -= np.float32(self.log_eps)
         return np.maximum(out, 0.0, out=out)
 
     def log_linear_until(self, t_us: int) -> int:
@@ -514,7 +519,7 @@ class VideoScene(Scene):
                 break
             cur = self._process(raw, i)[1]
             if prev is not None and np.isnan(self._pair_motion[i - 1]):
-                self._pair_motion[i - 1] = self._flow.pair(prev, cur, key_step_px=self.key_step_px).max_motion_px
+                self._pair_motion[i - 1] = self._flow.pair(prev, cur).max_motion_px
             prev = cur
 
     def _params(self):
@@ -524,7 +529,7 @@ class VideoScene(Scene):
         up = {"mode": self.upsample}
         if self.upsample == "flow":
             up.update(self._flow.describe(), occlusion="forward-backward consistency", blend="log radiance",
-                      key_step_px=self.key_step_px)
+                      key_step_px=self.key_step_px, max_keys=self.max_keys)
         elif self.upsample == "linear":
             up["blend"] = "linear in time in log(I + log_eps)"
         return {
