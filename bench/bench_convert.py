@@ -26,6 +26,7 @@ linear 1.70 / 0.98; bikes.mp4, first 4 s, flow 0.08 / 0.05 (before: 0.07 / 0.04)
 from __future__ import annotations
 
 import argparse
+import os
 import resource
 import sys
 import tempfile
@@ -40,7 +41,7 @@ import sim  # noqa: E402
 from generators.ahdr import AHDRConfig, generate_ahdr  # noqa: E402
 from generators.sampling import AdaptiveSampler  # noqa: E402
 from generators.scenes import Trajectory, VideoScene, builtin_image_scene  # noqa: E402
-from generators.scenes.flow_interpolation import FLOW_SCALE  # noqa: E402
+from generators.scenes.flow_interpolation import FLOW_SCALE, MAX_KEYS  # noqa: E402
 
 BIKES = Path(__file__).resolve().parents[2] / "shared" / "data" / "video" / "bikes.mp4"
 HEIGHT, WIDTH = 260, 346
@@ -59,12 +60,12 @@ def make_clip(folder: Path, duration_s: float, which: str) -> tuple[Path, dict]:
     return path, {"fps": fps}
 
 
-def events_only(path: Path, options: dict, mode: str, preset: str, scale: float = FLOW_SCALE) -> dict:
+def events_only(path: Path, options: dict, mode: str, preset: str, scale: float = FLOW_SCALE,
+                max_keys: int = MAX_KEYS) -> dict:
     """Sample the VideoScene into the DVS emulator; return counts and timings."""
-    params = sim.DVSParams.preset("davis346")
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     scene = VideoScene(path, height=HEIGHT, width=WIDTH, upsample=mode, flow_preset=preset, flow_scale=scale,
-                       **options)
+                       max_keys=max_keys, **options)
     params = sim.DVSParams.preset("davis346", full_illumination=float(np.percentile(scene.radiance(0), 99)))
     dvs = sim.DVSEmulator(HEIGHT, WIDTH, params, 0)
     sampler = AdaptiveSampler(scene, threshold=min(params.pos_threshold, params.neg_threshold), fraction=0.5,
@@ -88,9 +89,10 @@ def events_only(path: Path, options: dict, mode: str, preset: str, scale: float 
             "realtime_x_cpu": clip_s / cpu}
 
 
-def full_pipeline(path: Path, options: dict, mode: str, preset: str, scale: float, out: Path) -> dict:
+def full_pipeline(path: Path, options: dict, mode: str, preset: str, scale: float, max_keys: int,
+                  out: Path) -> dict:
     scene = VideoScene(path, height=HEIGHT, width=WIDTH, upsample=mode, flow_preset=preset, flow_scale=scale,
-                       **options)
+                       max_keys=max_keys, **options)
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     r = generate_ahdr(scene, out, AHDRConfig(), 0, progress=False)
     wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
@@ -105,6 +107,8 @@ def main() -> None:
     ap.add_argument("--flow-preset", default="medium", choices=["ultrafast", "fast", "medium"])
     ap.add_argument("--flow-scale", type=float, default=FLOW_SCALE,
                     help=f"size factor of the frames the flow is computed on (default {FLOW_SCALE})")
+    ap.add_argument("--max-keys", type=int, default=MAX_KEYS,
+                    help=f"most key frames per frame pair (default {MAX_KEYS})")
     ap.add_argument("--clip", choices=["bikes", "synthetic"], default="bikes",
                     help="bikes.mp4 (when present; else synthetic) or the synthetic astronaut clip")
     ap.add_argument("--full", action="store_true", help="also run the whole pipeline (frames, reference, HDF5)")
@@ -116,19 +120,21 @@ def main() -> None:
         np.save(warm, np.random.default_rng(0).random((3, 16, 16)).astype(np.float32))
         events_only(warm, {"fps": 30.0}, "flow", args.flow_preset)  # numba compile / cache load
         print(f"clip: {path.name} ({options}), sensor {WIDTH}x{HEIGHT}, DIS preset {args.flow_preset}, "
-              f"flow scale {args.flow_scale}")
+              f"flow scale {args.flow_scale}, max keys {args.max_keys}; load average {os.getloadavg()[0]:.1f}")
         print(f"{'mode':8s} {'in frames':>9s} {'events':>10s} {'samples':>8s} {'wall s':>7s} {'cpu s':>7s} "
               f"{'frames/s':>9s} {'events/s':>10s} {'x real time (wall / cpu)':>25s}")
         for mode in args.modes:
-            r = events_only(path, options, mode, args.flow_preset, args.flow_scale)
+            r = events_only(path, options, mode, args.flow_preset, args.flow_scale, args.max_keys)
             print(f"{mode:8s} {r['input_frames']:9d} {r['events']:10d} {r['dvs_samples']:8d} {r['wall_s']:7.2f} "
                   f"{r['cpu_s']:7.2f} {r['frames_per_s']:9.1f} {r['events_per_s']:10.3g} "
                   f"{r['realtime_x']:12.2f} / {r['realtime_x_cpu']:.2f}")
-        print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+        print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB; "
+              f"load average {os.getloadavg()[0]:.1f}")
         if args.full:
             print("whole pipeline (events + LDR frames + HDR reference + HDF5):")
             for mode in args.modes:
-                r = full_pipeline(path, options, mode, args.flow_preset, args.flow_scale, d / f"{mode}.h5")
+                r = full_pipeline(path, options, mode, args.flow_preset, args.flow_scale, args.max_keys,
+                                  d / f"{mode}.h5")
                 print(f"  {mode:8s} events {r['events']}, frames {r['frames']}, wall {r['wall_s']:.2f} s, "
                       f"cpu {r['cpu_s']:.2f} s, x{r['realtime_x']:.2f} real time, split {r['split_s']}")
 

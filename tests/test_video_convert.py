@@ -102,6 +102,11 @@ def test_flow_interpolation_moves_a_texture_where_the_cross_fade_blends_it(scale
     np.testing.assert_array_equal(pair.log_at(1.0), log1)
     # continuous in time: a microsecond-sized step gives a proportionally small change
     assert np.abs(pair.log_at(0.3001) - pair.log_at(0.3)).max() < 1e-2
+    # fast motion: at most max_keys key intervals, spaced further apart, same ends
+    capped = FlowEstimator((float(tex.min()), float(tex.max())), scale=scale).pair(log0, log1, max_keys=3)
+    assert capped.n_keys == 3
+    np.testing.assert_array_equal(capped.log_at(1.0), log1)
+    assert np.abs(capped.log_at(0.5) - mid)[inner].mean() < 0.5 * fade_err
 
 
 def test_occlusion_marks_content_that_leaves_the_view():
@@ -229,6 +234,8 @@ def test_bad_inputs_get_clear_errors(tmp_path):
         VideoScene(folder, start_s=0.08, stop_s=0.05)
     with pytest.raises(sim.EvsimInputError, match="0 input frame"):
         VideoScene(folder, start_s=1.0)
+    with pytest.raises(sim.InvalidParameterError, match="max_keys"):
+        VideoScene(folder, max_keys=0)
     with pytest.raises(sim.EvsimInputError, match="holds both videos and images"):
         _write_video(folder / "v.avi", np.zeros((2, 10, 12), np.uint8))
         clips(folder)

@@ -41,7 +41,7 @@ _FB_ALPHA, _FB_BETA = 0.01, 0.5  # forward-backward consistency: relative (1) an
 _WEIGHT_FLOOR = 1e-3
 _MIN_ROWS = 32  # rows per thread, at least
 FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
-MAX_KEYS = 16  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
+MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
 
 
 class FlowEstimator:
