@@ -13,12 +13,13 @@ For a pair of frames 0 and 1 (log radiance L0, L1):
    time a back to both frames are approximated from the two flows as in Super SloMo (Jiang et al., CVPR 2018),
    exact for any motion constant over the interval:
    F_a0 = -(1 - a) a F01 + a^2 F10,   F_a1 = (1 - a)^2 F01 - a (1 - a) F10;
-   both frames are warped to time a (cv2.remap, bicubic: OpenCV's Keys kernel a = -0.75 with coordinates quantised
-   to 1/32 pixel, about 3 times faster than a floating-point bicubic kernel and as accurate in the ground-truth
-   tests, README "Converting videos"; bilinear interpolation blurs texture at half-pixel shifts and loses events)
-   and blended in log radiance with weights
+   both frames are warped to time a (cv2.remap, bicubic: OpenCV's Keys kernel with parameter -0.75, coordinates
+   quantised to 1/32 pixel; a third of the CPU time of a floating-point bicubic kernel and as accurate in the
+   ground-truth tests, README "Converting videos"; bilinear interpolation blurs texture at half-pixel shifts and
+   loses events) and blended in log radiance with weights
    w0 = (1 - a) (1 - O1 + d), w1 = a (1 - O0 + d): content about to be hidden comes from frame 0 (O0 warped from
-   frame 0: it is not in frame 1), newly revealed content from frame 1; d = 1e-3 keeps both weights positive.
+   frame 0, nearest neighbour: it is not in frame 1), newly revealed content from frame 1; d = 1e-3 keeps both
+   weights positive.
 The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames the log radiance is linear in time.
 """
 
@@ -159,8 +160,8 @@ class FlowPair:
         in_parallel(lambda y0, y1: _key_maps(self.flow01, self.flow10, a, m0, m1, y0, y1), h, _MIN_ROWS)
         l0 = cv2.remap(self.log0, m0, None, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
         l1 = cv2.remap(self.log1, m1, None, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
-        o0 = cv2.remap(self.occlusion0, m0, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        o1 = cv2.remap(self.occlusion1, m1, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        o0 = cv2.remap(self.occlusion0, m0, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+        o1 = cv2.remap(self.occlusion1, m1, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
         _blend(l0, o0, l1, o1, a)
         return l0
 
@@ -231,7 +232,7 @@ def _key_maps(f01, f10, a, m0, m1, y0, y1):
 @njit(cache=True, nogil=True, fastmath=True)
 def _blend(l0, o0, l1, o1, a):
     """l0 = the occlusion-weighted blend of l0 and l1, both frames' log radiance warped to fraction a, with o0, o1
-    their occlusion masks warped alike (module docstring)."""
+    their occlusion masks warped along the same maps (module docstring)."""
     h, w = l0.shape
     wa, wb, floor = np.float32(a), np.float32(1.0 - a), np.float32(1.0 + _WEIGHT_FLOOR)
     for y in range(h):
