@@ -25,9 +25,9 @@ Between input frames (`upsample`):
 - "none": each input frame is held until the next (what feeding raw frames to a DVS model gives: every change at
   the frame times).
 With "flow", the number of key frames between two input frames follows the pair's largest motion (one per
-key_step_px pixels, at most max_keys); between keys, and between frames with "linear", the log radiance is linear in time, which
-log_linear_until tells the adaptive sampler (generators.sampling), so that the DVS is fed exactly the key frames
-(its own interpolation between samples is linear in log too).
+key_step_px pixels, at most max_keys); between keys, and between frames with "linear", the log radiance is linear
+in time, which log_linear_until tells the adaptive sampler (generators.sampling), so that the DVS is fed exactly
+the key frames (its own interpolation between samples is linear in log too).
 
 Memory does not depend on the video's length: the scene decodes the input sequentially and holds three frames and
 the flows of the last two intervals; radiance(t) is meant for increasing t. Going back further restarts the
