@@ -210,7 +210,7 @@ def _occlusion(fab, fba, out, y0, y1, beta):
     return np.sqrt(largest)
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, nogil=True)
 def _key_maps(f01, f10, a, m0, m1, y0, y1):
     """m0[y0:y1] = (x, y) + F_a0, m1[y0:y1] = (x, y) + F_a1 (float32 (H, W, 2)): the cv2.remap maps of both
     frames at fraction a."""
@@ -228,8 +228,7 @@ def _key_maps(f01, f10, a, m0, m1, y0, y1):
             m1[y, x, 1] = yf + c10 * uy + c11 * vy
 
 
-
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, nogil=True)
 def _blend(l0, o0, l1, o1, a):
     """l0 = the occlusion-weighted blend of l0 and l1, both frames' log radiance warped to fraction a, with o0, o1
     their occlusion masks warped along the same maps (module docstring)."""
