@@ -2,20 +2,23 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 
 from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
+from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .inputs import Inputs, as_crf, validate_inputs
-from .noise import frame_measurement
+from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
 
-_OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around te_pad
+_OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around the last event times
+MIN_BLOCK_ROWS = 16  # pixel rows per thread block: fewer would cost more in thread hand-offs than they save
 
 
 def _rows(n: int, k: int) -> np.ndarray:
@@ -25,20 +28,45 @@ def _rows(n: int, k: int) -> np.ndarray:
     return buf[off:off + n * k].reshape(n, k)
 
 
+class _Blocks:
+    """The filter's pixel rows cut into one block per numba thread; each runs on its own thread (akf.kernels.akf_events
+    keeps its own last event times per block, so the blocks are independent between frame switches)."""
+
+    def __init__(self, h: int, w: int, s0: int):
+        parts = max(1, min(numba.get_num_threads(), h // MIN_BLOCK_ROWS))
+        self.rows = [h * q // parts for q in range(parts + 1)]
+        self.te = []  # per block: last event time of rows y0 - 1 .. y1 and a border, flat (see akf_events)
+        for y0, y1 in zip(self.rows[:-1], self.rows[1:]):
+            te = np.full((y1 - y0 + 2, w + 2), _OLD, np.int64)
+            te[int(y0 == 0):y1 - y0 + 2 - int(y1 == h), 1:-1] = s0
+            self.te.append(te.ravel())
+
+    def run(self, fn) -> None:
+        """fn(q, y0, y1) for every block q of rows [y0, y1), in parallel."""
+        def parts(a, b):
+            for q in range(a, b):
+                fn(q, self.rows[q], self.rows[q + 1])
+        in_parallel(parts, len(self.te), 1)
+
+
 class _Frames:
     """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
 
     def __init__(self, inp: Inputs, crf, params: AKFParams):
         self.inp, self.crf, self.params = inp, crf, params
-        self._meas, self._deb = {}, {}
+        self._meas, self._deb, self._tables = {}, {}, {}
         self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
         self._next = 0  # intervals must be taken in order (the calibration accumulates)
 
     def measurement(self, k):
         if k not in self._meas:
             self._meas = {j: m for j, m in self._meas.items() if j >= k - 1}
-            self._meas[k] = frame_measurement(self.inp.response(k), self.crf, self.params,
-                                              self.inp.exposure_gain(k))
+            gain = self.inp.exposure_gain(k)
+            if gain not in self._tables:  # the measurement of every raw level (it is a function of the level)
+                levels = np.arange(self.inp.full_scale + 1) / self.inp.full_scale
+                self._tables[gain] = frame_measurement(levels, self.crf, self.params, gain)
+            table, frame = self._tables[gain], self.inp.frames[k]
+            self._meas[k] = FrameMeasurement(*(np.take(getattr(table, f.name), frame) for f in fields(table)))
         return self._meas[k]
 
     def deblurred(self, k):
@@ -224,9 +252,11 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (scale0 * inp.c_off)[:, None]
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
     C[:, kernels.C_FIRST] = 1.0
-    te_pad = np.full((h + 2, w + 2), _OLD, np.int64)
-    te_pad[1:-1, 1:-1] = s0
-    te_pad = te_pad.ravel()
+    blocks = _Blocks(h, w, s0)
+
+    def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
+        blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
+
     tau = inp.tau
     j = 0  # next output index
     prev_win = None  # the previous frame window (set at the end of every iteration)
@@ -238,24 +268,25 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
             m_new, scale, side = fr.interval(k)
             r_next = fr.measurement(k + 1).r.ravel() if k + 1 < nf else S[:, kernels.SRC].copy()
-            kernels.akf_switch(float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on,
-                               scale * inp.c_off, side.astype(np.float64), r_next)
+            args = (float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on, scale * inp.c_off,
+                    side.astype(np.float64), r_next)
+            blocks.run(lambda q, y0, y1: kernels.akf_switch(*args, y0 * w, y1 * w))
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
-        ev = slice_time(inp.events, int(inp.t_start[k]), t_hi)
-        cols = (ev["t"], ev["x"], ev["y"], ev["p"])  # views: numba reads strided columns without copies
+        s_k = int(inp.t_start[k])
+        ev = np.ascontiguousarray(slice_time(inp.events, s_k, t_hi))
         i0 = 0
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])
-            i1 = int(np.searchsorted(cols[0], t_out, side="left"))
-            kernels.akf_events(*(c[i0:i1] for c in cols), w, S, C, te_pad, win, noise)
-            kernels.akf_publish(float(t_out), S, C, win, strong, params.i0, out_i[j].reshape(-1),
-                                none if out_p is None else out_p[j].reshape(-1),
-                                none if out_k is None else out_k[j].reshape(-1))
+            i1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
+            events(ev[i0:i1], win)
+            args = (float(t_out), S, C, win, strong, params.i0, out_i[j].reshape(-1),
+                    none if out_p is None else out_p[j].reshape(-1), none if out_k is None else out_k[j].reshape(-1))
+            blocks.run(lambda q, y0, y1: kernels.akf_publish(*args, y0 * w, y1 * w))
             i0 = i1
             j += 1
         if j < nt:
-            kernels.akf_events(*(c[i0:] for c in cols), w, S, C, te_pad, win, noise)
+            events(ev[i0:], win)
     np.maximum(out_i, 0.0, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)
