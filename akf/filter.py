@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, fields
 
 import numba
@@ -232,7 +233,6 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
-    none = np.empty(0, np.float32)
     fr = _Frames(inp, crf, params)
     strong = params.sigma_im2 / params.max_variance
     noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
@@ -253,6 +253,27 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
     C[:, kernels.C_FIRST] = 1.0
     blocks = _Blocks(h, w, s0)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames") as ahead:
+        _filter(inp, fr, ahead, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+    np.maximum(out_i, 0.0, out=out_i)
+    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
+    return result[0] if len(result) == 1 else tuple(result)
+
+
+def _next_interval(fr: _Frames, k: int):
+    """Interval k's (curve value at s_k, contrast scale, clip side) and frame k + 1's log variance (None after the
+    last frame)."""
+    m_new, scale, side = fr.interval(k)
+    return m_new, scale, side, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None)
+
+
+def _filter(inp: Inputs, fr: _Frames, ahead, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k):
+    """The filter's window loop (see reconstruct). The frame work of the next interval (deblurring, calibration)
+    does not depend on the filter state: it runs on the thread `ahead` (which alone uses fr from now on) while
+    this one processes the events, filling the cores left idle by the serial parts."""
+    nf, w = inp.frames.shape[0], inp.shape[1]
+    nt = inp.out_t.shape[0]
+    none = np.empty(0, np.float32)
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
@@ -260,14 +281,17 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     tau = inp.tau
     j = 0  # next output index
     prev_win = None  # the previous frame window (set at the end of every iteration)
+    pending = ahead.submit(_next_interval, fr, 1) if nf > 1 else None
     for k in range(nf):
         if j == nt:
             break
         win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
                        np.float64)
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
-            m_new, scale, side = fr.interval(k)
-            r_next = fr.measurement(k + 1).r.ravel() if k + 1 < nf else S[:, kernels.SRC].copy()
+            m_new, scale, side, r_next = pending.result()
+            pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
+            if r_next is None:
+                r_next = S[:, kernels.SRC].copy()
             args = (float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on, scale * inp.c_off,
                     side.astype(np.float64), r_next)
             blocks.run(lambda q, y0, y1: kernels.akf_switch(*args, y0 * w, y1 * w))
@@ -275,18 +299,15 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
         s_k = int(inp.t_start[k])
         ev = np.ascontiguousarray(slice_time(inp.events, s_k, t_hi))
-        i0 = 0
+        n0 = 0
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])
-            i1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
-            events(ev[i0:i1], win)
-            args = (float(t_out), S, C, win, strong, params.i0, out_i[j].reshape(-1),
+            n1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
+            events(ev[n0:n1], win)
+            args = (float(t_out), S, C, win, strong, i0, out_i[j].reshape(-1),
                     none if out_p is None else out_p[j].reshape(-1), none if out_k is None else out_k[j].reshape(-1))
             blocks.run(lambda q, y0, y1: kernels.akf_publish(*args, y0 * w, y1 * w))
-            i0 = i1
+            n0 = n1
             j += 1
         if j < nt:
-            events(ev[i0:], win)
-    np.maximum(out_i, 0.0, out=out_i)
-    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
-    return result[0] if len(result) == 1 else tuple(result)
+            events(ev[n0:], win)

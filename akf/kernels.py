@@ -218,19 +218,6 @@ CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE, C_FIRST = 0, 1, 2, 3, 4, 5, 6
 N_C = 8
 
 
-@njit(cache=True, inline="always")
-def _rows_events(ev, y0, y1):
-    """Indices of the events of pixel rows [y0, y1), in order (selected without branches: the rows of consecutive
-    events are unpredictable)."""
-    mine = np.empty(ev.shape[0], np.int64)
-    cnt = 0
-    for n in range(ev.shape[0]):
-        y = np.int64(ev[n].y)
-        mine[cnt] = n
-        cnt += (y >= y0) & (y < y1)
-    return mine[:cnt]
-
-
 @njit(cache=True, nogil=True, fastmath=FAST, error_model="numpy")
 def akf_events(ev, width, S, C, te, w, noise, y0, y1):
     """Process the events of pixel rows [y0, y1) among time-sorted events inside one frame window (O(1) each).
@@ -246,13 +233,13 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
     s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
     sp2, si2, sr2, rho, strong, leak = noise[0], noise[1], noise[2], noise[3], noise[4], noise[5]
     wp = width + 2
-    mine = _rows_events(ev, y0 - 1, y1 + 1)
-    cnt = mine.shape[0]
-    for q in range(cnt):
-        if q + PREFETCH_AHEAD < cnt:
-            na = mine[q + PREFETCH_AHEAD]
-            xa = np.int64(ev[na].x)
-            ya = np.int64(ev[na].y)
+    m = ev.shape[0]
+    for n in range(m):
+        if n + PREFETCH_AHEAD < m:
+            xa = np.int64(ev[n + PREFETCH_AHEAD].x)
+            ya = np.int64(ev[n + PREFETCH_AHEAD].y)
+            if ya < y0 or ya >= y1:  # not this block's: fetch its own first row (the other's would bounce)
+                xa, ya = 0, y0
             ia = ya * width + xa
             ja = (ya - y0 + 1) * wp + xa + 1
             _prefetch(S, ia * N_STATE)
@@ -260,10 +247,12 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
             _prefetch(te, ja - wp)
             _prefetch(te, ja)
             _prefetch(te, ja + wp)
-        evn = ev[mine[q]]
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 - 1 or y > y1:
+            continue
         t = evn.t
         x = np.int64(evn.x)
-        y = np.int64(evn.y)
         j = (y - y0 + 1) * wp + x + 1
         if y < y0 or y >= y1:  # a neighbouring block's row: only its event times matter here
             te[j] = t
@@ -349,16 +338,13 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
 def event_change(ev, width, c_on, c_off, change, net, y0, y1):
     """Per-pixel nominal event log change (sum of +c_on / -c_off) and net signed event count of the events ev
     (sim.EVENT_DTYPE) of pixel rows [y0, y1), added to change and net (flat float64 / int64)."""
-    mine = _rows_events(ev, y0, y1)
-    m = mine.shape[0]
-    for q in range(m):
-        if q + PREFETCH_AHEAD < m:
-            na = mine[q + PREFETCH_AHEAD]
-            ia = np.int64(ev[na].y) * width + np.int64(ev[na].x)
-            _prefetch(change, ia)
-            _prefetch(net, ia)
-        evn = ev[mine[q]]
-        i = np.int64(evn.y) * width + np.int64(evn.x)
+    m = ev.shape[0]
+    for n in range(m):
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
         if evn.p > 0:
             change[i] += c_on[i]
             net[i] += 1
@@ -375,17 +361,13 @@ def exposure_integral(ev, width, c_on, c_off, t_start, t_end, acc, lvl, y0, y1):
     piecewise-constant E."""
     a, b = y0 * width, y1 * width
     last = np.full(b - a, t_start)
-    mine = _rows_events(ev, y0, y1)
-    m = mine.shape[0]
-    for q in range(m):
-        if q + PREFETCH_AHEAD < m:
-            na = mine[q + PREFETCH_AHEAD]
-            ia = np.int64(ev[na].y) * width + np.int64(ev[na].x)
-            _prefetch(acc, ia)
-            _prefetch(lvl, ia)
-            _prefetch(last, ia - a)
-        evn = ev[mine[q]]
-        i = np.int64(evn.y) * width + np.int64(evn.x)
+    m = ev.shape[0]
+    for n in range(m):
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
         acc[i] += math.exp(lvl[i]) * (evn.t - last[i - a])
         last[i - a] = evn.t
         lvl[i] += c_on[i] if evn.p > 0 else -c_off[i]
