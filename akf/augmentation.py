@@ -15,12 +15,6 @@ from .params import AKFParams
 MIN_PART_ROWS = 16  # pixel rows per thread part of the per-event kernels
 
 
-def columns(events: np.ndarray):
-    """Contiguous t, x, y, p columns of an event array (numba kernels want plain arrays)."""
-    return (np.ascontiguousarray(events["t"]), np.ascontiguousarray(events["x"]),
-            np.ascontiguousarray(events["y"]), np.ascontiguousarray(events["p"]))
-
-
 def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, width):
     """EDI (Pan et al. 2019) of a frame to the start and end of its exposure [t_start_us, t_end_us).
 

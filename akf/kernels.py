@@ -11,6 +11,10 @@ mid-exposure times tau_{k-1}, tau_k, tau_{k+1} (eq. 7 applied to R of eq. 9). Be
 linear in time on the sub-segments split at tau_k and e_k, where `propagate` (`propagate_one_sided` for clipped
 frames, which switches the one-sided rule at the exact crossing time) is the exact solution. Publishing is a
 pure read (akf_publish stores nothing), so outputs never depend on which other times were requested.
+
+Threads: the per-event and per-pixel kernels release the GIL and take a range of pixel rows (or pixels); the
+callers run disjoint ranges on numba's thread count with sim.parallel.in_parallel (plain threads: numba's
+parallel=True loops cost seconds of compilation each). Events are read in place from the sim.EVENT_DTYPE array.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, prange
+from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
@@ -224,10 +228,10 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
 
     Row blocks are independent within a window (a pixel's update reads only its own state and its neighbours'
     last event times), so disjoint blocks can run on parallel threads, each with its own te.
-    ev: sim.EVENT_DTYPE array (read in place: one layout whatever its length, so one compiled version). S, C: per-pixel state and contrasts (columns above). te: the block's last
-    event time per pixel (for Q_iso), flat (y1 - y0 + 2) * (width + 2): rows y0 - 1 .. y1 with a one-pixel border;
-    the rows outside [y0, y1) mirror the neighbouring blocks' (very old times beyond the image) and are updated
-    here from their events. w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
+    ev: contiguous sim.EVENT_DTYPE array, read in place (one layout whatever its length: one compiled version).
+    S, C: per-pixel state and contrasts (columns above). te: the block's last event time per pixel (for Q_iso), flat
+    (y1 - y0 + 2) * (width + 2): rows y0 - 1 .. y1 with a one-pixel border; the rows outside [y0, y1) mirror the
+    neighbouring blocks' (very old times beyond the image) and are updated here from their events. w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
     noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance, leak rate (1/us)].
     """
     s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
@@ -384,24 +388,29 @@ def _decay(x, lf, alpha, a, t):
     return x
 
 
-@njit(cache=True, fastmath=FAST)
-def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha, lo, hi):
-    """Complementary filter (Scheerlinck et al. 2018): decay toward the frame log LF at rate alpha (rad/s), then add
-    the event's contrast; the state is kept in [lo, hi] (log units; -inf, inf: unbounded). With LF = 0 this is the
-    events-only high-pass filter."""
-    for n in range(et.shape[0]):
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        t = et[n]
-        X[i] = min(max(_decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if ep[n] > 0 else -c_off[i]), lo), hi)
+@njit(cache=True, nogil=True, fastmath=FAST)
+def cf_events(ev, width, c_on, c_off, X, tl, LF, alpha, lo, hi, y0, y1):
+    """Complementary filter (Scheerlinck et al. 2018) on the events ev (sim.EVENT_DTYPE) of pixel rows [y0, y1):
+    decay toward the frame log LF at rate alpha (rad/s), then add the event's contrast; the state is kept in
+    [lo, hi] (log units; -inf, inf: unbounded). With LF = 0 this is the events-only high-pass filter."""
+    for n in range(ev.shape[0]):
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
+        t = evn.t
+        X[i] = min(max(_decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if evn.p > 0 else -c_off[i]), lo), hi)
         tl[i] = t
 
 
-@njit(cache=True, parallel=True, fastmath=FAST)
-def cf_publish(t, X, tl, LF, alpha, i0, out_i):
-    """With out_i empty (a frame switch), bring every pixel to t (us), committing the state; otherwise write
-    I = exp(X) - I0 at t as a pure read (the state is not stored, so outputs do not depend on the other times)."""
+@njit(cache=True, nogil=True, fastmath=FAST)
+def cf_publish(t, X, tl, LF, alpha, i0, out_i, a, b):
+    """For pixels [a, b): with out_i empty (a frame switch), bring each to t (us), committing the state; otherwise
+    write I = exp(X) - I0 at t as a pure read (the state is not stored, so outputs do not depend on the other
+    times)."""
     commit = out_i.shape[0] == 0
-    for i in prange(X.shape[0]):
+    for i in range(a, b):
         x = _decay(X[i], LF[i], alpha[i], tl[i], t)
         if commit:
             if t > tl[i]:
@@ -412,8 +421,9 @@ def cf_publish(t, X, tl, LF, alpha, i0, out_i):
 
 
 @njit(cache=True, fastmath=FAST)
-def integrate_events(et, ex, ey, ep, width, c_on, c_off, X):
-    """Direct integration: add each event's contrast to the log image X."""
-    for n in range(et.shape[0]):
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        X[i] += c_on[i] if ep[n] > 0 else -c_off[i]
+def integrate_events(ev, width, c_on, c_off, X):
+    """Direct integration: add each event's (ev: sim.EVENT_DTYPE) contrast to the log image X."""
+    for n in range(ev.shape[0]):
+        evn = ev[n]
+        i = np.int64(evn.y) * width + np.int64(evn.x)
+        X[i] += c_on[i] if evn.p > 0 else -c_off[i]
