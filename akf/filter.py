@@ -253,7 +253,8 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
     C[:, kernels.C_FIRST] = 1.0
     blocks = _Blocks(h, w, s0)
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames") as ahead:
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
+                            initargs=(numba.get_num_threads(),)) as ahead:  # the thread count is per thread
         _filter(inp, fr, ahead, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
     np.maximum(out_i, 0.0, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
