@@ -293,9 +293,12 @@ def _filter(inp: Inputs, fr: _Frames, ahead, S, C, blocks: _Blocks, noise, stron
             pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
             if r_next is None:
                 r_next = S[:, kernels.SRC].copy()
-            args = (float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on, scale * inp.c_off,
-                    side.astype(np.float64), r_next)
-            blocks.run(lambda q, y0, y1: kernels.akf_switch(*args, y0 * w, y1 * w))
+            rot = (S, C, m_new, scale * inp.c_on, scale * inp.c_off, side.astype(np.float64), r_next)
+
+            def switch(q, y0, y1, t=float(inp.t_start[k]), win=prev_win, rot=rot):
+                kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to s_k
+                kernels.akf_rotate(*rot, y0 * w, y1 * w)
+            blocks.run(switch)
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
         s_k = int(inp.t_start[k])

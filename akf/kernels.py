@@ -299,18 +299,36 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
 
 
 @njit(cache=True, nogil=True, fastmath=FAST)
-def akf_switch(t, S, C, w, strong, m_new, on_new, off_new, side_new, r_next, a, b):
-    """Frame-window switch at t (us) = s_k for pixels [a, b): bring each to t with the previous window w
-    (committing the state), then rotate the intervals (current becomes previous; m_new, on_new, off_new, side_new:
-    the new interval's curve value at s_k, calibrated contrasts and clip side) and the frame variances (r_next at
-    tau_c)."""
+def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
+    """Write I = exp(L) - I0, P and K = P / R at t (us) of pixels [a, b) (out_p / out_k when non-empty; R without
+    the one-sided factor of advance). A pure read: each pixel is brought to t from its last update without storing
+    the result, so the outputs at t and the later trajectory do not depend on which other times are published.
+    With out_i empty, commit instead: store each pixel's state brought to t (the frame switch, before akf_rotate).
+    One kernel for both: each copy of the inlined advance costs seconds of compilation."""
+    commit = out_i.shape[0] == 0
     for i in range(a, b):
+        L, P = S[i, SL], S[i, SP]
         if t > S[i, ST]:
             mp = S[i, SMP]
-            S[i, SL], S[i, SP] = advance(S[i, ST], t, S[i, SL], S[i, SP], mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB],
-                                         S[i, SRC], C[i, CP_SIDE], C[i, CC_SIDE], strong,
-                                         w[0], w[1], w[2], w[3], w[4])
-            S[i, ST] = t
+            L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
+                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
+            if commit:
+                S[i, SL], S[i, SP], S[i, ST] = L, P, t
+        if commit:
+            continue
+        out_i[i] = math.exp(L) - i0
+        if out_p.shape[0]:
+            out_p[i] = P
+        if out_k.shape[0]:
+            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
+
+
+@njit(cache=True, nogil=True)
+def akf_rotate(S, C, m_new, on_new, off_new, side_new, r_next, a, b):
+    """Frame-window switch of pixels [a, b), once akf_publish committed them to the switch time s_k: rotate the
+    intervals (current becomes previous; m_new, on_new, off_new, side_new: the new interval's curve value at s_k,
+    calibrated contrasts and clip side) and the frame variances (r_next at tau_c)."""
+    for i in range(a, b):
         S[i, SMP] = S[i, SMC]
         S[i, SMC] = m_new[i]
         S[i, SRA] = S[i, SRB]
@@ -318,24 +336,6 @@ def akf_switch(t, S, C, w, strong, m_new, on_new, off_new, side_new, r_next, a, 
         S[i, SRC] = r_next[i]
         C[i, CP_ON], C[i, CP_OFF], C[i, CP_SIDE] = C[i, CC_ON], C[i, CC_OFF], C[i, CC_SIDE]
         C[i, CC_ON], C[i, CC_OFF], C[i, CC_SIDE] = on_new[i], off_new[i], side_new[i]
-
-
-@njit(cache=True, nogil=True, fastmath=FAST)
-def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
-    """Write I = exp(L) - I0, P and K = P / R at t (us) of pixels [a, b) (out_p / out_k when non-empty; R without
-    the one-sided factor of advance). A pure read: each pixel is brought to t from its last update without storing
-    the result, so the outputs at t and the later trajectory do not depend on which other times are published."""
-    for i in range(a, b):
-        L, P = S[i, SL], S[i, SP]
-        if t > S[i, ST]:
-            mp = S[i, SMP]
-            L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
-                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
-        out_i[i] = math.exp(L) - i0
-        if out_p.shape[0]:
-            out_p[i] = P
-        if out_k.shape[0]:
-            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
 
 
 @njit(cache=True, nogil=True)
