@@ -60,15 +60,25 @@ class _Frames:
         self._next = 0  # intervals must be taken in order (the calibration accumulates)
 
     def measurement(self, k):
+        """Frame k's akf.noise.FrameMeasurement (H, W)."""
         if k not in self._meas:
             self._meas = {j: m for j, m in self._meas.items() if j >= k - 1}
-            gain = self.inp.exposure_gain(k)
-            if gain not in self._tables:  # the measurement of every raw level (it is a function of the level)
-                levels = np.arange(self.inp.full_scale + 1) / self.inp.full_scale
-                self._tables[gain] = frame_measurement(levels, self.crf, self.params, gain)
-            table, frame = self._tables[gain], self.inp.frames[k]
-            self._meas[k] = FrameMeasurement(*(np.take(getattr(table, f.name), frame) for f in fields(table)))
+            self._meas[k] = self._measure(k)
         return self._meas[k]
+
+    def _measure(self, k):
+        """The measurement is a function of the raw level and the exposure gain: where the frame has more pixels
+        than levels it is looked up in a table of every level (a few tables are kept, one per gain)."""
+        gain, frame, n_levels = self.inp.exposure_gain(k), self.inp.frames[k], self.inp.full_scale + 1
+        if n_levels > frame.size:
+            return frame_measurement(self.inp.response(k), self.crf, self.params, gain)
+        if gain not in self._tables:
+            if len(self._tables) > 3:
+                self._tables.clear()
+            levels = np.arange(n_levels) / self.inp.full_scale  # = response(k) at each level
+            self._tables[gain] = frame_measurement(levels, self.crf, self.params, gain)
+        table = self._tables[gain]
+        return FrameMeasurement(*(np.take(getattr(table, f.name), frame) for f in fields(table)))
 
     def deblurred(self, k):
         """(L^D at exposure start, L^D at exposure end) of frame k, flat."""
