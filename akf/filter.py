@@ -227,7 +227,9 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     thresholds of 0.05 and 27 % with 0.2.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
-    window by window (events sliced by binary search), so memory does not grow with the sequence length.
+    window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
+    blocks of pixel rows on numba's thread count (numba.set_num_threads), the output the same bit for bit whatever
+    the count, and the next interval's frame work on one more thread.
 
     Publishing is a pure read: each pixel is brought to t with the exact between-event solution (the one-sided
     clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)

@@ -231,7 +231,8 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
     ev: contiguous sim.EVENT_DTYPE array, read in place (one layout whatever its length: one compiled version).
     S, C: per-pixel state and contrasts (columns above). te: the block's last event time per pixel (for Q_iso), flat
     (y1 - y0 + 2) * (width + 2): rows y0 - 1 .. y1 with a one-pixel border; the rows outside [y0, y1) mirror the
-    neighbouring blocks' (very old times beyond the image) and are updated here from their events. w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
+    neighbouring blocks' (very old times beyond the image) and are updated here from their events.
+    w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
     noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance, leak rate (1/us)].
     """
     s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
