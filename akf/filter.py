@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, fields
 
 import numba
@@ -229,7 +229,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
     blocks of pixel rows on numba's thread count (numba.set_num_threads), the output the same bit for bit whatever
-    the count, and the next interval's frame work on one more thread.
+    the count, and (with more than one) the next interval's frame work on one more thread.
 
     Publishing is a pure read: each pixel is brought to t with the exact between-event solution (the one-sided
     clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)
@@ -265,12 +265,28 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
     C[:, kernels.C_FIRST] = 1.0
     blocks = _Blocks(h, w, s0)
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
-                            initargs=(numba.get_num_threads(),)) as ahead:  # the thread count is per thread
-        _filter(inp, fr, ahead, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+    args = (inp, fr, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+    if numba.get_num_threads() > 1:
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
+                                initargs=(numba.get_num_threads(),)) as ahead:  # the thread count is per thread
+            _filter(ahead, *args)
+    else:  # one thread allowed (e.g. a dataset worker's share of the cores): the frame work runs in turn
+        _filter(_AtOnce(), *args)
     np.maximum(out_i, 0.0, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)
+
+
+class _AtOnce:
+    """The executor interface of the frame work, running each task at once on the calling thread."""
+
+    def submit(self, fn, *args) -> Future:
+        f = Future()
+        try:
+            f.set_result(fn(*args))
+        except Exception as e:  # raised where the result is taken, as from a thread
+            f.set_exception(e)
+        return f
 
 
 def _next_interval(fr: _Frames, k: int):
@@ -280,10 +296,10 @@ def _next_interval(fr: _Frames, k: int):
     return m_new, scale, side, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None)
 
 
-def _filter(inp: Inputs, fr: _Frames, ahead, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k):
+def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k):
     """The filter's window loop (see reconstruct). The frame work of the next interval (deblurring, calibration)
-    does not depend on the filter state: it runs on the thread `ahead` (which alone uses fr from now on) while
-    this one processes the events, filling the cores left idle by the serial parts."""
+    does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr from now
+    on) while this one processes the events, filling the cores left idle by the serial parts."""
     nf, w = inp.frames.shape[0], inp.shape[1]
     nt = inp.out_t.shape[0]
     none = np.empty(0, np.float32)
