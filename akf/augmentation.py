@@ -7,14 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from sim.parallel import in_parallel
+
 from . import kernels
 from .params import AKFParams
 
-
-def columns(events: np.ndarray):
-    """Contiguous t, x, y, p columns of an event array (numba kernels want plain arrays)."""
-    return (np.ascontiguousarray(events["t"]), np.ascontiguousarray(events["x"]),
-            np.ascontiguousarray(events["y"]), np.ascontiguousarray(events["p"]))
+MIN_PART_ROWS = 16  # pixel rows per thread part of the per-event kernels
 
 
 def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, width):
@@ -26,15 +24,22 @@ def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, wi
     """
     if t_end_us <= t_start_us:
         return log_frame.copy(), log_frame.copy()
-    mean_gain, change = kernels.exposure_integral(*columns(exposure_events), width, c_on, c_off,
-                                                  np.int64(t_start_us), np.int64(t_end_us), log_frame.shape[0])
+    mean_gain, change = np.zeros(log_frame.shape[0]), np.zeros(log_frame.shape[0])
+    exposure_events = np.ascontiguousarray(exposure_events)  # one layout: one compiled kernel
+    in_parallel(lambda y0, y1: kernels.exposure_integral(exposure_events, width, c_on, c_off, np.int64(t_start_us),
+                                                         np.int64(t_end_us), mean_gain, change, y0, y1),
+                log_frame.shape[0] // width, MIN_PART_ROWS)
     start = log_frame - np.log(mean_gain)
     return start, start + change
 
 
 def event_change(events, c_on, c_off, width):
     """Per-pixel nominal event log change (sum of +c_on / -c_off, log units) and net signed event count."""
-    return kernels.event_change(events["x"], events["y"], events["p"], width, c_on, c_off)
+    change, net = np.zeros(c_on.shape[0]), np.zeros(c_on.shape[0], np.int64)
+    events = np.ascontiguousarray(events)  # one layout: one compiled kernel
+    in_parallel(lambda y0, y1: kernels.event_change(events, width, c_on, c_off, change, net, y0, y1),
+                c_on.shape[0] // width, MIN_PART_ROWS)
+    return change, net
 
 
 def calibrate_scale(d_start, d_end, change, net, clipped, params: AKFParams, return_valid: bool = False):

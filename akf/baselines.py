@@ -16,9 +16,10 @@ import numpy as np
 
 from sim.errors import InvalidParameterError
 from sim.events import slice_time
+from sim.parallel import in_parallel
 
 from . import kernels
-from .augmentation import columns
+from .augmentation import MIN_PART_ROWS
 from .inputs import Inputs, as_crf, validate_inputs
 from .params import AKFParams
 
@@ -45,7 +46,7 @@ def _run_log_filter(inp: Inputs, t0, switch_times, on_switch, run_events, publis
                    [(int(t), 1, j) for j, t in enumerate(inp.out_t)])
     for t, kind, idx in marks:
         if t > cursor:
-            run_events(*columns(slice_time(inp.events, cursor, t)))
+            run_events(np.ascontiguousarray(slice_time(inp.events, cursor, t)))  # one layout: one compiled kernel
             cursor = t
         if kind == 0:
             publish(t, np.empty(0, np.float32))
@@ -133,11 +134,15 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
         lf = log_frame(k)
         state["lf"], state["alpha"] = lf, gains(k, lf)
 
-    def run_events(et, ex, ey, ep):
-        kernels.cf_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x, tl, state["lf"], state["alpha"], lo, hi)
+    h = inp.shape[0]
+
+    def run_events(ev):
+        in_parallel(lambda y0, y1: kernels.cf_events(ev, w, inp.c_on, inp.c_off, x, tl, state["lf"], state["alpha"],
+                                                     lo, hi, y0, y1), h, MIN_PART_ROWS)
 
     def publish(t, out):
-        kernels.cf_publish(np.int64(t), x, tl, state["lf"], state["alpha"], i0, out)
+        in_parallel(lambda y0, y1: kernels.cf_publish(np.int64(t), x, tl, state["lf"], state["alpha"], i0, out,
+                                                      y0 * w, y1 * w), h, MIN_PART_ROWS)
 
     switches = [int(math.floor(t)) for t in inp.tau[1:]]
     return _run_log_filter(inp, t0, switches, lambda k: on_switch(k + 1), run_events, publish)
@@ -198,8 +203,8 @@ def direct_integration(events, frames, frame_t_start_us, frame_t_end_us, crf, ou
     x = _log_frame(inp, crf, 0, i0)
     w = inp.shape[1]
 
-    def run_events(et, ex, ey, ep):
-        kernels.integrate_events(et, ex, ey, ep, w, inp.c_on, inp.c_off, x)
+    def run_events(ev):
+        kernels.integrate_events(ev, w, inp.c_on, inp.c_off, x)
 
     def publish(t, out):
         if out.shape[0]:

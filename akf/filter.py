@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 
 from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
+from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .inputs import Inputs, as_crf, validate_inputs
-from .noise import frame_measurement
+from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
 
-_OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around te_pad
+_OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around the last event times
+MIN_BLOCK_ROWS = 16  # pixel rows per thread block: fewer would cost more in thread hand-offs than they save
 
 
 def _rows(n: int, k: int) -> np.ndarray:
@@ -25,21 +29,56 @@ def _rows(n: int, k: int) -> np.ndarray:
     return buf[off:off + n * k].reshape(n, k)
 
 
+class _Blocks:
+    """The filter's pixel rows cut into one block per numba thread; each runs on its own thread (akf.kernels.akf_events
+    keeps its own last event times per block, so the blocks are independent between frame switches)."""
+
+    def __init__(self, h: int, w: int, s0: int):
+        parts = max(1, min(numba.get_num_threads(), h // MIN_BLOCK_ROWS))
+        self.rows = [h * q // parts for q in range(parts + 1)]
+        self.te = []  # per block: last event time of rows y0 - 1 .. y1 and a border, flat (see akf_events)
+        for y0, y1 in zip(self.rows[:-1], self.rows[1:]):
+            te = np.full((y1 - y0 + 2, w + 2), _OLD, np.int64)
+            te[int(y0 == 0):y1 - y0 + 2 - int(y1 == h), 1:-1] = s0
+            self.te.append(te.ravel())
+
+    def run(self, fn) -> None:
+        """fn(q, y0, y1) for every block q of rows [y0, y1), in parallel."""
+        def parts(a, b):
+            for q in range(a, b):
+                fn(q, self.rows[q], self.rows[q + 1])
+        in_parallel(parts, len(self.te), 1)
+
+
 class _Frames:
     """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
 
     def __init__(self, inp: Inputs, crf, params: AKFParams):
         self.inp, self.crf, self.params = inp, crf, params
-        self._meas, self._deb = {}, {}
+        self._meas, self._deb, self._tables = {}, {}, {}
         self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
         self._next = 0  # intervals must be taken in order (the calibration accumulates)
 
     def measurement(self, k):
+        """Frame k's akf.noise.FrameMeasurement (H, W)."""
         if k not in self._meas:
             self._meas = {j: m for j, m in self._meas.items() if j >= k - 1}
-            self._meas[k] = frame_measurement(self.inp.response(k), self.crf, self.params,
-                                              self.inp.exposure_gain(k))
+            self._meas[k] = self._measure(k)
         return self._meas[k]
+
+    def _measure(self, k):
+        """The measurement is a function of the raw level and the exposure gain: where the frame has more pixels
+        than levels it is looked up in a table of every level (a few tables are kept, one per gain)."""
+        gain, frame, n_levels = self.inp.exposure_gain(k), self.inp.frames[k], self.inp.full_scale + 1
+        if n_levels > frame.size:
+            return frame_measurement(self.inp.response(k), self.crf, self.params, gain)
+        if gain not in self._tables:
+            if len(self._tables) > 3:
+                self._tables.clear()
+            levels = np.arange(n_levels) / self.inp.full_scale  # = response(k) at each level
+            self._tables[gain] = frame_measurement(levels, self.crf, self.params, gain)
+        table = self._tables[gain]
+        return FrameMeasurement(*(np.take(getattr(table, f.name), frame) for f in fields(table)))
 
     def deblurred(self, k):
         """(L^D at exposure start, L^D at exposure end) of frame k, flat."""
@@ -188,7 +227,9 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     thresholds of 0.05 and 27 % with 0.2.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
-    window by window (events sliced by binary search), so memory does not grow with the sequence length.
+    window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
+    blocks of pixel rows on numba's thread count (numba.set_num_threads), the output the same bit for bit whatever
+    the count, and (with more than one) the next interval's frame work on one more thread.
 
     Publishing is a pure read: each pixel is brought to t with the exact between-event solution (the one-sided
     clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)
@@ -204,7 +245,6 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
-    none = np.empty(0, np.float32)
     fr = _Frames(inp, crf, params)
     strong = params.sigma_im2 / params.max_variance
     noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
@@ -224,38 +264,82 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (scale0 * inp.c_off)[:, None]
     C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
     C[:, kernels.C_FIRST] = 1.0
-    te_pad = np.full((h + 2, w + 2), _OLD, np.int64)
-    te_pad[1:-1, 1:-1] = s0
-    te_pad = te_pad.ravel()
+    blocks = _Blocks(h, w, s0)
+    args = (inp, fr, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+    if numba.get_num_threads() > 1:
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
+                                initargs=(numba.get_num_threads(),)) as ahead:  # the thread count is per thread
+            _filter(ahead, *args)
+    else:  # one thread allowed (e.g. a dataset worker's share of the cores): the frame work runs in turn
+        _filter(_AtOnce(), *args)
+    np.maximum(out_i, 0.0, out=out_i)
+    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
+    return result[0] if len(result) == 1 else tuple(result)
+
+
+class _AtOnce:
+    """The executor interface of the frame work, running each task at once on the calling thread."""
+
+    def submit(self, fn, *args) -> Future:
+        f = Future()
+        try:
+            f.set_result(fn(*args))
+        except Exception as e:  # raised where the result is taken, as from a thread
+            f.set_exception(e)
+        return f
+
+
+def _next_interval(fr: _Frames, k: int):
+    """Interval k's (curve value at s_k, contrast scale, clip side) and frame k + 1's log variance (None after the
+    last frame)."""
+    m_new, scale, side = fr.interval(k)
+    return m_new, scale, side, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None)
+
+
+def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k):
+    """The filter's window loop (see reconstruct). The frame work of the next interval (deblurring, calibration)
+    does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr from now
+    on) while this one processes the events, filling the cores left idle by the serial parts."""
+    nf, w = inp.frames.shape[0], inp.shape[1]
+    nt = inp.out_t.shape[0]
+    none = np.empty(0, np.float32)
+
+    def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
+        blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
+
     tau = inp.tau
     j = 0  # next output index
     prev_win = None  # the previous frame window (set at the end of every iteration)
+    pending = ahead.submit(_next_interval, fr, 1) if nf > 1 else None
     for k in range(nf):
         if j == nt:
             break
         win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
                        np.float64)
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
-            m_new, scale, side = fr.interval(k)
-            r_next = fr.measurement(k + 1).r.ravel() if k + 1 < nf else S[:, kernels.SRC].copy()
-            kernels.akf_switch(float(inp.t_start[k]), S, C, prev_win, strong, m_new, scale * inp.c_on,
-                               scale * inp.c_off, side.astype(np.float64), r_next)
+            m_new, scale, side, r_next = pending.result()
+            pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
+            if r_next is None:
+                r_next = S[:, kernels.SRC].copy()
+            rot = (S, C, m_new, scale * inp.c_on, scale * inp.c_off, side.astype(np.float64), r_next)
+
+            def switch(q, y0, y1, t=float(inp.t_start[k]), win=prev_win, rot=rot):
+                kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to s_k
+                kernels.akf_rotate(*rot, y0 * w, y1 * w)
+            blocks.run(switch)
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
-        ev = slice_time(inp.events, int(inp.t_start[k]), t_hi)
-        cols = (ev["t"], ev["x"], ev["y"], ev["p"])  # views: numba reads strided columns without copies
-        i0 = 0
+        s_k = int(inp.t_start[k])
+        ev = np.ascontiguousarray(slice_time(inp.events, s_k, t_hi))
+        n0 = 0
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])
-            i1 = int(np.searchsorted(cols[0], t_out, side="left"))
-            kernels.akf_events(*(c[i0:i1] for c in cols), w, S, C, te_pad, win, noise)
-            kernels.akf_publish(float(t_out), S, C, win, strong, params.i0, out_i[j].reshape(-1),
-                                none if out_p is None else out_p[j].reshape(-1),
-                                none if out_k is None else out_k[j].reshape(-1))
-            i0 = i1
+            n1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
+            events(ev[n0:n1], win)
+            args = (float(t_out), S, C, win, strong, i0, out_i[j].reshape(-1),
+                    none if out_p is None else out_p[j].reshape(-1), none if out_k is None else out_k[j].reshape(-1))
+            blocks.run(lambda q, y0, y1: kernels.akf_publish(*args, y0 * w, y1 * w))
+            n0 = n1
             j += 1
         if j < nt:
-            kernels.akf_events(*(c[i0:] for c in cols), w, S, C, te_pad, win, noise)
-    np.maximum(out_i, 0.0, out=out_i)
-    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
-    return result[0] if len(result) == 1 else tuple(result)
+            events(ev[n0:], win)

@@ -11,6 +11,10 @@ mid-exposure times tau_{k-1}, tau_k, tau_{k+1} (eq. 7 applied to R of eq. 9). Be
 linear in time on the sub-segments split at tau_k and e_k, where `propagate` (`propagate_one_sided` for clipped
 frames, which switches the one-sided rule at the exact crossing time) is the exact solution. Publishing is a
 pure read (akf_publish stores nothing), so outputs never depend on which other times were requested.
+
+Threads: the per-event and per-pixel kernels release the GIL and take a range of pixel rows (or pixels); the
+callers run disjoint ranges on numba's thread count with sim.parallel.in_parallel (plain threads: numba's
+parallel=True loops cost seconds of compilation each). Events are read in place from the sim.EVENT_DTYPE array.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, prange
+from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
@@ -218,51 +222,64 @@ CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE, C_FIRST = 0, 1, 2, 3, 4, 5, 6
 N_C = 8
 
 
-@njit(cache=True, fastmath=FAST, error_model="numpy")
-def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
-    """Process time-sorted events inside one frame window (O(1) each).
+@njit(cache=True, nogil=True, fastmath=FAST, error_model="numpy")
+def akf_events(ev, width, S, C, te, w, noise, y0, y1):
+    """Process the events of pixel rows [y0, y1) among time-sorted events inside one frame window (O(1) each).
 
-    S, C: per-pixel state and contrasts (columns above). te_pad: (H+2)*(W+2) last event time per pixel with a
-    one-pixel border of very old times (for Q_iso). w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
+    Row blocks are independent within a window (a pixel's update reads only its own state and its neighbours'
+    last event times), so disjoint blocks can run on parallel threads, each with its own te.
+    ev: contiguous sim.EVENT_DTYPE array, read in place (one layout whatever its length: one compiled version).
+    S, C: per-pixel state and contrasts (columns above). te: the block's last event time per pixel (for Q_iso), flat
+    (y1 - y0 + 2) * (width + 2): rows y0 - 1 .. y1 with a one-pixel border; the rows outside [y0, y1) mirror the
+    neighbouring blocks' (very old times beyond the image) and are updated here from their events.
+    w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
     noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance, leak rate (1/us)].
     """
     s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
     sp2, si2, sr2, rho, strong, leak = noise[0], noise[1], noise[2], noise[3], noise[4], noise[5]
     wp = width + 2
-    m = et.shape[0]
+    m = ev.shape[0]
     for n in range(m):
         if n + PREFETCH_AHEAD < m:
-            xa = np.int64(ex[n + PREFETCH_AHEAD])
-            ya = np.int64(ey[n + PREFETCH_AHEAD])
+            xa = np.int64(ev[n + PREFETCH_AHEAD].x)
+            ya = np.int64(ev[n + PREFETCH_AHEAD].y)
+            if ya < y0 or ya >= y1:  # not this block's: fetch its own first row (the other's would bounce)
+                xa, ya = 0, y0
             ia = ya * width + xa
-            ja = (ya + 1) * wp + xa + 1
+            ja = (ya - y0 + 1) * wp + xa + 1
             _prefetch(S, ia * N_STATE)
             _prefetch(C, ia * N_C)
-            _prefetch(te_pad, ja - wp)
-            _prefetch(te_pad, ja)
-            _prefetch(te_pad, ja + wp)
-        t = et[n]
-        x = np.int64(ex[n])
-        y = np.int64(ey[n])
+            _prefetch(te, ja - wp)
+            _prefetch(te, ja)
+            _prefetch(te, ja + wp)
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 - 1 or y > y1:
+            continue
+        t = evn.t
+        x = np.int64(evn.x)
+        j = (y - y0 + 1) * wp + x + 1
+        if y < y0 or y >= y1:  # a neighbouring block's row: only its event times matter here
+            te[j] = t
+            continue
         i = y * width + x
         mp = S[i, SMP]
         mc = S[i, SMC]
         Li, Pi = advance(S[i, ST], float(t), S[i, SL], S[i, SP], mp, mc - mp, S[i, SRA], S[i, SRB], S[i, SRC],
                          C[i, CP_SIDE], C[i, CC_SIDE], strong, s, e, tau_a, tau_b, tau_c)
         S[i, ST] = t
-        j = (y + 1) * wp + x + 1
-        t_self = te_pad[j]
+        t_self = te[j]
         t_nbr = max(
-            max(max(te_pad[j - wp - 1], te_pad[j - wp]), max(te_pad[j - wp + 1], te_pad[j - 1])),
-            max(max(te_pad[j + 1], te_pad[j + wp - 1]), max(te_pad[j + wp], te_pad[j + wp + 1])),
+            max(max(te[j - wp - 1], te[j - wp]), max(te[j - wp + 1], te[j - 1])),
+            max(max(te[j + 1], te[j + wp - 1]), max(te[j + wp], te[j + wp + 1])),
         )
-        te_pad[j] = t
+        te[j] = t
         dts = t - t_self
-        q = sp2 * dts * US + si2 * (t - t_nbr) * US  # eq. 2: process + isolated-pixel noise
+        q_noise = sp2 * dts * US + si2 * (t - t_nbr) * US  # eq. 2: process + isolated-pixel noise
         if dts <= rho:
-            q += sr2  # refractory noise
+            q_noise += sr2  # refractory noise
         wt = blend_weight(t, s, e)
-        if ep[n] > 0:
+        if evn.p > 0:
             dp, dc = C[i, CP_ON], C[i, CC_ON]
         else:
             dp, dc = -C[i, CP_OFF], -C[i, CC_OFF]
@@ -272,28 +289,47 @@ def akf_events(et, ex, ey, ep, width, S, C, te_pad, w, noise):
             drift = leak * c_on * dts  # the reference's leak since the pixel's last event, part of this crossing
             if C[i, C_FIRST] != 0.0:
                 leaked = leaked_before_first_event(drift, c_on)
-                q += c_on * c_on / 12.0  # the unknown pre-start drift, uniform on [0, c_on)
+                q_noise += c_on * c_on / 12.0  # the unknown pre-start drift, uniform on [0, c_on)
                 C[i, C_FIRST] = 0.0
             else:
                 leaked = min(drift, c_on)
         S[i, SL] = Li + dp + wt * (dc - dp) - leaked  # eq. 15 with the (blended) calibrated contrast
         S[i, SMP] = mp + dp - leaked
         S[i, SMC] = mc + dc - leaked
-        S[i, SP] = Pi + q  # eq. 21
+        S[i, SP] = Pi + q_noise  # eq. 21
 
 
-@njit(cache=True, parallel=True, fastmath=FAST)
-def akf_switch(t, S, C, w, strong, m_new, on_new, off_new, side_new, r_next):
-    """Frame-window switch at t (us) = s_k: bring every pixel to t with the previous window w (committing the
-    state), then rotate the intervals (current becomes previous; m_new, on_new, off_new, side_new: the new
-    interval's curve value at s_k, calibrated contrasts and clip side) and the frame variances (r_next at tau_c)."""
-    for i in prange(S.shape[0]):
+@njit(cache=True, nogil=True, fastmath=FAST)
+def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
+    """Write I = exp(L) - I0, P and K = P / R at t (us) of pixels [a, b) (out_p / out_k when non-empty; R without
+    the one-sided factor of advance). A pure read: each pixel is brought to t from its last update without storing
+    the result, so the outputs at t and the later trajectory do not depend on which other times are published.
+    With out_i empty, commit instead: store each pixel's state brought to t (the frame switch, before akf_rotate).
+    One kernel for both: each copy of the inlined advance costs seconds of compilation."""
+    commit = out_i.shape[0] == 0
+    for i in range(a, b):
+        L, P = S[i, SL], S[i, SP]
         if t > S[i, ST]:
             mp = S[i, SMP]
-            S[i, SL], S[i, SP] = advance(S[i, ST], t, S[i, SL], S[i, SP], mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB],
-                                         S[i, SRC], C[i, CP_SIDE], C[i, CC_SIDE], strong,
-                                         w[0], w[1], w[2], w[3], w[4])
-            S[i, ST] = t
+            L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
+                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
+            if commit:
+                S[i, SL], S[i, SP], S[i, ST] = L, P, t
+        if commit:
+            continue
+        out_i[i] = math.exp(L) - i0
+        if out_p.shape[0]:
+            out_p[i] = P
+        if out_k.shape[0]:
+            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
+
+
+@njit(cache=True, nogil=True)
+def akf_rotate(S, C, m_new, on_new, off_new, side_new, r_next, a, b):
+    """Frame-window switch of pixels [a, b), once akf_publish committed them to the switch time s_k: rotate the
+    intervals (current becomes previous; m_new, on_new, off_new, side_new: the new interval's curve value at s_k,
+    calibrated contrasts and clip side) and the frame variances (r_next at tau_c)."""
+    for i in range(a, b):
         S[i, SMP] = S[i, SMC]
         S[i, SMC] = m_new[i]
         S[i, SRA] = S[i, SRB]
@@ -303,67 +339,46 @@ def akf_switch(t, S, C, w, strong, m_new, on_new, off_new, side_new, r_next):
         C[i, CC_ON], C[i, CC_OFF], C[i, CC_SIDE] = on_new[i], off_new[i], side_new[i]
 
 
-@njit(cache=True, parallel=True, fastmath=FAST)
-def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k):
-    """Write every pixel's I = exp(L) - I0, P and K = P / R at t (us) (out_p / out_k when non-empty; R without the
-    one-sided factor of advance). A pure read: each pixel is brought to t from its last update without storing the
-    result, so the outputs at t and the later trajectory do not depend on which other times are published."""
-    for i in prange(S.shape[0]):
-        L, P = S[i, SL], S[i, SP]
-        if t > S[i, ST]:
-            mp = S[i, SMP]
-            L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
-                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
-        out_i[i] = math.exp(L) - i0
-        if out_p.shape[0]:
-            out_p[i] = P
-        if out_k.shape[0]:
-            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
-
-
-@njit(cache=True)
-def event_change(ex, ey, ep, width, c_on, c_off):
-    """Per-pixel nominal event log change (sum of +c_on / -c_off) and net signed event count."""
-    change = np.zeros(c_on.shape[0])
-    net = np.zeros(c_on.shape[0], np.int64)
-    m = ex.shape[0]
+@njit(cache=True, nogil=True)
+def event_change(ev, width, c_on, c_off, change, net, y0, y1):
+    """Per-pixel nominal event log change (sum of +c_on / -c_off) and net signed event count of the events ev
+    (sim.EVENT_DTYPE) of pixel rows [y0, y1), added to change and net (flat float64 / int64)."""
+    m = ev.shape[0]
     for n in range(m):
-        if n + PREFETCH_AHEAD < m:
-            ia = np.int64(ey[n + PREFETCH_AHEAD]) * width + np.int64(ex[n + PREFETCH_AHEAD])
-            _prefetch(change, ia)
-            _prefetch(net, ia)
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        if ep[n] > 0:
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
+        if evn.p > 0:
             change[i] += c_on[i]
             net[i] += 1
         else:
             change[i] -= c_off[i]
             net[i] -= 1
-    return change, net
 
 
-@njit(cache=True, fastmath=FAST)
-def exposure_integral(et, ex, ey, ep, width, c_on, c_off, t_start, t_end, n_pix):
-    """EDI integral over the exposure [t_start, t_end): per pixel (1/T) * integral of exp(c E(t)) dt, where E(t) is
-    the signed event log change since t_start, and the total change c E(t_end). Exact for piecewise-constant E."""
-    acc = np.zeros(n_pix)
-    lvl = np.zeros(n_pix)
-    last = np.full(n_pix, t_start)
-    m = et.shape[0]
+@njit(cache=True, nogil=True, fastmath=FAST)
+def exposure_integral(ev, width, c_on, c_off, t_start, t_end, acc, lvl, y0, y1):
+    """EDI integral over the exposure [t_start, t_end) of pixel rows [y0, y1) (ev: sim.EVENT_DTYPE, inside the
+    exposure): per pixel acc = (1/T) * integral of exp(c E(t)) dt, where E(t) is the signed event log change since
+    t_start, and lvl = the total change c E(t_end) (acc, lvl: flat float64, zero on entry). Exact for
+    piecewise-constant E."""
+    a, b = y0 * width, y1 * width
+    last = np.full(b - a, t_start)
+    m = ev.shape[0]
     for n in range(m):
-        if n + PREFETCH_AHEAD < m:
-            ia = np.int64(ey[n + PREFETCH_AHEAD]) * width + np.int64(ex[n + PREFETCH_AHEAD])
-            _prefetch(acc, ia)
-            _prefetch(lvl, ia)
-            _prefetch(last, ia)
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        acc[i] += math.exp(lvl[i]) * (et[n] - last[i])
-        last[i] = et[n]
-        lvl[i] += c_on[i] if ep[n] > 0 else -c_off[i]
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
+        acc[i] += math.exp(lvl[i]) * (evn.t - last[i - a])
+        last[i - a] = evn.t
+        lvl[i] += c_on[i] if evn.p > 0 else -c_off[i]
     T = t_end - t_start
-    for i in range(n_pix):
-        acc[i] = (acc[i] + math.exp(lvl[i]) * (t_end - last[i])) / T
-    return acc, lvl
+    for i in range(a, b):
+        acc[i] = (acc[i] + math.exp(lvl[i]) * (t_end - last[i - a])) / T
 
 
 @njit(cache=True, fastmath=FAST)
@@ -374,24 +389,29 @@ def _decay(x, lf, alpha, a, t):
     return x
 
 
-@njit(cache=True, fastmath=FAST)
-def cf_events(et, ex, ey, ep, width, c_on, c_off, X, tl, LF, alpha, lo, hi):
-    """Complementary filter (Scheerlinck et al. 2018): decay toward the frame log LF at rate alpha (rad/s), then add
-    the event's contrast; the state is kept in [lo, hi] (log units; -inf, inf: unbounded). With LF = 0 this is the
-    events-only high-pass filter."""
-    for n in range(et.shape[0]):
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        t = et[n]
-        X[i] = min(max(_decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if ep[n] > 0 else -c_off[i]), lo), hi)
+@njit(cache=True, nogil=True, fastmath=FAST)
+def cf_events(ev, width, c_on, c_off, X, tl, LF, alpha, lo, hi, y0, y1):
+    """Complementary filter (Scheerlinck et al. 2018) on the events ev (sim.EVENT_DTYPE) of pixel rows [y0, y1):
+    decay toward the frame log LF at rate alpha (rad/s), then add the event's contrast; the state is kept in
+    [lo, hi] (log units; -inf, inf: unbounded). With LF = 0 this is the events-only high-pass filter."""
+    for n in range(ev.shape[0]):
+        evn = ev[n]
+        y = np.int64(evn.y)
+        if y < y0 or y >= y1:
+            continue
+        i = y * width + np.int64(evn.x)
+        t = evn.t
+        X[i] = min(max(_decay(X[i], LF[i], alpha[i], tl[i], t) + (c_on[i] if evn.p > 0 else -c_off[i]), lo), hi)
         tl[i] = t
 
 
-@njit(cache=True, parallel=True, fastmath=FAST)
-def cf_publish(t, X, tl, LF, alpha, i0, out_i):
-    """With out_i empty (a frame switch), bring every pixel to t (us), committing the state; otherwise write
-    I = exp(X) - I0 at t as a pure read (the state is not stored, so outputs do not depend on the other times)."""
+@njit(cache=True, nogil=True, fastmath=FAST)
+def cf_publish(t, X, tl, LF, alpha, i0, out_i, a, b):
+    """For pixels [a, b): with out_i empty (a frame switch), bring each to t (us), committing the state; otherwise
+    write I = exp(X) - I0 at t as a pure read (the state is not stored, so outputs do not depend on the other
+    times)."""
     commit = out_i.shape[0] == 0
-    for i in prange(X.shape[0]):
+    for i in range(a, b):
         x = _decay(X[i], LF[i], alpha[i], tl[i], t)
         if commit:
             if t > tl[i]:
@@ -402,8 +422,9 @@ def cf_publish(t, X, tl, LF, alpha, i0, out_i):
 
 
 @njit(cache=True, fastmath=FAST)
-def integrate_events(et, ex, ey, ep, width, c_on, c_off, X):
-    """Direct integration: add each event's contrast to the log image X."""
-    for n in range(et.shape[0]):
-        i = np.int64(ey[n]) * width + np.int64(ex[n])
-        X[i] += c_on[i] if ep[n] > 0 else -c_off[i]
+def integrate_events(ev, width, c_on, c_off, X):
+    """Direct integration: add each event's (ev: sim.EVENT_DTYPE) contrast to the log image X."""
+    for n in range(ev.shape[0]):
+        evn = ev[n]
+        i = np.int64(evn.y) * width + np.int64(evn.x)
+        X[i] += c_on[i] if evn.p > 0 else -c_off[i]

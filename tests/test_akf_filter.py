@@ -208,3 +208,30 @@ def test_isolated_event_in_a_clipped_region_relaxes_with_the_saturated_variance(
     assert L[2] - A == pytest.approx(expected, rel=1e-3)
     # the neighbours never moved
     np.testing.assert_allclose(np.delete(img[2].ravel(), 4), np.exp(A) - params.i0, rtol=1e-6)
+
+
+def test_row_blocks_on_threads_give_the_one_block_result_bit_for_bit(monkeypatch):
+    """The filter runs pixel rows in blocks on parallel threads; each block keeps its own copy of the neighbouring
+    rows' last event times (Q_iso reads the 3x3 neighbourhood across block edges). Random-walk events crossing the
+    block edges, clipped frames and the leak model: 5 blocks of 16 rows give exactly the 1-block output."""
+    import numba
+
+    h, w, n = 80, 24, 60_000
+    rng = np.random.default_rng(3)
+    walk = np.cumsum(rng.integers(-1, 2, (n, 2)), axis=0) + [w // 2, h // 2]
+    events = sim.make_events(np.sort(rng.integers(0, 300_000, n)), walk[:, 0] % w, walk[:, 1] % h,
+                             rng.choice([-1, 1], n))
+    yy, xx = np.mgrid[0:h, 0:w]
+    ts = np.arange(0, 290_000, 30_000)
+    frames = np.stack([((xx * 11 + yy * 3 + k * 7) % 256) for k in range(ts.size)]).astype(np.uint8)
+    crf = crf_models.get("window")
+    times = np.arange(5_000, 300_000, 21_000)
+    runs = []
+    for threads in (1, 5):
+        monkeypatch.setattr(numba, "get_num_threads", lambda t=threads: t)  # plain threads: any count works
+        monkeypatch.setattr(numba, "set_num_threads", lambda t: None)
+        runs.append(akf.reconstruct(events, frames, ts, ts + 6_000, crf, times, leak_rate_hz=0.3,
+                                    return_variance=True, return_gain=True))
+    assert akf.filter._Blocks(h, w, 0).rows == [0, 16, 32, 48, 64, 80]  # (monkeypatched: 5 threads)
+    for one, five in zip(*runs):
+        np.testing.assert_array_equal(one, five)
