@@ -20,7 +20,7 @@ from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import MIN_PART_ROWS
-from .inputs import Inputs, as_crf, validate_inputs
+from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .params import AKFParams
 
 _I0 = AKFParams().i0
@@ -92,9 +92,7 @@ def complementary_filter(events, frames, frame_t_start_us, frame_t_end_us, crf, 
                                                                              0.0, 0.5)):
         if not (isinstance(v, (int, float)) and lo <= v <= hi):
             raise InvalidParameterError(f"{name} must be in [{lo}, {hi}], got {v!r}")
-    if max_intensity is not None and not (math.isfinite(max_intensity) and max_intensity > 0):
-        raise InvalidParameterError(f"max_intensity must be a finite number > 0 (x units) or None, "
-                                    f"got {max_intensity!r}")
+    check_max_intensity(max_intensity)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)
     bounds = (math.log(i0), math.log(max_intensity + i0)) if max_intensity is not None else _UNBOUNDED

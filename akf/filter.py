@@ -14,7 +14,7 @@ from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
-from .inputs import Inputs, as_crf, validate_inputs
+from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
 
@@ -200,7 +200,7 @@ def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
 
 def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
                 leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(), bit_depth: int = 8,
-                return_variance: bool = False, return_gain: bool = False):
+                max_intensity: float | None = 1.0, return_variance: bool = False, return_gain: bool = False):
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
@@ -218,8 +218,14 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
     nominal contrasts, as in the paper.
 
-    Returns float32 (T, H, W) intensity I = max(exp(L_hat) - I0, 0) (radiance is never negative) in the CRF's scaled-irradiance units (of frame 0's
-    exposure time: frame k's CRF^-1 is scaled by T_0 / T_k), followed, when
+    max_intensity: the output bound (x units; None: unbounded), the same rule as the complementary filter's: what
+    the sensor can represent, by default 1, the top of the CRF's input range (the full well). Events integrated in
+    regions where every frame is clipped otherwise run above anything the camera could record (up to 380 x on a
+    real HDR photo's highlights, where the truth was at most 127 x).
+
+    Returns float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative)
+    in the CRF's scaled-irradiance units (of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k),
+    followed, when
     requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
     P is the variance under the paper's noise model, not a calibrated error bar: the model has no term for the
     events' quantisation (between events the true level may sit up to a threshold from the reported one), so on
@@ -238,6 +244,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
+    check_max_intensity(max_intensity)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)
     nf, (h, w) = inp.frames.shape[0], inp.shape
@@ -272,7 +279,7 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
             _filter(ahead, *args)
     else:  # one thread allowed (e.g. a dataset worker's share of the cores): the frame work runs in turn
         _filter(_AtOnce(), *args)
-    np.maximum(out_i, 0.0, out=out_i)
+    np.clip(out_i, 0.0, np.inf if max_intensity is None else max_intensity, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +52,14 @@ def as_crf(crf):
     if not (hasattr(crf, "inverse") and hasattr(crf, "variance")):
         raise InvalidParameterError(f"crf must be a crf_models curve or its name, got {type(crf).__name__}")
     return crf
+
+
+def check_max_intensity(max_intensity) -> None:
+    """The output bound of the log-domain methods (x units; None: unbounded) must be a finite number > 0."""
+    if max_intensity is not None and not (isinstance(max_intensity, (int, float)) and math.isfinite(max_intensity)
+                                          and max_intensity > 0):
+        raise InvalidParameterError(f"max_intensity must be a finite number > 0 (x units) or None, "
+                                    f"got {max_intensity!r}")
 
 
 def _times(a, name: str, n: int | None = None) -> np.ndarray:

@@ -16,7 +16,8 @@ class FrameMeasurement:
     intensity: I = CRF^-1(y), scaled irradiance (x units).
     rbar: Rbar = sigma_im2 / f^w(y), saturated at max_variance (x^2, eq. 6).
     r: R = Rbar / (I + I0)^2, the log-space variance (log^2, eq. 9).
-    log: L^F = log(I + I0) - min(R, bias_max_variance) / 2, the bias-corrected log frame (eq. 8).
+    log: L^F = log(I + I0) - min(R, bias_max_variance) / 2, the bias-corrected log frame (eq. 8); log(I + I0)
+        where clipped.
     clipped: True where Rbar reached max_variance (the frame carries no usable information there).
     side: int8, +1 / -1 where clipped at a high / low response (y >= 0.5 / y < 0.5), else 0.
     """
@@ -40,7 +41,9 @@ def frame_measurement(y: np.ndarray, crf, params: AKFParams, gain: float = 1.0) 
     rbar = gain**2 * rbar_raw
     shifted = intensity + params.i0
     r = rbar / shifted**2
-    log = np.log(shifted) - 0.5 * np.minimum(r, params.bias_max_variance)
     clipped = rbar_raw >= params.max_variance
+    # eq. 8's second-order bias correction; none at a clipped (censored) response, where the truth lies beyond the
+    # clip level and shifting the measurement further toward the middle would only add bias
+    log = np.log(shifted) - 0.5 * np.where(clipped, 0.0, np.minimum(r, params.bias_max_variance))
     side = np.where(clipped, np.where(np.asarray(y) >= 0.5, 1, -1), 0).astype(np.int8)
     return FrameMeasurement(intensity, rbar, r, log, clipped, side)

@@ -1,7 +1,8 @@
 """Dataset-level evaluation of HDR reconstructions (the paper's Table 1 and supplementary Table 2).
 
 Units. Every method outputs linear intensity in the CRF's scaled-irradiance units "x" of the first input frame's
-exposure (x = 1 is the full well; crf.forward(x) is the normalised response). Scores are computed in those units:
+exposure (x = 1 is the full well; crf.forward(x) is the normalised response; the AKF and the CF output at most
+their max_intensity, default 1: what the camera can represent). Scores are computed in those units:
 - protocol "reference" (synthetic data with HDR ground truth): the reference radiance is multiplied by
   reference_to_x(rec) (recorded at generation time as metadata["reference_to_crf_x"], else computed from the
   recorded camera configuration), and the scored times are the reference times strictly between the first and the

@@ -165,7 +165,8 @@ def test_clipped_frames_are_one_sided_measurements():
     ev = sim.make_events(t_ev[:3] + t_ev, [0] * 3 + [1] * 6, [0] * 9, [1] * 9)
     ev = ev[np.argsort(ev["t"], kind="stable")]
     t1, t2 = 60_000, 61_000
-    img, P = akf.reconstruct(ev, frames, ts, te, LINEAR, [30_000, t1, t2], params=params, return_variance=True)
+    img, P = akf.reconstruct(ev, frames, ts, te, LINEAR, [30_000, t1, t2], params=params, return_variance=True,
+                             max_intensity=None)  # pixel 1 runs above the full well (x = 1.3)
     clip = frame_measurement(frames[1] / 255.0, LINEAR, params)
     A, R = clip.log[0], clip.r[0]
     L = np.log(img[:, 0] + params.i0)
@@ -180,6 +181,24 @@ def test_clipped_frames_are_one_sided_measurements():
     # by t1 (5 ms after the clipped exposure) the impossible state is mostly corrected, the consistent one kept
     gap0, gap1 = L[:2] - A
     assert abs(gap1[0]) < 0.25 * abs(gap0[0]) and gap1[1] > 0.5 * gap0[1]
+
+
+def test_output_never_exceeds_the_representable_bound():
+    """Frames clipped high after frame 0; 12 ON events at 0.2 raise the pixel 2.4 log units above frame 0's
+    100 / 255 (x = 4.3 unbounded): the output is bounded by max_intensity (default 1, the full well: the top of the
+    CRF's input range, the CF's bound too), at every time, as is the lower bound 0."""
+    frames = np.array([[[100, 100]], [[255, 255]], [[255, 255]], [[255, 255]]], np.uint8)
+    ts = np.array([0, 50_000, 100_000, 150_000])
+    ev = sim.make_events(np.arange(12) * 1_000 + 20_000, [0] * 12, [0] * 12, [1] * 12)
+    times = np.arange(0, 200_000, 5_000)
+    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=None)
+    assert free[:, 0, 0].max() > 3.0  # the unbounded filter does run above the full well here
+    bounded = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times)
+    assert bounded.max() <= 1.0 and bounded.min() >= 0.0
+    np.testing.assert_array_equal(bounded, np.clip(free, 0.0, 1.0))  # a bound on the output, nothing else
+    assert akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=0.5).max() <= 0.5
+    with pytest.raises(InvalidParameterError, match="max_intensity"):
+        akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=-1.0)
 
 
 def test_isolated_event_in_a_clipped_region_relaxes_with_the_saturated_variance():

@@ -34,7 +34,8 @@ PARAMS = akf.AKFParams(i0=1e-4, max_variance=1e2)  # saturated frames: a negligi
 def _above_clip(leak_rate_hz, scene, t_us=1_900_000):
     """(H * W,) log estimate at t_us minus the saturated frames' log measurement (the clip level)."""
     events, frames, ts, te, _ = scene
-    out = akf.reconstruct(events, frames, ts, te, LINEAR, [t_us], params=PARAMS, leak_rate_hz=leak_rate_hz)
+    out = akf.reconstruct(events, frames, ts, te, LINEAR, [t_us], params=PARAMS, leak_rate_hz=leak_rate_hz,
+                          max_intensity=None)  # the estimate above the full well (x = 1) is what is measured
     clip = frame_measurement(np.ones(1), LINEAR, PARAMS).log[0]
     return np.log(out[0].astype(np.float64) + PARAMS.i0).ravel() - clip
 

@@ -44,7 +44,9 @@ def test_settings_become_method_options():
     assert c == pytest.approx(0.16) and opts["leak_rate_hz"] == 0.1
     assert (p.sigma_proc2, p.sigma_iso2, p.sigma_ref2) == pytest.approx(
         (4 * base.sigma_proc2, 4 * base.sigma_iso2, 4 * base.sigma_ref2))
-    assert (p.sigma_im2, p.max_variance) == pytest.approx((base.sigma_im2 / 4, base.max_variance / 4))
+    assert (p.sigma_im2, p.max_variance) == pytest.approx((base.sigma_im2 / 4, base.max_variance))  # the clip's
+    huge = setting_options("akf", {"frame_noise_scale": 1e5}, 0.2)[1]["params"]
+    assert huge.sigma_im2 == huge.max_variance == pytest.approx(1e5 * base.sigma_im2)  # max_variance >= sigma_im2
     assert describe_setting({"alpha": 50.0, "contrast_scale": 1.25}) == "alpha=50 rad/s, contrast x1.25"
 
 
