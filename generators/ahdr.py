@@ -14,6 +14,7 @@ Memory stays flat in the sequence length: one chunk of samples and one frame are
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.metadata
 import math
 import platform
@@ -33,7 +34,7 @@ from .formats.native import NativeWriter
 from .sampling import make_sampler
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
-             "scikit-image", "tqdm")
+             "scikit-image", "tqdm", "isal")
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
 MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
 MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
@@ -145,15 +146,20 @@ class _Clock:
         self.cpu[stage] += cpu - since[1] - minus[1]
 
 
-def package_versions() -> dict:
-    """Versions of Python and the packages that determine the output."""
+@functools.lru_cache(maxsize=1)
+def _versions() -> tuple:
     out = {"python": platform.python_version()}
     for name in _PACKAGES:
         try:
             out[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:
             out[name] = None
-    return out
+    return tuple(out.items())
+
+
+def package_versions() -> dict:
+    """Versions of Python and the packages that determine the output (read once per process)."""
+    return dict(_versions())
 
 
 def resolve_sensors(scene, config: AHDRConfig):

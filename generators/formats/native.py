@@ -153,6 +153,11 @@ class NativeWriter:
             for name in names:
                 g.create_dataset(name, (0,), dtype=np.int64, maxshape=(None,), chunks=(1024,))
         self._kw = kw
+        # datasets by path, and the last frame and reference times: looked up once, not per append
+        self._ds = {name: f[name] for name in ["ms_to_idx"] + [f"events/{n}" for n in _EVENT_FIELDS] +
+                    [f"frames/{n}" for n in ("images", "t_start_us", "t_mid_us", "t_end_us")] +
+                    ["reference/images", "reference/t_us"]}
+        self._last_frame_t = self._last_reference_t = None
         for name in [f"events/{n}" for n in _EVENT_FIELDS] + ["frames/images", "reference/images"]:
             self._appender(name)
 
@@ -179,8 +184,8 @@ class NativeWriter:
         if self._has_labels is None:
             self._has_labels = labels is not None
             if self._has_labels:
-                self._f["events"].create_dataset("label", (0,), dtype=np.uint8, maxshape=(None,),
-                                                 chunks=(_EV_H5_CHUNK,), **self._kw)
+                self._ds["events/label"] = self._f["events"].create_dataset(
+                    "label", (0,), dtype=np.uint8, maxshape=(None,), chunks=(_EV_H5_CHUNK,), **self._kw)
                 self._appender("events/label")
         n0, n = self._n_events, events.size
         if self._t_offset is None:
@@ -195,7 +200,7 @@ class NativeWriter:
         k_last = int(t[-1]) // 1000
         if k_last >= self._ms_next:
             ks = np.arange(self._ms_next, k_last + 1, dtype=np.int64) * 1000
-            append_rows(self._f["ms_to_idx"], (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
+            append_rows(self._ds["ms_to_idx"], (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
             self._ms_next = k_last + 1
         self._n_events += n
         self._t_last = int(events["t"][-1])
@@ -210,12 +215,12 @@ class NativeWriter:
             raise EvsimInputError(f"frame value {int(image.max())} exceeds {self.bit_depth}-bit range")
         ts = [int(t_start_us), int(t_mid_us), int(t_end_us)]
         frame_times_check(*ts)
-        fr = self._f["frames"]
-        if fr["t_mid_us"].shape[0] and ts[1] < fr["t_mid_us"][-1]:
-            raise TimeOrderError(f"frame at t_mid={ts[1]} us comes after one at {fr['t_mid_us'][-1]} us")
+        if self._last_frame_t is not None and ts[1] < self._last_frame_t:
+            raise TimeOrderError(f"frame at t_mid={ts[1]} us comes after one at {self._last_frame_t} us")
         self._append("frames/images", image[None])
         for name, t in zip(("t_start_us", "t_mid_us", "t_end_us"), ts):
-            append_rows(fr[name], np.array([t], dtype=np.int64))
+            append_rows(self._ds[f"frames/{name}"], np.array([t], dtype=np.int64))
+        self._last_frame_t = ts[1]
 
     def add_reference(self, image: np.ndarray, t_us: int) -> None:
         """Append one HDR reference frame (linear radiance, float (H, W), finite, >= 0) at time t_us."""
@@ -224,21 +229,21 @@ class NativeWriter:
             raise EvsimInputError(f"reference must be ({self.height}, {self.width}), got {image.shape}")
         if not np.all(np.isfinite(image)) or image.min(initial=0) < 0:
             raise EvsimInputError("reference radiance must be finite and >= 0")
-        ref = self._f["reference"]
-        if ref["t_us"].shape[0] and int(t_us) < ref["t_us"][-1]:
-            raise TimeOrderError(f"reference at t={int(t_us)} us comes after one at {ref['t_us'][-1]} us")
+        if self._last_reference_t is not None and int(t_us) < self._last_reference_t:
+            raise TimeOrderError(f"reference at t={int(t_us)} us comes after one at {self._last_reference_t} us")
         self._append("reference/images", image[None])
-        append_rows(ref["t_us"], np.array([int(t_us)], dtype=np.int64))
+        append_rows(self._ds["reference/t_us"], np.array([int(t_us)], dtype=np.int64))
+        self._last_reference_t = int(t_us)
 
     def _appender(self, name: str) -> None:
         """Route appends to dataset `name` through a _DeflatedAppender (gzip compression only)."""
         if self._kw.get("compression") == "gzip":
-            self._appenders[name] = _DeflatedAppender(self._f[name])
+            self._appenders[name] = _DeflatedAppender(self._ds[name])
 
     def _append(self, name: str, data: np.ndarray) -> None:
         appender = self._appenders.get(name)
         if appender is None:
-            append_rows(self._f[name], data)
+            append_rows(self._ds[name], data)
         else:
             appender.append(data)
 
