@@ -59,22 +59,26 @@ _EV_H5_CHUNK = 1 << 16
 _DEFLATE_LEVEL = 2  # ISA-L's levels are 0..3; on generated sequences 2 is as small as zlib's 1 and ~10x faster
 
 
-class _DeflatedAppender:
-    """Appends rows to a resizable dataset with the shuffle and gzip filters by compressing whole chunks here
-    (numpy byte shuffle, ISA-L deflate: the bytes HDF5's own filters would store) and writing them directly.
-    Rows short of a whole chunk wait in `tail` until more arrive or finish() pads and writes the last chunk."""
+class _ChunkAppender:
+    """Appends rows to a resizable chunked dataset by writing whole chunks directly (h5py write_direct_chunk):
+    for a dataset with the shuffle and gzip filters, compressed here (numpy byte shuffle, ISA-L deflate: the bytes
+    HDF5's own filters would store); for one without filters, as they are. Rows short of a whole chunk wait in
+    `tail` until more arrive or finish() pads and writes the last chunk; the dataset's extent grows as whole
+    chunks are written, and finish() sets it to the row count."""
 
     def __init__(self, ds: h5py.Dataset):
         self.ds, self.rows = ds, ds.chunks[0]
+        self.deflate = ds.compression == "gzip"  # with shuffle (NativeWriter's layout); else no filters
         self.tail = np.zeros((0,) + ds.shape[1:], dtype=ds.dtype)
         self.n_done = 0  # rows in chunks already written
 
     def append(self, data: np.ndarray) -> None:
-        data = np.asarray(data, dtype=self.ds.dtype)
+        data = np.asarray(data, dtype=self.tail.dtype)
         if self.tail.size:
             data = np.concatenate([self.tail, data])
-        self.ds.resize(self.n_done + len(data), axis=0)
         whole = len(data) // self.rows * self.rows
+        if whole:
+            self.ds.resize(self.n_done + whole, axis=0)
         for i in range(0, whole, self.rows):
             self._write(self.n_done + i, data[i : i + self.rows])
         self.n_done += whole
@@ -84,15 +88,19 @@ class _DeflatedAppender:
         if len(self.tail):
             chunk = np.zeros((self.rows,) + self.tail.shape[1:], dtype=self.tail.dtype)
             chunk[: len(self.tail)] = self.tail
+            self.ds.resize(self.n_done + len(self.tail), axis=0)
             self._write(self.n_done, chunk)
             self.n_done += len(self.tail)
             self.tail = self.tail[:0]
 
     def _write(self, row: int, chunk: np.ndarray) -> None:
-        size = chunk.dtype.itemsize
-        shuffled = np.ascontiguousarray(chunk).view(np.uint8).reshape(-1, size).T if size > 1 else chunk
-        self.ds.id.write_direct_chunk((row,) + (0,) * (chunk.ndim - 1),
-                                      isal_zlib.compress(np.ascontiguousarray(shuffled), _DEFLATE_LEVEL))
+        offset, chunk, size = (row,) + (0,) * (chunk.ndim - 1), np.ascontiguousarray(chunk), chunk.dtype.itemsize
+        if self.deflate:
+            shuffled = chunk.view(np.uint8).reshape(-1, size).T if size > 1 else chunk
+            data = isal_zlib.compress(np.ascontiguousarray(shuffled), _DEFLATE_LEVEL)
+        else:
+            data = chunk.tobytes()
+        self.ds.id.write_direct_chunk(offset, data)
 
 
 class NativeWriter:
@@ -158,7 +166,7 @@ class NativeWriter:
                     [f"frames/{n}" for n in ("images", "t_start_us", "t_mid_us", "t_end_us")] +
                     ["reference/images", "reference/t_us"]}
         self._last_frame_t = self._last_reference_t = None
-        for name in [f"events/{n}" for n in _EVENT_FIELDS] + ["frames/images", "reference/images"]:
+        for name in self._ds:
             self._appender(name)
 
     # -- appending ------------------------------------------------------------------------------------------
@@ -200,7 +208,7 @@ class NativeWriter:
         k_last = int(t[-1]) // 1000
         if k_last >= self._ms_next:
             ks = np.arange(self._ms_next, k_last + 1, dtype=np.int64) * 1000
-            append_rows(self._ds["ms_to_idx"], (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
+            self._append("ms_to_idx", (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
             self._ms_next = k_last + 1
         self._n_events += n
         self._t_last = int(events["t"][-1])
@@ -219,7 +227,7 @@ class NativeWriter:
             raise TimeOrderError(f"frame at t_mid={ts[1]} us comes after one at {self._last_frame_t} us")
         self._append("frames/images", image[None])
         for name, t in zip(("t_start_us", "t_mid_us", "t_end_us"), ts):
-            append_rows(self._ds[f"frames/{name}"], np.array([t], dtype=np.int64))
+            self._append(f"frames/{name}", np.array([t], dtype=np.int64))
         self._last_frame_t = ts[1]
 
     def add_reference(self, image: np.ndarray, t_us: int) -> None:
@@ -232,13 +240,14 @@ class NativeWriter:
         if self._last_reference_t is not None and int(t_us) < self._last_reference_t:
             raise TimeOrderError(f"reference at t={int(t_us)} us comes after one at {self._last_reference_t} us")
         self._append("reference/images", image[None])
-        append_rows(self._ds["reference/t_us"], np.array([int(t_us)], dtype=np.int64))
+        self._append("reference/t_us", np.array([int(t_us)], dtype=np.int64))
         self._last_reference_t = int(t_us)
 
     def _appender(self, name: str) -> None:
-        """Route appends to dataset `name` through a _DeflatedAppender (gzip compression only)."""
-        if self._kw.get("compression") == "gzip":
-            self._appenders[name] = _DeflatedAppender(self._ds[name])
+        """Route appends to dataset `name` through a _ChunkAppender (with gzip or no compression; lzf goes
+        through h5py's filter pipeline)."""
+        if self._kw.get("compression") in ("gzip", None):
+            self._appenders[name] = _ChunkAppender(self._ds[name])
 
     def _append(self, name: str, data: np.ndarray) -> None:
         appender = self._appenders.get(name)
@@ -278,9 +287,9 @@ class NativeWriter:
             return
         try:
             f = self._f
+            self._append("ms_to_idx", np.array([self._n_events], dtype=np.uint64))
             for appender in self._appenders.values():
                 appender.finish()
-            append_rows(f["ms_to_idx"], np.array([self._n_events], dtype=np.uint64))
             f["t_offset"][()] = self._t_offset or 0
             f.attrs.update({"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
                             "height": self.height, "width": self.width, "metadata": to_json(self._metadata)})
@@ -298,6 +307,8 @@ class NativeWriter:
         if self._f is not None:
             try:
                 self._f.close()
+            except Exception:  # e.g. a full disk again while flushing: the file is dropped anyway, and the
+                pass  # error that led here is the one to report
             finally:
                 self._f = None
         discard(self._tmp)
