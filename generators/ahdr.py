@@ -60,7 +60,8 @@ class AHDRConfig:
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
-    compression: of the HDF5 datasets: "gzip" (default, smallest), "lzf" (faster to write) or None.
+    compression: of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by
+        ISA-L, generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
     """
 
     dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))

@@ -211,6 +211,13 @@ class ImageMotionScene(Scene):
     source pixels per output pixel, so the warp never decimates, which would alias). Point-sampling a source reduced
     to one pixel per output pixel would instead give every pixel the same sub-pixel phase under a pan, and the
     image-wide rate of log change (the DVS event rate) would pulse each time the view moves by one pixel.
+    prefilter (default True): bilinear affine views (pans, zooms, rotations, shake) get the same integration from one
+    warp straight to the output grid: the source (area-reduced, or enlarged bilinearly, to `supersample` pixels per
+    output pixel) is filtered once per zoom level with a separable box whose variance matches the fine grid's
+    average (less the warp's own bilinear blur when enlarged). For a pan of an area-reduced source this is the fine
+    grid's image exactly; on the built-in photos and Desk.exr at 346x260 it gives the fine grid's event count
+    within 0.2 % at about a tenth of the rendering cost. False, cubic interpolation and perspective views render
+    the fine grid.
     interpolation: "linear" (bilinear) or "cubic" (bicubic; negative overshoots are clipped to 0).
     border: "reflect" (mirror without repeating the edge pixel) or "constant" (border_value).
     """
