@@ -27,6 +27,9 @@ _BORDER = {"reflect": cv2.BORDER_REFLECT_101, "constant": cv2.BORDER_CONSTANT}
 # Hand-held shake: three sinusoids per axis at these multiples of shake_hz, with these relative amplitudes.
 _SHAKE_HARMONICS = np.array([1.0, 1.7, 2.9])
 _SHAKE_WEIGHTS = np.array([1.0, 0.5, 0.25])
+# Prefiltered rendering under zoom: box filters for footprints 2**(1/48) (1.5 %) apart, the nearest one used (the
+# image then changes by a small fraction of a DVS threshold when the level changes).
+_LEVELS_PER_OCTAVE = 48
 
 
 @dataclass(frozen=True)
@@ -308,16 +311,9 @@ class ImageMotionScene(Scene):
         """Bilinear, affine views: one warp straight to the output grid from the source box-filtered over an
         output pixel's footprint (about 9x cheaper than a 3x grid). For a pan of a source of k pixels per output
         pixel this equals the k x k grid's area average exactly (bilinear interpolation commutes with whole-pixel
-        shifts); under zoom the footprint is interpolated between box widths a twelfth of an octave apart."""
+        shifts); under zoom the footprint is rounded to the nearest of _LEVELS_PER_OCTAVE levels per octave."""
         footprint = math.sqrt(abs(m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]))  # source pixels per output pixel
-        level = 12 * math.log2(footprint / self._footprint0)
-        lo = math.floor(level + 1e-9)
-        a = level - lo if abs(level - lo) > 1e-9 else 0.0
-        img = self._warp_level(lo, m)
-        if a:
-            img *= np.float32(1 - a)
-            img += np.float32(a) * self._warp_level(lo + 1, m)
-        return img
+        return self._warp_level(round(_LEVELS_PER_OCTAVE * math.log2(footprint / self._footprint0)), m)
 
     def _warp_level(self, level: int, m: np.ndarray) -> np.ndarray:
         src = self._filtered.get(level)
@@ -327,7 +323,7 @@ class ImageMotionScene(Scene):
             # the supersampled grid averages k x k samples spaced footprint / k apart: variance (k^2 - 1) / 12 *
             # (footprint / k)^2 per axis; a bilinear warp from an enlarged working copy blurs by a further 1/6 of
             # a working pixel squared on average (its sub-pixel phases), which the filter leaves out
-            k, footprint = self.supersample, self._footprint0 * 2 ** (level / 12)
+            k, footprint = self.supersample, self._footprint0 * 2 ** (level / _LEVELS_PER_OCTAVE)
             variance = (k * k - 1) / 12 * (footprint / k) ** 2 - (1 / 6 if self._enlarged else 0.0)
             taps = _box_taps_with_variance(variance).astype(np.float32)
             src = self._filtered[level] = cv2.sepFilter2D(self._work, cv2.CV_32F, taps, taps,
