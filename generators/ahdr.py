@@ -14,6 +14,7 @@ Memory stays flat in the sequence length: one chunk of samples and one frame are
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.metadata
 import math
 import platform
@@ -33,7 +34,7 @@ from .formats.native import NativeWriter
 from .sampling import make_sampler
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
-             "scikit-image", "tqdm")
+             "scikit-image", "tqdm", "isal")
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
 MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
 MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
@@ -59,7 +60,8 @@ class AHDRConfig:
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
-    compression: of the HDF5 datasets: "gzip" (default, smallest), "lzf" (faster to write) or None.
+    compression: of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by
+        ISA-L, generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
     """
 
     dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))
@@ -113,9 +115,10 @@ def _jsonable(v):
 
 @dataclass
 class GenerationResult:
-    """What generate_ahdr wrote: the file, counts, and the wall-clock split of the work in seconds: scene (scene
+    """What generate_ahdr wrote: the file, counts, and the split of the work in seconds by stage: scene (scene
     rendering and sampling-step control), dvs (the emulator), camera (exposure, noise, CRF; without rendering),
-    writing (the HDF5 file), total."""
+    writing (the HDF5 file), total (the whole call). timings_s is wall-clock time; cpu_s is CPU time of the
+    process (time.process_time: all threads, so a stage on 2 threads counts twice its wall time)."""
 
     path: Path
     n_events: int
@@ -123,17 +126,41 @@ class GenerationResult:
     n_references: int
     n_dvs_samples: int
     timings_s: dict
+    cpu_s: dict = field(default_factory=dict)
 
 
-def package_versions() -> dict:
-    """Versions of Python and the packages that determine the output."""
+class _Clock:
+    """Wall-clock and CPU seconds added up per stage."""
+
+    def __init__(self, stages):
+        self.wall = dict.fromkeys(stages, 0.0)
+        self.cpu = dict.fromkeys(stages, 0.0)
+
+    @staticmethod
+    def now() -> tuple[float, float]:
+        return time.perf_counter(), time.process_time()
+
+    def add(self, stage: str, since: tuple[float, float], minus: tuple[float, float] = (0.0, 0.0)) -> None:
+        """Add the time elapsed since `since` (a now() pair), less `minus` (wall, cpu), to `stage`."""
+        wall, cpu = self.now()
+        self.wall[stage] += wall - since[0] - minus[0]
+        self.cpu[stage] += cpu - since[1] - minus[1]
+
+
+@functools.lru_cache(maxsize=1)
+def _versions() -> tuple:
     out = {"python": platform.python_version()}
     for name in _PACKAGES:
         try:
             out[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:
             out[name] = None
-    return out
+    return tuple(out.items())
+
+
+def package_versions() -> dict:
+    """Versions of Python and the packages that determine the output (read once per process)."""
+    return dict(_versions())
 
 
 def resolve_sensors(scene, config: AHDRConfig):
@@ -158,17 +185,18 @@ def resolve_sensors(scene, config: AHDRConfig):
 
 
 class _TimedSource:
-    """A RadianceSource proxy that adds up the time spent in radiance() (scene rendering)."""
+    """A RadianceSource proxy that adds up the time spent in radiance() (scene rendering): seconds = (wall, cpu)."""
 
     def __init__(self, source):
         self._source = source
         self.height, self.width, self.duration_us = source.height, source.width, source.duration_us
-        self.seconds = 0.0
+        self.seconds = (0.0, 0.0)
 
     def radiance(self, t_us):
-        t0 = time.perf_counter()
+        w0, c0 = _Clock.now()
         img = self._source.radiance(t_us)
-        self.seconds += time.perf_counter() - t0
+        w1, c1 = _Clock.now()
+        self.seconds = (self.seconds[0] + w1 - w0, self.seconds[1] + c1 - c0)
         return img
 
     def max_speed_px_per_s(self):
@@ -201,6 +229,8 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
     seed: int or numpy SeedSequence; child 0 seeds the DVS, child 1 the camera. The same seed and configuration
     give bit-identical events and frames. metadata: extra keys stored with the sequence (e.g. its name).
     """
+    clock = _Clock(("scene", "dvs", "camera", "writing", "total"))
+    t_total = clock.now()
     config = config or AHDRConfig()
     ss = as_seed_sequence(seed)
     src = _TimedSource(scene)
@@ -242,21 +272,19 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
         "packages": package_versions(),
         **(metadata or {}),
     }
-    timings = {"scene": 0.0, "dvs": 0.0, "camera": 0.0, "writing": 0.0}
     counts = {"events": 0, "frames": 0, "references": 0}
-    t_total = time.perf_counter()
     with NativeWriter(path, h, w, metadata=meta, frame_bit_depth=cam_params.bit_depth,
                       compression=config.compression) as writer:
 
         def write(method, *args):
-            t0 = time.perf_counter()
+            t0 = clock.now()
             getattr(writer, method)(*args)
-            timings["writing"] += time.perf_counter() - t0
+            clock.add("writing", t0)
 
         def feed(stack, times):
-            t0 = time.perf_counter()
+            t0 = clock.now()
             out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
-            timings["dvs"] += time.perf_counter() - t0
+            clock.add("dvs", t0)
             events, labels = out if config.labels else (out, None)
             write("add_events", events, labels)
             counts["events"] += events.size
@@ -278,9 +306,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             stack, times = [], []
             samples = iter(sampler)
             while True:
-                t0 = time.perf_counter()
+                t0 = clock.now()
                 item = next(samples, None)
-                timings["scene"] += time.perf_counter() - t0  # rendering and step control
+                clock.add("scene", t0)  # rendering and step control
                 if item is None:
                     break
                 t, img = item
@@ -302,9 +330,9 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
             bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
             frames = camera.capture(src, irradiance=False, clean_response=False)
             while True:
-                t0, s0 = time.perf_counter(), src.seconds
+                t0, s0 = clock.now(), src.seconds
                 frame = next(frames, None)
-                timings["camera"] += (time.perf_counter() - t0) - (src.seconds - s0)
+                clock.add("camera", t0, minus=(src.seconds[0] - s0[0], src.seconds[1] - s0[1]))
                 if frame is None:
                     break
                 write("add_frame", frame.image, int(frame.t_start_us), int(frame.t_mid_us), int(frame.t_end_us))
@@ -316,9 +344,10 @@ def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, prog
                                 "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),
                                 "n_events": counts["events"], "n_frames": counts["frames"],
                                 "n_references": counts["references"]})
-        t_close = time.perf_counter()
-    timings["writing"] += time.perf_counter() - t_close
-    timings["scene"] += src.seconds - rendered_for_dvs  # rendering for the camera and the references
-    timings["total"] = time.perf_counter() - t_total
+        t_close = clock.now()
+    clock.add("writing", t_close)
+    for which, d in ((clock.wall, 0), (clock.cpu, 1)):  # rendering for the camera
+        which["scene"] += src.seconds[d] - rendered_for_dvs[d]
+    clock.add("total", t_total)
     return GenerationResult(Path(path), counts["events"], counts["frames"], counts["references"],
-                            sampler.n_samples, timings)
+                            sampler.n_samples, clock.wall, clock.cpu)

@@ -52,7 +52,8 @@ from .formats import EXPORT_FORMATS
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
              "scale, interpolation, border, gain, supersample (sub-samples per output pixel and axis when the "
-             "image is shrunk, so that each pixel integrates its area; default 3)",
+             "image is shrunk, so that each pixel integrates its area; default 3), prefilter (bilinear affine "
+             "views from one warp of a box-filtered source instead of the sub-sample grid; default true)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
     "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "

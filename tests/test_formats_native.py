@@ -200,3 +200,37 @@ def test_polarity_is_stored_as_dsec_stores_it_and_old_files_still_load(tmp_path)
     assert_recordings_equal(rec, read_native(tmp_path / "seq.h5"))
     chunks = list(iter_native_events(tmp_path / "seq.h5", size=1000))
     np.testing.assert_array_equal(np.concatenate([c for c, _ in chunks])["p"], rec.events["p"])
+
+
+def test_chunks_compressed_by_the_writer_decode_through_hdf5s_own_filters(tmp_path):
+    # The writer deflates whole chunks itself (ISA-L) and stores them directly; HDF5's standard shuffle + deflate
+    # filters must decode them to exactly what an uncompressed or lzf file holds, across whole and ragged chunks.
+    rng = np.random.default_rng(4)
+    n = 2 * (1 << 16) + 12_345
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = np.sort(rng.integers(0, 4_000_000, n))
+    ev["x"], ev["y"], ev["p"] = rng.integers(0, W, n), rng.integers(0, H, n), rng.choice([-1, 1], n)
+    labels = rng.integers(0, 4, n).astype(np.uint8)
+    cuts = np.sort(rng.choice(np.arange(1, n), 9, replace=False))
+    refs = rng.uniform(0, 10, (3, H, W)).astype(np.float32)
+    contents = {}
+    for compression in ("gzip", "lzf", None):
+        path = tmp_path / f"{compression}.h5"
+        with NativeWriter(path, H, W, metadata={}, compression=compression) as w:
+            for chunk, lab in zip(np.split(ev, cuts), np.split(labels, cuts)):
+                w.add_events(chunk, lab)
+            for k in range(3):
+                w.add_reference(refs[k], k)
+                w.add_frame(np.full((H, W), k, np.uint8), 10 * k, 10 * k + 1, 10 * k + 2)
+        with h5py.File(path) as f:
+            contents[compression] = {k: f[k][()] for k in ("events/t", "events/x", "events/y", "events/p",
+                                                           "events/label", "ms_to_idx", "reference/images",
+                                                           "frames/images", "frames/t_mid_us", "reference/t_us")}
+            if compression == "gzip":
+                assert f["events/t"].compression == "gzip" and f["events/t"].shuffle
+                assert f["events/t"].id.get_chunk_info(0).size < (1 << 16) * 8 / 3  # really deflated
+    assert contents["gzip"]["events/t"].size == n
+    for key, value in contents[None].items():
+        np.testing.assert_array_equal(contents["gzip"][key], value, err_msg=key)
+        np.testing.assert_array_equal(contents["lzf"][key], value, err_msg=key)
+    np.testing.assert_array_equal(load(tmp_path / "gzip.h5").events, ev)

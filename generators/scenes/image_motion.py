@@ -27,6 +27,9 @@ _BORDER = {"reflect": cv2.BORDER_REFLECT_101, "constant": cv2.BORDER_CONSTANT}
 # Hand-held shake: three sinusoids per axis at these multiples of shake_hz, with these relative amplitudes.
 _SHAKE_HARMONICS = np.array([1.0, 1.7, 2.9])
 _SHAKE_WEIGHTS = np.array([1.0, 0.5, 0.25])
+# Prefiltered rendering under zoom: box filters for footprints 2**(1/48) (1.5 %) apart, the nearest one used (the
+# image then changes by a small fraction of a DVS threshold when the level changes).
+_LEVELS_PER_OCTAVE = 48
 
 
 @dataclass(frozen=True)
@@ -175,6 +178,31 @@ def linearise_ldr(image: np.ndarray, crf: str | object = "srgb", crf_params: dic
     return np.asarray(crf.inverse(response), dtype=np.float32)
 
 
+def _box_taps(width: float) -> np.ndarray:
+    """1-D taps of a centred box of `width` pixels (>= 1) on the pixel grid: each tap weighted by its overlap."""
+    half = width / 2
+    n = math.ceil(half - 0.5 - 1e-9)
+    offsets = np.arange(-n, n + 1, dtype=np.float64)
+    taps = np.clip(np.minimum(offsets + 0.5, half) - np.maximum(offsets - 0.5, -half), 0.0, None)
+    return taps / taps.sum()
+
+
+def _box_taps_with_variance(variance: float) -> np.ndarray:
+    """The _box_taps whose variance (pixels squared) is `variance` (bisection on the width; [1] for <= 0)."""
+    def var(w):
+        t = _box_taps(w)
+        m = np.arange(t.size) - t.size // 2
+        return float((t * m * m).sum())
+
+    lo, hi = 1.0, 2 * math.sqrt(3 * max(variance, 0.0)) + 3
+    if variance <= 0:
+        return np.ones(1)
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if var(mid) < variance else (lo, mid)
+    return _box_taps((lo + hi) / 2)
+
+
 class ImageMotionScene(Scene):
     """A still linear image seen by a moving camera.
 
@@ -186,6 +214,13 @@ class ImageMotionScene(Scene):
     source pixels per output pixel, so the warp never decimates, which would alias). Point-sampling a source reduced
     to one pixel per output pixel would instead give every pixel the same sub-pixel phase under a pan, and the
     image-wide rate of log change (the DVS event rate) would pulse each time the view moves by one pixel.
+    prefilter (default True): bilinear affine views (pans, zooms, rotations, shake) get the same integration from one
+    warp straight to the output grid: the source (area-reduced, or enlarged bilinearly, to `supersample` pixels per
+    output pixel) is filtered once per zoom level with a separable box whose variance matches the fine grid's
+    average (less the warp's own bilinear blur when enlarged). For a pan of an area-reduced source this is the fine
+    grid's image exactly; on the built-in photos and Desk.exr at 346x260 it gives the fine grid's event count
+    within 0.2 % at about a tenth of the rendering cost. False, cubic interpolation and perspective views render
+    the fine grid.
     interpolation: "linear" (bilinear) or "cubic" (bicubic; negative overshoots are clipped to 0).
     border: "reflect" (mirror without repeating the edge pixel) or "constant" (border_value).
     """
@@ -193,7 +228,8 @@ class ImageMotionScene(Scene):
     def __init__(self, image: np.ndarray, duration_us: int, trajectory: Trajectory | None = None, *,
                  height: int | None = None, width: int | None = None, scale: float | None = None,
                  channel: str | int | None = None, interpolation: str = "linear", border: str = "reflect",
-                 border_value: float = 0.0, gain: float = 1.0, supersample: int = 3, name: str | None = None):
+                 border_value: float = 0.0, gain: float = 1.0, supersample: int = 3, prefilter: bool = True,
+                 name: str | None = None):
         src = to_luminance(image, channel)
         sh, sw = src.shape
         height = sh if height is None else height
@@ -214,6 +250,7 @@ class ImageMotionScene(Scene):
             raise InvalidParameterError(f"ImageMotionScene: supersample must be a positive integer, got {supersample!r}")
         self.scale = scale
         self.supersample = int(supersample) if scale > 1 else 1
+        self.prefilter = bool(prefilter)
         if scale > self.supersample:
             nw, nh = max(1, round(sw * self.supersample / scale)), max(1, round(sh * self.supersample / scale))
             src = cv2.resize(src, (nw, nh), interpolation=cv2.INTER_AREA)
@@ -225,6 +262,18 @@ class ImageMotionScene(Scene):
         self._unit = scale if scale > 1 else 1.0
         self._src_scale = scale / self._unit
         self._src_centre = ((sw / self._unit - 1) / 2, (sh / self._unit - 1) / 2)
+        # The prefiltered path (_render_prefiltered) warps a working copy of the source with about `supersample`
+        # pixels per output pixel: the source itself when it was area-reduced to that, else the source enlarged
+        # bilinearly (the samples the supersampled grid would take at t=0). _to_work maps source to working pixels.
+        self._work, self._to_work, self._footprint0 = self._src, np.eye(3), scale
+        self._enlarged = 1 < scale < self.supersample
+        if self._enlarged:
+            nw, nh = round(sw * self.supersample / scale), round(sh * self.supersample / scale)
+            self._work = cv2.resize(self._src, (nw, nh), interpolation=cv2.INTER_LINEAR)
+            rx, ry = nw / sw, nh / sh
+            self._to_work = np.array([[rx, 0, (rx - 1) / 2], [0, ry, (ry - 1) / 2], [0, 0, 1]])
+            self._footprint0 = scale * math.sqrt(rx * ry)
+        self._filtered = {}  # box-filtered working sources by footprint level (see _render_prefiltered)
 
     @classmethod
     def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
@@ -241,12 +290,14 @@ class ImageMotionScene(Scene):
 
     def _render(self, t_us):
         k, u = self.supersample, self._unit
-        # fine grid -> output pixels -> view units -> source pixels (pixel centres at integer coordinates)
-        fine_to_out = np.array([[1 / k, 0, (1 - k) / (2 * k)], [0, 1 / k, (1 - k) / (2 * k)], [0, 0, 1]])
         view_to_src = np.array([[u, 0, (u - 1) / 2], [0, u, (u - 1) / 2], [0, 0, 1]])
-        m = view_to_src @ self.homography(t_us) @ fine_to_out
-        # pans, zooms, rotations and shake are affine: bilinear warpAffine gives the same image, about 15 % faster
-        # (bicubic ones differ by ~1e-5 in rounding, so they keep warpPerspective)
+        m = view_to_src @ self.homography(t_us)  # output pixel -> source pixel (pixel centres at integers)
+        if k > 1 and self.prefilter and self.interpolation == "linear" and np.array_equal(m[2], [0.0, 0.0, 1.0]):
+            return self._render_prefiltered((self._to_work @ m)[:2])
+        # fine grid -> output pixels
+        fine_to_out = np.array([[1 / k, 0, (1 - k) / (2 * k)], [0, 1 / k, (1 - k) / (2 * k)], [0, 0, 1]])
+        m = m @ fine_to_out
+        # pans, zooms, rotations and shake are affine: bilinear warpAffine gives the same image as warpPerspective
         affine = self.interpolation == "linear" and np.array_equal(m[2], [0.0, 0.0, 1.0])
         warp, m = (cv2.warpAffine, m[:2]) if affine else (cv2.warpPerspective, m)
         img = warp(self._src, m, (k * self.width, k * self.height),
@@ -256,10 +307,34 @@ class ImageMotionScene(Scene):
             np.maximum(img, 0.0, out=img)
         return img if k == 1 else cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_AREA)
 
+    def _render_prefiltered(self, m: np.ndarray) -> np.ndarray:
+        """Bilinear, affine views: one warp straight to the output grid from the source box-filtered over an
+        output pixel's footprint (about 9x cheaper than a 3x grid). For a pan of a source of k pixels per output
+        pixel this equals the k x k grid's area average exactly (bilinear interpolation commutes with whole-pixel
+        shifts); under zoom the footprint is rounded to the nearest of _LEVELS_PER_OCTAVE levels per octave."""
+        footprint = math.sqrt(abs(m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]))  # source pixels per output pixel
+        return self._warp_level(round(_LEVELS_PER_OCTAVE * math.log2(footprint / self._footprint0)), m)
+
+    def _warp_level(self, level: int, m: np.ndarray) -> np.ndarray:
+        src = self._filtered.get(level)
+        if src is None:
+            if len(self._filtered) >= 4:
+                self._filtered.clear()
+            # the supersampled grid averages k x k samples spaced footprint / k apart: variance (k^2 - 1) / 12 *
+            # (footprint / k)^2 per axis; a bilinear warp from an enlarged working copy blurs by a further 1/6 of
+            # a working pixel squared on average (its sub-pixel phases), which the filter leaves out
+            k, footprint = self.supersample, self._footprint0 * 2 ** (level / _LEVELS_PER_OCTAVE)
+            variance = (k * k - 1) / 12 * (footprint / k) ** 2 - (1 / 6 if self._enlarged else 0.0)
+            taps = _box_taps_with_variance(variance).astype(np.float32)
+            src = self._filtered[level] = cv2.sepFilter2D(self._work, cv2.CV_32F, taps, taps,
+                                                          borderType=_BORDER[self.border])
+        return cv2.warpAffine(src, m, (self.width, self.height), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                              borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
+
     def max_speed_px_per_s(self):
         return self.trajectory.max_speed_px_per_s((self.height, self.width), self.duration_us)
 
     def _params(self):
         return {"image": self.name, "trajectory": self.trajectory.describe(), "scale": self.scale,
                 "interpolation": self.interpolation, "border": self.border, "gain": self.gain,
-                "supersample": self.supersample}
+                "supersample": self.supersample, "prefilter": self.prefilter}
