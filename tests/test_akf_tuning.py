@@ -16,15 +16,18 @@ def test_coordinate_search_finds_the_grid_optimum_of_a_separable_objective():
 
     def objective(s):
         calls.append(s)
-        return (math.log(s["alpha"]) - math.log(50.0)) ** 2 + (s["contrast_scale"] - 1.25) ** 2
+        bound = math.inf if s["max_intensity"] is None else s["max_intensity"]
+        return (math.log(s["alpha"]) - math.log(50.0)) ** 2 + (s["contrast_scale"] - 1.25) ** 2 + (bound != 16.0)
 
     tuned = tune("cf", objective)
-    assert tuned.setting == {"alpha": 50.0, "contrast_scale": 1.25}
+    assert tuned.setting == {"alpha": 50.0, "contrast_scale": 1.25, "max_intensity": 16.0}
     assert tuned.objective == pytest.approx(0.0)
     grid = SEARCH_SPACES["cf"]
     assert len(calls) == len({tuple(sorted(c.items())) for c in calls})  # every setting once
     assert len(calls) <= sum(len(v) for v in grid.values())  # one sweep, not the product of the grids
     assert tuned.trials[0][0] == default_setting("cf")  # the untuned method is always a candidate
+    assert setting_options("cf", {"max_intensity": None}, 0.2)[1]["max_intensity"] is None  # None: unbounded
+    assert describe_setting({"max_intensity": None}) == "bound none"
 
 
 def test_ties_and_non_finite_objectives_keep_the_defaults():
