@@ -96,11 +96,13 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     c_on, c_off, drift, hot_rate = fixed
     refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
     w = cur.shape[1]
+    # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
+    saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
+    sf, si, sb = np.empty((21, w)), np.empty((4, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
     for i in range(rows.size):
         y = rows[i]
         # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
         # shape-mismatch error path, seconds of compilation for nothing)
-        saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
         for x in range(w):
             saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
             saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
@@ -108,7 +110,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
         cnt = _advance_row(frames, times, t_prev, y, i * cap, cap, cur[y], logi[y], lf[y], ref[y], tref[y],
                            e_shot[y], e_hot[y], last_t[y], ctr[y], c_on[y], c_off[y], drift[y], hot_rate[y],
                            refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x, out_p, out_lab,
-                           ends[i])
+                           ends[i], sf, si, sb)
         if cnt > cap:
             for x in range(w):
                 cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
@@ -119,21 +121,15 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
 @njit(cache=True, error_model="numpy")
 def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y, tref_y, es_y, eh_y, lt_y, ctr_y,
                  con_y, coff_y, dr_y, hot_y, refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x,
-                 out_p, out_lab, ends_y):
+                 out_p, out_lab, ends_y, sf, si, slow):
     """Advance row y (its state given as row views) through all frames; return its event count.
 
-    ends_y[k] gets the row's event count after frame k.
+    ends_y[k] gets the row's event count after frame k. Scratch: float64 sf (21, W), int64 si (4, W), bool slow (W).
     """
     w = cur_y.size
     n = frames.shape[0]
-    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = (np.empty(w), np.empty(w), np.empty(w), np.empty(w), np.empty(w),
-                                               np.empty(w), np.empty(w))
-    bits = np.empty(w, dtype=np.int64)
-    slow = np.empty(w, dtype=np.bool_)
-    todo = np.empty(w, dtype=np.int64)
-    sf = np.empty((4, w))
-    G = np.empty((10, w))
-    si = np.empty((2, w), dtype=np.int64)
+    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6]
+    bits, todo = si[0], si[1]
     cnt = 0
     t0 = t_prev
     # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
@@ -166,15 +162,13 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
             lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
         # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
         # comparison is linear in time, so there is no crossing iff the end point is inside the band.
+        # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
+        blind_from = t0 - refractory if refractory > 0 else np.iinfo(np.int64).max  # blind iff last_t >= it
         for x in range(w):
             d1 = lf_y[x] - ref_y[x] + dr_y[x] * ((t0 - tref_y[x]) + hf)
-            slow[x] = (d1 >= con_y[x]) | (d1 <= -coff_y[x])
-        for x in range(w):
             es = es_y[x] - lam_t[x] * hf
             eh = eh_y[x] - hot_y[x] * hf
-            busy = slow[x] | (es <= 0.0) | (eh <= 0.0)
-            if refractory > 0:
-                busy |= lt_y[x] + refractory >= t0
+            busy = (d1 >= con_y[x]) | (d1 <= -coff_y[x]) | (es <= 0.0) | (eh <= 0.0) | (lt_y[x] >= blind_from)
             slow[x] = busy
             es_y[x] = es_y[x] if busy else es
             eh_y[x] = eh_y[x] if busy else eh
@@ -184,7 +178,7 @@ def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y
             n_slow += slow[x]
         cnt = _row_events(todo[:n_slow], t0, hf, f0_t, lf_y, lam_t, hot_y, y, refractory, key, ref_y, tref_y,
                           es_y, eh_y, lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base,
-                          cap, cnt, sf, si, G)
+                          cap, cnt, sf[7:11], si[2:4], sf[11:21])
         ends_y[k] = cnt
         t0 = t1
     return cnt
