@@ -126,6 +126,7 @@ class DVSEmulator:
         self._t: int | None = None
         self._row_rate: float | None = None  # events per frame of the busiest row in the last block
         self._bufs = None
+        self._rows = np.arange(self.height, dtype=np.int64)
 
     # ----- inspectable state -----
     @property
@@ -213,14 +214,20 @@ class DVSEmulator:
         if frames.shape[1:] != hw:
             raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
         times = check_times_us(times)
-        if len(times) and np.any(np.diff(times) <= 0):
-            i = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
-            raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
-        if len(times) and self._t is not None and times[0] <= self._t:
-            raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
-        gaps = np.diff(times) if self._t is None else np.diff(times, prepend=self._t)
-        if gaps.size and int(gaps.max()) > MAX_TIME_GAP_US:
-            raise InvalidParameterError(f"input times {int(gaps.max())} us apart: at most MAX_TIME_GAP_US = "
+        if len(times) > 1:
+            steps = np.diff(times)
+            if steps.min() <= 0:
+                i = int(np.flatnonzero(steps <= 0)[0]) + 1
+                raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
+            gap = int(steps.max())
+        else:
+            gap = 0
+        if self._t is not None:
+            if times[0] <= self._t:
+                raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
+            gap = max(gap, int(times[0]) - self._t)
+        if gap > MAX_TIME_GAP_US:
+            raise InvalidParameterError(f"input times {gap} us apart: at most MAX_TIME_GAP_US = "
                                         f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
         valid = [True]
@@ -228,7 +235,9 @@ class DVSEmulator:
         def check(a, b):
             valid.append(K.frames_valid(frames[a:b]))
 
-        if frames.size:
+        if len(frames) * frames[0].size <= 1 << 18:
+            check(0, len(frames))
+        else:
             in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
         if not all(valid):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
@@ -256,7 +265,7 @@ class DVSEmulator:
     def _run(self, frames: np.ndarray, times: np.ndarray):
         """Advance all rows through a block of frames; return its sorted events and labels."""
         h, n = self.height, len(times)
-        rows = np.arange(h, dtype=np.int64)
+        rows = self._rows
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
@@ -270,18 +279,45 @@ class DVSEmulator:
             ends[over] = ends_b
             src_b[over] = True
             offsets[over] = np.arange(over.size) * cap_b
-        total = int(ends[:, -1].sum())
-        events, labels = empty_events(total), np.empty(total, dtype=np.uint8)
         starts, first_out = K.interval_plan(ends)
+        total = int(first_out[-1])
+        events, labels = np.empty(total, dtype=EVENT_DTYPE), np.empty(total, dtype=np.uint8)  # all fields written
 
         def gather(k0, k1):
             K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
                             labels)
 
-        in_parallel(gather, n, 4)
+        span = int(times[0] - t_prev)
+        if n == 1 and total > 4096 and span <= 4 * total + 1024:
+            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels)
+        else:
+            in_parallel(gather, n, 1 if n < 8 else 4)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
+
+    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels) -> None:
+        """gather_sorted for a single frame interval, split by rows over the threads (a counting sort whose
+        per-part counts are merged: part p's events of time t go after those of parts before it)."""
+        rows, parts = self._rows, {}
+
+        def count(a, b):
+            parts[a] = np.zeros(span + 1, dtype=np.int64)
+            K.count_times(a, b, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a])
+
+        min_part = max(1, self.height // 2)
+        in_parallel(count, self.height, min_part)
+        counts = np.stack([parts[a] for a in sorted(parts)])
+        per_t = counts.sum(axis=0)
+        first = np.cumsum(per_t) - per_t  # first output index of each microsecond
+        pos = first + np.cumsum(counts, axis=0) - counts
+        for i, a in enumerate(sorted(parts)):
+            parts[a] = pos[i]
+
+        def scatter(a, b):
+            K.scatter_events(a, b, rows, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a], events, labels)
+
+        in_parallel(scatter, self.height, min_part)
 
     def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends) -> None:
         """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:])."""

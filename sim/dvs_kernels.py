@@ -390,22 +390,14 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
     j0, j1 = starts[:, k], starts[:, k + 1]
     if span <= 4 * m + 1024:  # counting sort over the interval's microseconds
         pos = np.zeros(span + 1, dtype=np.int64)
-        for i in range(row_ids.size):
-            bt = bufs_b[0] if src_b[i] else bufs_a[0]
-            for j in range(offsets[i] + j0[i], offsets[i] + j1[i]):
-                pos[bt[j] - t_lo] += 1
+        count_times(0, row_ids.size, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos)
         acc = out
         for b in range(span + 1):
             c = pos[b]
             pos[b] = acc
             acc += c
-        for i in range(row_ids.size):
-            bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
-            for j in range(offsets[i] + j0[i], offsets[i] + j1[i]):
-                b = bt[j] - t_lo
-                q = pos[b]
-                pos[b] = q + 1
-                _put(events, labels, q, bt[j], bx[j], row_ids[i], bp[j], bl[j])
+        scatter_events(0, row_ids.size, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events,
+                       labels)
         return
     # a long interval with few events: comparison sort
     tt = np.empty(m, dtype=np.int64)
@@ -424,6 +416,28 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
         i, j = src_i[order[q]], src_j[order[q]]
         bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
         _put(events, labels, out + q, bt[j], bx[j], row_ids[i], bp[j], bl[j])
+
+
+@njit(cache=True, nogil=True)
+def count_times(i0, i1, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos):
+    """pos[t - t_lo] += number of events at t of interval k in rows i0 .. i1 - 1 (counting sort, first pass)."""
+    for i in range(i0, i1):
+        bt = bufs_b[0] if src_b[i] else bufs_a[0]
+        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+            pos[np.uintp(bt[j] - t_lo)] += 1
+
+
+@njit(cache=True, nogil=True)
+def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, labels):
+    """Write the events of interval k in rows i0 .. i1 - 1 at pos[t - t_lo] (advanced), the second pass."""
+    for i in range(i0, i1):
+        bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
+        y = row_ids[i]
+        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+            b = np.uintp(bt[j] - t_lo)
+            q = np.uintp(pos[b])
+            pos[b] = q + 1
+            _put(events, labels, q, bt[j], bx[j], y, bp[j], bl[j])
 
 
 @njit(cache=True, inline="always")

@@ -17,11 +17,12 @@ def in_parallel(fn, n: int, min_part: int) -> None:
     """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
     numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
     global _POOL, _POOL_PID
-    parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
-    bounds = [n * i // parts for i in range(parts + 1)]
+    most = n // max(1, min_part)
+    parts = max(1, min(numba.get_num_threads(), most)) if most > 1 else 1  # (get_num_threads costs ~10 us)
     if parts == 1:
         fn(0, n)
         return
+    bounds = [n * i // parts for i in range(parts + 1)]
     if _POOL is None or _POOL._max_workers < parts - 1 or _POOL_PID != os.getpid():
         _POOL_PID = os.getpid()
         _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
