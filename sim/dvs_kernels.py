@@ -91,169 +91,156 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
     event count after frame k. A row with more than cap events is rolled back to its state at entry (so it can be
     rerun with a larger buffer) and only its total ends[i, -1] is meaningful.
+
+    A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has exactly
+    one crossing and no noise arrival in the interval: that case is computed for all busy columns of the row at
+    once in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the others run
+    _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of inlined
+    or called functions, cost reference counting (atomic operations) each time.
     """
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
     c_on, c_off, drift, hot_rate = fixed
     refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
     w = cur.shape[1]
+    n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
     saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
-    sf, si, sb = np.empty((21, w)), np.empty((4, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    sf, si, slow = np.empty((21, w)), np.empty((4, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6]
+    r2_j, tr2_j, es_j, eh_j, G = sf[7], sf[8], sf[9], sf[10], sf[11:21]
+    bits, todo, te_j, code_j = si[0], si[1], si[2], si[3]
     for i in range(rows.size):
-        y = rows[i]
+        y = np.uintp(rows[i])
+        base = i * cap
         # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
         # shape-mismatch error path, seconds of compilation for nothing)
         for x in range(w):
             saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
             saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
             saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
-        cnt = _advance_row(frames, times, t_prev, y, i * cap, cap, cur[y], logi[y], lf[y], ref[y], tref[y],
-                           e_shot[y], e_hot[y], last_t[y], ctr[y], c_on[y], c_off[y], drift[y], hot_rate[y],
-                           refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x, out_p, out_lab,
-                           ends[i], sf, si, sb)
+        cnt = 0
+        t0 = t_prev
+        # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
+        for k in range(n):
+            t1 = times[k]
+            hf = float(t1 - t0)
+            for x in range(w):
+                c1_t[x] = float(frames[k, y, x]) + dark
+            log_response(c1_t, bits, l1_t)
+            for x in range(w):
+                j = math.sqrt(cur[y, x] * c1_t[x])  # the interval's geometric-mean photocurrent
+                j_t[x] = j
+                q_t[x] = -k_cut * hf * j
+                cur[y, x] = c1_t[x]
+                f0_t[x] = lf[y, x]
+            if k_cut > 0.0:
+                # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
+                expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
+                for x in range(w):
+                    l0 = logi[y, x]
+                    l1 = l1_t[x]
+                    em = em_t[x]
+                    lf[y, x] = l1 + (l1 - l0) * em / (k_cut * hf * j_t[x]) + (f0_t[x] - l0) * (1.0 + em)
+                    logi[y, x] = l1
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
+            else:
+                for x in range(w):
+                    lf[y, x] = l1_t[x]
+                    logi[y, x] = l1_t[x]
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
+            # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
+            # comparison is linear in time, so there is no crossing iff the end point is inside the band.
+            # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
+            blind_from = t0 - refractory if refractory > 0 else np.iinfo(np.int64).max  # blind iff last_t >= it
+            for x in range(w):
+                d1 = lf[y, x] - ref[y, x] + drift[y, x] * ((t0 - tref[y, x]) + hf)
+                es = e_shot[y, x] - lam_t[x] * hf
+                eh = e_hot[y, x] - hot_rate[y, x] * hf
+                busy = (d1 >= c_on[y, x]) | (d1 <= -c_off[y, x]) | (es <= 0.0) | (eh <= 0.0) | (last_t[y, x] >= blind_from)
+                slow[x] = busy
+                e_shot[y, x] = e_shot[y, x] if busy else es
+                e_hot[y, x] = e_hot[y, x] if busy else eh
+            n_busy = 0
+            for x in range(w):  # branch-free compaction of the busy columns
+                todo[n_busy] = x
+                n_busy += slow[x]
+            # Events over (t0, t0 + hf] of the busy columns (Lf goes linearly from f0_t to lf_y).
+            for j in range(n_busy):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
+                x = np.uintp(todo[j])  # unsigned: no negative-index wraparound code on each access
+                G[0, j] = f0_t[x]
+                G[1, j] = lf[y, x]
+                G[2, j] = ref[y, x]
+                G[3, j] = tref[y, x]
+                G[4, j] = drift[y, x]
+                G[5, j] = c_on[y, x]
+                G[6, j] = c_off[y, x]
+                G[7, j] = e_shot[y, x] - lam_t[x] * hf
+                G[8, j] = e_hot[y, x] - hot_rate[y, x] * hf
+                G[9, j] = 1.0 if (refractory == 0) | (last_t[y, x] + refractory < t0) else 0.0
+            for j in range(n_busy):  # the one-crossing case for all busy columns at once (vectorised)
+                f0 = G[0, j]
+                f1 = G[1, j]
+                r = G[2, j]
+                tr = G[3, j]
+                dr = G[4, j]
+                con = G[5, j]
+                coff = G[6, j]
+                es = G[7, j]
+                eh = G[8, j]
+                g = (f1 - f0) / hf
+                m = g + dr
+                target = con if m > 0.0 else -coff
+                sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
+                sc = sc if sc > 0.0 else 0.0
+                sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+                d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
+                at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
+                sc = hf if at_end & (sc > hf) else sc
+                te = t0 + np.int64(math.ceil(sc))
+                te = te if te > t0 else t0 + 1
+                sb = float(te + refractory - t0)
+                blind_after = (refractory > 0) & (sb >= hf)
+                r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
+                tr2 = float(t0) + (sb if refractory > 0 else sc)
+                d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
+                ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
+                      & (blind_after | ((d_end < con) & (d_end > -coff))))
+                leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
+                te_j[j] = te
+                # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
+                code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
+                r2_j[j] = r2
+                tr2_j[j] = tr2
+                es_j[j] = es
+                eh_j[j] = eh
+            for j in range(n_busy):
+                x = np.uintp(todo[j])
+                code = code_j[j]
+                if code != 0:
+                    if cnt < cap:
+                        out_t[base + cnt] = te_j[j]
+                        out_x[base + cnt] = x
+                        out_p[base + cnt] = 1 if code & 2 else -1
+                        out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
+                    cnt += 1
+                    e_shot[y, x] = es_j[j]
+                    e_hot[y, x] = eh_j[j]
+                    last_t[y, x] = te_j[j]
+                    if not code & 8:
+                        ref[y, x] = r2_j[j]
+                        tref[y, x] = tr2_j[j]
+                else:
+                    e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], cnt = _pixel_events(
+                        t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate[y, x], rows[i] * w + todo[j], todo[j], refractory, key, e_shot[y, x], e_hot[y, x],
+                        ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], c_on[y, x], c_off[y, x], drift[y, x], out_t, out_x, out_p,
+                        out_lab, base, cap, cnt)
+            ends[i, k] = cnt
+            t0 = t1
         if cnt > cap:
             for x in range(w):
                 cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
                 tref[y, x], e_shot[y, x], e_hot[y, x] = saved_f[4, x], saved_f[5, x], saved_f[6, x]
                 last_t[y, x], ctr[y, x] = saved_i[x], saved_u[x]
-
-
-@njit(cache=True, error_model="numpy")
-def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y, tref_y, es_y, eh_y, lt_y, ctr_y,
-                 con_y, coff_y, dr_y, hot_y, refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x,
-                 out_p, out_lab, ends_y, sf, si, slow):
-    """Advance row y (its state given as row views) through all frames; return its event count.
-
-    ends_y[k] gets the row's event count after frame k. Scratch: float64 sf (21, W), int64 si (4, W), bool slow (W).
-    Almost every busy pixel has exactly one crossing and no noise arrival in the interval: that case is computed for
-    all busy columns at once in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the
-    others run _pixel_events. All in one function body: array arguments of inlined or called functions cost
-    reference counting (atomic operations) on every call.
-    """
-    w = cur_y.size
-    n = frames.shape[0]
-    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6]
-    r2_j, tr2_j, es_j, eh_j, G = sf[7], sf[8], sf[9], sf[10], sf[11:21]
-    bits, todo, te_j, code_j = si[0], si[1], si[2], si[3]
-    cnt = 0
-    t0 = t_prev
-    # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
-    for k in range(n):
-        t1 = times[k]
-        hf = float(t1 - t0)
-        for x in range(w):
-            c1_t[x] = float(frames[k, y, x]) + dark
-        log_response(c1_t, bits, l1_t)
-        for x in range(w):
-            j = math.sqrt(cur_y[x] * c1_t[x])  # the interval's geometric-mean photocurrent
-            j_t[x] = j
-            q_t[x] = -k_cut * hf * j
-            cur_y[x] = c1_t[x]
-            f0_t[x] = lf_y[x]
-        if k_cut > 0.0:
-            # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
-            expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
-            for x in range(w):
-                l0 = logi_y[x]
-                l1 = l1_t[x]
-                em = em_t[x]
-                lf_y[x] = l1 + (l1 - l0) * em / (k_cut * hf * j_t[x]) + (f0_t[x] - l0) * (1.0 + em)
-                logi_y[x] = l1
-                lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
-        else:
-            for x in range(w):
-                lf_y[x] = l1_t[x]
-                logi_y[x] = l1_t[x]
-                lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
-        # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
-        # comparison is linear in time, so there is no crossing iff the end point is inside the band.
-        # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
-        blind_from = t0 - refractory if refractory > 0 else np.iinfo(np.int64).max  # blind iff last_t >= it
-        for x in range(w):
-            d1 = lf_y[x] - ref_y[x] + dr_y[x] * ((t0 - tref_y[x]) + hf)
-            es = es_y[x] - lam_t[x] * hf
-            eh = eh_y[x] - hot_y[x] * hf
-            busy = (d1 >= con_y[x]) | (d1 <= -coff_y[x]) | (es <= 0.0) | (eh <= 0.0) | (lt_y[x] >= blind_from)
-            slow[x] = busy
-            es_y[x] = es_y[x] if busy else es
-            eh_y[x] = eh_y[x] if busy else eh
-        n_busy = 0
-        for x in range(w):  # branch-free compaction of the busy columns
-            todo[n_busy] = x
-            n_busy += slow[x]
-        # Events over (t0, t0 + hf] of the busy columns (Lf goes linearly from f0_t to lf_y).
-        for j in range(n_busy):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
-            x = np.uintp(todo[j])  # unsigned: no negative-index wraparound code on each access
-            G[0, j] = f0_t[x]
-            G[1, j] = lf_y[x]
-            G[2, j] = ref_y[x]
-            G[3, j] = tref_y[x]
-            G[4, j] = dr_y[x]
-            G[5, j] = con_y[x]
-            G[6, j] = coff_y[x]
-            G[7, j] = es_y[x] - lam_t[x] * hf
-            G[8, j] = eh_y[x] - hot_y[x] * hf
-            G[9, j] = 1.0 if (refractory == 0) | (lt_y[x] + refractory < t0) else 0.0
-        for j in range(n_busy):  # the one-crossing case for all busy columns at once (vectorised)
-            f0 = G[0, j]
-            f1 = G[1, j]
-            r = G[2, j]
-            tr = G[3, j]
-            dr = G[4, j]
-            con = G[5, j]
-            coff = G[6, j]
-            es = G[7, j]
-            eh = G[8, j]
-            g = (f1 - f0) / hf
-            m = g + dr
-            target = con if m > 0.0 else -coff
-            sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
-            sc = sc if sc > 0.0 else 0.0
-            sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
-            d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
-            at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
-            sc = hf if at_end & (sc > hf) else sc
-            te = t0 + np.int64(math.ceil(sc))
-            te = te if te > t0 else t0 + 1
-            sb = float(te + refractory - t0)
-            blind_after = (refractory > 0) & (sb >= hf)
-            r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
-            tr2 = float(t0) + (sb if refractory > 0 else sc)
-            d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
-            ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
-                  & (blind_after | ((d_end < con) & (d_end > -coff))))
-            leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
-            te_j[j] = te
-            # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
-            code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
-            r2_j[j] = r2
-            tr2_j[j] = tr2
-            es_j[j] = es
-            eh_j[j] = eh
-        for j in range(n_busy):
-            x = np.uintp(todo[j])
-            code = code_j[j]
-            if code != 0:
-                if cnt < cap:
-                    out_t[base + cnt] = te_j[j]
-                    out_x[base + cnt] = x
-                    out_p[base + cnt] = 1 if code & 2 else -1
-                    out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
-                cnt += 1
-                es_y[x] = es_j[j]
-                eh_y[x] = eh_j[j]
-                lt_y[x] = te_j[j]
-                if not code & 8:
-                    ref_y[x] = r2_j[j]
-                    tref_y[x] = tr2_j[j]
-            else:
-                es_y[x], eh_y[x], ref_y[x], tref_y[x], lt_y[x], ctr_y[x], cnt = _pixel_events(
-                    t0, hf, f0_t[x], lf_y[x], lam_t[x], hot_y[x], y * w + todo[j], todo[j], refractory, key, es_y[x], eh_y[x],
-                    ref_y[x], tref_y[x], lt_y[x], ctr_y[x], con_y[x], coff_y[x], dr_y[x], out_t, out_x, out_p,
-                    out_lab, base, cap, cnt)
-        ends_y[k] = cnt
-        t0 = t1
-    return cnt
 
 
 @njit(cache=True)
