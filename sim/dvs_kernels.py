@@ -105,10 +105,14 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
     saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
-    sf, si, slow = np.empty((21, w)), np.empty((4, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
-    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6]
-    r2_j, tr2_j, es_j, eh_j, G = sf[7], sf[8], sf[9], sf[10], sf[11:21]
-    bits, todo, te_j, code_j = si[0], si[1], si[2], si[3]
+    sf, si, slow = np.empty((16, w)), np.empty((3, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:16]
+    todo, te_j, code_j = si[0], si[1], si[2]
+    # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
+    # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
+    F = max(1, min(n, 32768 // w))
+    c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
+    bits = np.empty(F * w, dtype=np.int64)
     for i in range(rows.size):
         y = np.uintp(rows[i])
         base = i * cap
@@ -122,32 +126,45 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
         t0 = t_prev
         # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
         for k in range(n):
+            if k % F == 0:  # the next chunk of frames k .. k + nk - 1
+                nk = min(F, n - k)
+                for kk in range(nk):
+                    o = kk * w
+                    for x in range(w):
+                        c_ch[o + x] = float(frames[k + kk, y, x]) + dark
+                log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
+                tk = t0
+                for kk in range(nk):
+                    o = kk * w
+                    hf = float(times[k + kk] - tk)
+                    tk = times[k + kk]
+                    for x in range(w):
+                        j = math.sqrt(cur[y, x] * c_ch[o + x])  # the interval's geometric-mean photocurrent
+                        j_ch[o + x] = j
+                        q_ch[o + x] = -k_cut * hf * j
+                        cur[y, x] = c_ch[o + x]
+                if k_cut > 0.0:  # distinct in/out arrays: aliasing would prevent vectorisation
+                    expm1_row(q_ch[:nk * w], bits[:nk * w], em_ch[:nk * w])
+            o = (k % F) * w
             t1 = times[k]
             hf = float(t1 - t0)
-            for x in range(w):
-                c1_t[x] = float(frames[k, y, x]) + dark
-            log_response(c1_t, bits, l1_t)
-            for x in range(w):
-                j = math.sqrt(cur[y, x] * c1_t[x])  # the interval's geometric-mean photocurrent
-                j_t[x] = j
-                q_t[x] = -k_cut * hf * j
-                cur[y, x] = c1_t[x]
-                f0_t[x] = lf[y, x]
             if k_cut > 0.0:
                 # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
-                expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
                 for x in range(w):
                     l0 = logi[y, x]
-                    l1 = l1_t[x]
-                    em = em_t[x]
-                    lf[y, x] = l1 + (l1 - l0) * em / (k_cut * hf * j_t[x]) + (f0_t[x] - l0) * (1.0 + em)
+                    l1 = l_ch[o + x]
+                    em = em_ch[o + x]
+                    f0 = lf[y, x]
+                    f0_t[x] = f0
+                    lf[y, x] = l1 + (l1 - l0) * em / (k_cut * hf * j_ch[o + x]) + (f0 - l0) * (1.0 + em)
                     logi[y, x] = l1
-                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
             else:
                 for x in range(w):
-                    lf[y, x] = l1_t[x]
-                    logi[y, x] = l1_t[x]
-                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
+                    f0_t[x] = lf[y, x]
+                    lf[y, x] = l_ch[o + x]
+                    logi[y, x] = l_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
             # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
             # comparison is linear in time, so there is no crossing iff the end point is inside the band.
             # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
