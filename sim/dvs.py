@@ -112,7 +112,9 @@ class DVSEmulator:
         hot = hot.reshape(shape)
         self._leak_phase = rng.random(shape)
         self._init_budgets = rng.standard_exponential((2, *shape))
-        self._fixed = (c_on, c_off, leak_hz * 1e-6 * c_on, np.where(hot, p.hot_pixel_hz * 1e-6, 0.0))
+        # Thresholds are stored as float32, exactly (multiples of 2**-32 with at most 24 significant bits), and hot
+        # pixels as a mask: fewer bytes per pixel to stream through memory on every feed.
+        self._fixed = (c_on.astype(np.float32), c_off.astype(np.float32), leak_hz * 1e-6 * c_on, hot.astype(np.uint8))
         self._leak_hz, self._hot = leak_hz, hot
         self._scal = (
             np.int64(p.refractory_us),
@@ -121,6 +123,7 @@ class DVSEmulator:
             p.shot_noise_hz * 1e-6,
             p.dark_shot_noise_hz * 1e-6,
             stream_ss.generate_state(1, dtype=np.uint64)[0],
+            p.hot_pixel_hz * 1e-6,
         )
         self._state = None
         self._t: int | None = None

@@ -86,8 +86,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
     state: (cur, logi, lf, ref, tref, e_shot, e_hot) float64 (H, W) arrays plus last_t int64 (H, W) and ctr
-        uint64 (H, W), passed as a tuple. fixed: (c_on, c_off, drift, hot_rate) float64 (H, W).
-    scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key) (rates per us, k_cut per us per radiance).
+        uint64 (H, W), passed as a tuple. fixed: (c_on, c_off) float32, drift float64 and the hot-pixel mask
+        uint8, all (H, W). scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate) (rates per
+        us, k_cut per us per radiance).
     Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
     event count after frame k. A row with more than cap events is rolled back to its state at entry (so it can be
     rerun with a larger buffer) and only its total ends[i, -1] is meaningful.
@@ -99,8 +100,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     or called functions, cost reference counting (atomic operations) each time.
     """
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
-    c_on, c_off, drift, hot_rate = fixed
-    refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
+    c_on, c_off, drift, hot = fixed
+    refractory, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate = scal
     w = cur.shape[1]
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
@@ -172,8 +173,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
             for x in range(w):
                 d1 = lf[y, x] - ref[y, x] + drift[y, x] * ((t0 - tref[y, x]) + hf)
                 es = e_shot[y, x] - lam_t[x] * hf
-                eh = e_hot[y, x] - hot_rate[y, x] * hf
-                busy = (d1 >= c_on[y, x]) | (d1 <= -c_off[y, x]) | (es <= 0.0) | (eh <= 0.0) | (last_t[y, x] >= blind_from)
+                eh = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
+                busy = (d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0) | (eh <= 0.0) | (last_t[y, x] >= blind_from)
                 slow[x] = busy
                 e_shot[y, x] = e_shot[y, x] if busy else es
                 e_hot[y, x] = e_hot[y, x] if busy else eh
@@ -189,10 +190,10 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 G[2, j] = ref[y, x]
                 G[3, j] = tref[y, x]
                 G[4, j] = drift[y, x]
-                G[5, j] = c_on[y, x]
-                G[6, j] = c_off[y, x]
+                G[5, j] = np.float64(c_on[y, x])
+                G[6, j] = np.float64(c_off[y, x])
                 G[7, j] = e_shot[y, x] - lam_t[x] * hf
-                G[8, j] = e_hot[y, x] - hot_rate[y, x] * hf
+                G[8, j] = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
                 G[9, j] = 1.0 if (refractory == 0) | (last_t[y, x] + refractory < t0) else 0.0
             for j in range(n_busy):  # the one-crossing case for all busy columns at once (vectorised)
                 f0 = G[0, j]
@@ -248,8 +249,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                         tref[y, x] = tr2_j[j]
                 else:
                     e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], cnt = _pixel_events(
-                        t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate[y, x], rows[i] * w + todo[j], todo[j], refractory, key, e_shot[y, x], e_hot[y, x],
-                        ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], c_on[y, x], c_off[y, x], drift[y, x], out_t, out_x, out_p,
+                        t0, hf, f0_t[x], lf[y, x], lam_t[x], (hot_rate if hot[y, x] else 0.0), rows[i] * w + todo[j], todo[j], refractory, key, e_shot[y, x], e_hot[y, x],
+                        ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], np.float64(c_on[y, x]), np.float64(c_off[y, x]), drift[y, x], out_t, out_x, out_p,
                         out_lab, base, cap, cnt)
             ends[i, k] = cnt
             t0 = t1
