@@ -2,9 +2,9 @@
 
 Rows are independent: the caller runs blocks of rows (and of frame intervals when gathering) on its own threads,
 the kernels releasing the GIL (nogil). Serial kernels compile several times faster than numba's parallel ones and
-a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel draws comes from a counter-based
-generator (splitmix64 of the pixel's key and its own draw counter, kept in the state), so the output does not
-depend on the number of threads nor on how the frames are split into calls.
+a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel
+draws comes from a counter-based generator (splitmix64 of the pixel's key and its own draw counter, kept in the
+state), so the output does not depend on the number of threads nor on how the frames are split into calls.
 """
 
 from __future__ import annotations
@@ -174,7 +174,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 d1 = lf[y, x] - ref[y, x] + drift[y, x] * ((t0 - tref[y, x]) + hf)
                 es = e_shot[y, x] - lam_t[x] * hf
                 eh = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
-                busy = (d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0) | (eh <= 0.0) | (last_t[y, x] >= blind_from)
+                busy = ((d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0) | (eh <= 0.0)
+                        | (last_t[y, x] >= blind_from))
                 slow[x] = busy
                 e_shot[y, x] = e_shot[y, x] if busy else es
                 e_hot[y, x] = e_hot[y, x] if busy else eh
@@ -249,8 +250,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                         tref[y, x] = tr2_j[j]
                 else:
                     e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], cnt = _pixel_events(
-                        t0, hf, f0_t[x], lf[y, x], lam_t[x], (hot_rate if hot[y, x] else 0.0), rows[i] * w + todo[j], todo[j], refractory, key, e_shot[y, x], e_hot[y, x],
-                        ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], np.float64(c_on[y, x]), np.float64(c_off[y, x]), drift[y, x], out_t, out_x, out_p,
+                        t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate if hot[y, x] else 0.0, rows[i] * w + todo[j],
+                        todo[j], refractory, key, e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x],
+                        ctr[y, x], np.float64(c_on[y, x]), np.float64(c_off[y, x]), drift[y, x], out_t, out_x, out_p,
                         out_lab, base, cap, cnt)
             ends[i, k] = cnt
             t0 = t1
