@@ -4,9 +4,9 @@ The scene is a periodic log-normal texture (smoothed noise, contrast p0.1..p99.9
 --speed pixels per frame along x, sampled at --fps. Frames are generated in blocks outside the timed section and
 fed --block at a time. For 346x260 and 1280x720 it prints pixel-frames/s, frames/s and events/s (wall clock),
 pixel-frames per CPU-second (steadier on a shared machine) and peak memory (traced allocations over two more
-untimed blocks, and max RSS), and
-the same for a bare one-thread numba kernel of the ESIM rule fed the same blocks in the same loop (the ratio is
-the figure to quote on a shared machine). `--block 1` feeds frame by frame, as a streaming user does.
+untimed blocks, and max RSS), and the same for a bare one-thread numba kernel of the ESIM rule fed the same blocks
+in the same loop (the ratio is the figure to quote on a shared machine). `--block 1` feeds frame by frame, as a
+streaming user does.
 
     python bench/bench_dvs.py --frames 3000 --frames-hd 300 --preset davis346 --speed 0.2
 """
