@@ -130,6 +130,7 @@ class DVSEmulator:
         self._row_rate: float | None = None  # events per frame of the busiest row in the last block
         self._bufs = None
         self._rows = np.arange(self.height, dtype=np.int64)
+        self._no_src = np.zeros(self.height, dtype=np.bool_)
 
     # ----- inspectable state -----
     @property
@@ -272,7 +273,10 @@ class DVSEmulator:
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends)
+        span = int(times[0] - t_prev)
+        # one frame: each thread also counts its rows' event times for the sort (one meeting of the threads fewer)
+        counts = {} if n == 1 and h * cap > 4096 and span <= 4 * h * cap + 1024 else None
+        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends, counts, span)
         over = np.flatnonzero(ends[:, -1] > cap)
         offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
         if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
@@ -290,46 +294,60 @@ class DVSEmulator:
             K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
                             labels)
 
-        span = int(times[0] - t_prev)
-        if n == 1 and total > 4096 and span <= 4 * total + 1024:
-            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels)
+        if counts is not None and span <= 4 * total + 1024:
+            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels,
+                             None if over.size else counts)
         else:
-            in_parallel(gather, n, 1 if n < 8 else 4)
+            in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
 
-    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels) -> None:
-        """gather_sorted for a single frame interval, split by rows over the threads (a counting sort whose
-        per-part counts are merged: part p's events of time t go after those of parts before it)."""
-        rows, parts = self._rows, {}
+    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels, parts) -> None:
+        """gather_sorted for a single frame interval, split by rows over the threads: a counting sort whose
+        per-part counts (parts: first row -> (end row, counts per microsecond), or None to count them here) are
+        merged, part p's events of time t going after those of the parts before it."""
+        rows = self._rows
+        if parts is None:
+            parts = {}
 
-        def count(a, b):
-            parts[a] = np.zeros(span + 1, dtype=np.int64)
-            K.count_times(a, b, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a])
+            def count(a, b):
+                parts[a] = (b, np.zeros(span + 1, dtype=np.int64))
+                K.count_times(a, b, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a][1])
 
-        min_part = max(1, self.height // 2)
-        in_parallel(count, self.height, min_part)
-        counts = np.stack([parts[a] for a in sorted(parts)])
+            in_parallel(count, self.height, max(1, self.height // 2))
+        firsts = sorted(parts)
+        counts = np.stack([parts[a][1] for a in firsts])
         per_t = counts.sum(axis=0)
-        first = np.cumsum(per_t) - per_t  # first output index of each microsecond
-        pos = first + np.cumsum(counts, axis=0) - counts
-        for i, a in enumerate(sorted(parts)):
-            parts[a] = pos[i]
+        pos = (np.cumsum(per_t) - per_t) + np.cumsum(counts, axis=0) - counts  # (first index of each us) + parts'
 
-        def scatter(a, b):
-            K.scatter_events(a, b, rows, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a], events, labels)
+        def scatter(p0, p1):
+            for p in range(p0, p1):
+                a = firsts[p]
+                K.scatter_events(a, parts[a][0], rows, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, pos[p],
+                                 events, labels)
 
-        in_parallel(scatter, self.height, min_part)
+        in_parallel(scatter, len(firsts), 1, per_thread=2)
 
-    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends) -> None:
-        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:])."""
+    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends, counts=None, span=0) -> None:
+        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:]).
+
+        counts: a dict, or None; for one frame, gets first row -> (end row, counts of the block's event times per
+        microsecond of the interval of length span) for _gather_one (meaningless if a row overflowed)."""
 
         def block(a, b):
-            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal,
-                           *(buf[a * cap:b * cap] for buf in bufs), ends[a:b])
+            part = tuple(buf[a * cap:b * cap] for buf in bufs)
+            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal, *part,
+                           ends[a:b])
+            if counts is not None:
+                c = np.zeros(span + 1, dtype=np.int64)
+                starts = np.zeros((b - a, 2), dtype=np.int64)
+                starts[:, 1] = np.minimum(ends[a:b, 0], cap)
+                K.count_times(0, b - a, part, part, self._no_src[:b - a], self._rows[:b - a] * cap, starts, 0,
+                              t_prev, c)
+                counts[a] = (b, c)
 
-        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
+        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))), per_thread=2)
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
