@@ -91,14 +91,14 @@ def test_single_frame_feeds_at_high_event_rates_match_one_stack():
     """Frame by frame, the counting sort is split by rows over the threads (its counts taken by the emulating
     threads, or recounted after a buffer overflow): the same events as one stack, on one thread or several."""
     rng = np.random.default_rng(5)
-    frames = np.exp(rng.uniform(-3, 3, (6, 40, 64))).astype(np.float32)  # several events per pixel and frame
+    frames = np.exp(rng.uniform(-3, 3, (6, 128, 64))).astype(np.float32)  # several events per pixel and frame
     times = np.arange(6, dtype=np.int64) * 1000
     whole = sim.emulate(frames, times, NOISY, seed=5, return_labels=True)
     before = numba.get_num_threads()
     try:
         for threads in (1, numba.config.NUMBA_NUM_THREADS):
             numba.set_num_threads(threads)
-            emu = sim.DVSEmulator(40, 64, NOISY, seed=5, return_labels=True)
+            emu = sim.DVSEmulator(128, 64, NOISY, seed=5, return_labels=True)  # two row parts (64 rows)
             parts = [emu.feed(frames[0], times[0])]
             for k in range(1, 6):
                 if k == 4:  # buffers of 121 events per row (~166 needed): rows overflow and are rerun
