@@ -129,21 +129,19 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
         for k in range(n):
             if k % F == 0:  # the next chunk of frames k .. k + nk - 1
                 nk = min(F, n - k)
-                for kk in range(nk):
-                    o = kk * w
-                    for x in range(w):
-                        c_ch[o + x] = float(frames[k + kk, y, x]) + dark
-                log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
                 tk = t0
                 for kk in range(nk):
                     o = kk * w
                     hf = float(times[k + kk] - tk)
                     tk = times[k + kk]
                     for x in range(w):
-                        j = math.sqrt(cur[y, x] * c_ch[o + x])  # the interval's geometric-mean photocurrent
+                        c = float(frames[k + kk, y, x]) + dark
+                        c_ch[o + x] = c
+                        j = math.sqrt(cur[y, x] * c)  # the interval's geometric-mean photocurrent
                         j_ch[o + x] = j
                         q_ch[o + x] = -k_cut * hf * j
-                        cur[y, x] = c_ch[o + x]
+                        cur[y, x] = c
+                log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
                 if k_cut > 0.0:  # distinct in/out arrays: aliasing would prevent vectorisation
                     expm1_row(q_ch[:nk * w], bits[:nk * w], em_ch[:nk * w])
             o = (k % F) * w
