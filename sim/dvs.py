@@ -112,7 +112,9 @@ class DVSEmulator:
         hot = hot.reshape(shape)
         self._leak_phase = rng.random(shape)
         self._init_budgets = rng.standard_exponential((2, *shape))
-        self._fixed = (c_on, c_off, leak_hz * 1e-6 * c_on, np.where(hot, p.hot_pixel_hz * 1e-6, 0.0))
+        # Thresholds are stored as float32, exactly (multiples of 2**-32 with at most 24 significant bits), and hot
+        # pixels as a mask: fewer bytes per pixel to stream through memory on every feed.
+        self._fixed = (c_on.astype(np.float32), c_off.astype(np.float32), leak_hz * 1e-6 * c_on, hot.astype(np.uint8))
         self._leak_hz, self._hot = leak_hz, hot
         self._scal = (
             np.int64(p.refractory_us),
@@ -121,11 +123,14 @@ class DVSEmulator:
             p.shot_noise_hz * 1e-6,
             p.dark_shot_noise_hz * 1e-6,
             stream_ss.generate_state(1, dtype=np.uint64)[0],
+            p.hot_pixel_hz * 1e-6,
         )
         self._state = None
         self._t: int | None = None
         self._row_rate: float | None = None  # events per frame of the busiest row in the last block
         self._bufs = None
+        self._rows = np.arange(self.height, dtype=np.int64)
+        self._no_src = np.zeros(self.height, dtype=np.bool_)
 
     # ----- inspectable state -----
     @property
@@ -213,14 +218,20 @@ class DVSEmulator:
         if frames.shape[1:] != hw:
             raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
         times = check_times_us(times)
-        if len(times) and np.any(np.diff(times) <= 0):
-            i = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
-            raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
-        if len(times) and self._t is not None and times[0] <= self._t:
-            raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
-        gaps = np.diff(times) if self._t is None else np.diff(times, prepend=self._t)
-        if gaps.size and int(gaps.max()) > MAX_TIME_GAP_US:
-            raise InvalidParameterError(f"input times {int(gaps.max())} us apart: at most MAX_TIME_GAP_US = "
+        if len(times) > 1:
+            steps = np.diff(times)
+            if steps.min() <= 0:
+                i = int(np.flatnonzero(steps <= 0)[0]) + 1
+                raise TimeOrderError(f"t_us must be strictly increasing: t[{i}]={times[i]} after {times[i - 1]} us")
+            gap = int(steps.max())
+        else:
+            gap = 0
+        if self._t is not None:
+            if times[0] <= self._t:
+                raise TimeOrderError(f"t_us={times[0]} is not after the previous frame time {self._t} us")
+            gap = max(gap, int(times[0]) - self._t)
+        if gap > MAX_TIME_GAP_US:
+            raise InvalidParameterError(f"input times {gap} us apart: at most MAX_TIME_GAP_US = "
                                         f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
         valid = [True]
@@ -228,7 +239,9 @@ class DVSEmulator:
         def check(a, b):
             valid.append(K.frames_valid(frames[a:b]))
 
-        if frames.size:
+        if len(frames) * frames[0].size <= 1 << 18:
+            check(0, len(frames))
+        else:
             in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
         if not all(valid):
             for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
@@ -256,11 +269,14 @@ class DVSEmulator:
     def _run(self, frames: np.ndarray, times: np.ndarray):
         """Advance all rows through a block of frames; return its sorted events and labels."""
         h, n = self.height, len(times)
-        rows = np.arange(h, dtype=np.int64)
+        rows = self._rows
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends)
+        span = int(times[0] - t_prev)
+        # one frame: each thread also counts its rows' event times for the sort (one meeting of the threads fewer)
+        counts = {} if n == 1 and h * cap > 4096 and span <= 4 * h * cap + 1024 else None
+        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends, counts, span)
         over = np.flatnonzero(ends[:, -1] > cap)
         offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
         if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
@@ -270,27 +286,68 @@ class DVSEmulator:
             ends[over] = ends_b
             src_b[over] = True
             offsets[over] = np.arange(over.size) * cap_b
-        total = int(ends[:, -1].sum())
-        events, labels = empty_events(total), np.empty(total, dtype=np.uint8)
         starts, first_out = K.interval_plan(ends)
+        total = int(first_out[-1])
+        events, labels = np.empty(total, dtype=EVENT_DTYPE), np.empty(total, dtype=np.uint8)  # all fields written
 
         def gather(k0, k1):
             K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
                             labels)
 
-        in_parallel(gather, n, 4)
+        if counts is not None and span <= 4 * total + 1024:
+            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels,
+                             None if over.size else counts)
+        else:
+            in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
 
-    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends) -> None:
-        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:])."""
+    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels, parts) -> None:
+        """gather_sorted for a single frame interval, split by rows over the threads: a counting sort whose
+        per-part counts (parts: first row -> (end row, counts per microsecond), or None to count them here) are
+        merged, part p's events of time t going after those of the parts before it."""
+        rows = self._rows
+        if parts is None:
+            parts = {}
+
+            def count(a, b):
+                parts[a] = (b, np.zeros(span + 1, dtype=np.int64))
+                K.count_times(a, b, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a][1])
+
+            in_parallel(count, self.height, max(1, self.height // 2))
+        firsts = sorted(parts)
+        counts = np.stack([parts[a][1] for a in firsts])
+        per_t = counts.sum(axis=0)
+        pos = (np.cumsum(per_t) - per_t) + np.cumsum(counts, axis=0) - counts  # (first index of each us) + parts'
+
+        def scatter(p0, p1):
+            for p in range(p0, p1):
+                a = firsts[p]
+                K.scatter_events(a, parts[a][0], rows, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, pos[p],
+                                 events, labels)
+
+        in_parallel(scatter, len(firsts), 1, per_thread=2)
+
+    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends, counts=None, span=0) -> None:
+        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:]).
+
+        counts: a dict, or None; for one frame, gets first row -> (end row, counts of the block's event times per
+        microsecond of the interval of length span) for _gather_one (meaningless if a row overflowed)."""
 
         def block(a, b):
-            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal,
-                           *(buf[a * cap:b * cap] for buf in bufs), ends[a:b])
+            part = tuple(buf[a * cap:b * cap] for buf in bufs)
+            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal, *part,
+                           ends[a:b])
+            if counts is not None:
+                c = np.zeros(span + 1, dtype=np.int64)
+                starts = np.zeros((b - a, 2), dtype=np.int64)
+                starts[:, 1] = np.minimum(ends[a:b, 0], cap)
+                K.count_times(0, b - a, part, part, self._no_src[:b - a], self._rows[:b - a] * cap, starts, 0,
+                              t_prev, c)
+                counts[a] = (b, c)
 
-        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))))
+        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))), per_thread=2)
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""

@@ -2,9 +2,9 @@
 
 Rows are independent: the caller runs blocks of rows (and of frame intervals when gathering) on its own threads,
 the kernels releasing the GIL (nogil). Serial kernels compile several times faster than numba's parallel ones and
-a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel draws comes from a counter-based
-generator (splitmix64 of the pixel's key and its own draw counter, kept in the state), so the output does not
-depend on the number of threads nor on how the frames are split into calls.
+a call costs no thread-pool wake-up, which matters when frames are fed one at a time. Every random number a pixel
+draws comes from a counter-based generator (splitmix64 of the pixel's key and its own draw counter, kept in the
+state), so the output does not depend on the number of threads nor on how the frames are split into calls.
 """
 
 from __future__ import annotations
@@ -86,29 +86,174 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
     state: (cur, logi, lf, ref, tref, e_shot, e_hot) float64 (H, W) arrays plus last_t int64 (H, W) and ctr
-        uint64 (H, W), passed as a tuple. fixed: (c_on, c_off, drift, hot_rate) float64 (H, W).
-    scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key) (rates per us, k_cut per us per radiance).
+        uint64 (H, W), passed as a tuple. fixed: (c_on, c_off) float32, drift float64 and the hot-pixel mask
+        uint8, all (H, W). scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate) (rates per
+        us, k_cut per us per radiance).
     Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
     event count after frame k. A row with more than cap events is rolled back to its state at entry (so it can be
     rerun with a larger buffer) and only its total ends[i, -1] is meaningful.
+
+    A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has exactly
+    one crossing and no noise arrival in the interval: that case is computed for all busy columns of the row at
+    once in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the others run
+    _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of inlined
+    or called functions, cost reference counting (atomic operations) each time.
     """
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
-    c_on, c_off, drift, hot_rate = fixed
-    refractory, k_cut, dark, shot_rate, dark_shot_rate, key = scal
+    c_on, c_off, drift, hot = fixed
+    refractory, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate = scal
     w = cur.shape[1]
+    n = frames.shape[0]
+    # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
+    saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
+    sf, si, slow = np.empty((16, w)), np.empty((3, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:16]
+    todo, te_j, code_j = si[0], si[1], si[2]
+    # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
+    # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
+    F = max(1, min(n, 32768 // w))
+    c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
+    bits = np.empty(F * w, dtype=np.int64)
     for i in range(rows.size):
-        y = rows[i]
+        y = np.uintp(rows[i])
+        base = i * cap
         # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
         # shape-mismatch error path, seconds of compilation for nothing)
-        saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
         for x in range(w):
             saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
             saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
             saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
-        cnt = _advance_row(frames, times, t_prev, y, i * cap, cap, cur[y], logi[y], lf[y], ref[y], tref[y],
-                           e_shot[y], e_hot[y], last_t[y], ctr[y], c_on[y], c_off[y], drift[y], hot_rate[y],
-                           refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x, out_p, out_lab,
-                           ends[i])
+        cnt = 0
+        t0 = t_prev
+        # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
+        for k in range(n):
+            if k % F == 0:  # the next chunk of frames k .. k + nk - 1
+                nk = min(F, n - k)
+                tk = t0
+                for kk in range(nk):
+                    o = kk * w
+                    hf = float(times[k + kk] - tk)
+                    tk = times[k + kk]
+                    for x in range(w):
+                        c = float(frames[k + kk, y, x]) + dark
+                        c_ch[o + x] = c
+                        j = math.sqrt(cur[y, x] * c)  # the interval's geometric-mean photocurrent
+                        j_ch[o + x] = j
+                        q_ch[o + x] = -k_cut * hf * j
+                        cur[y, x] = c
+                log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
+                if k_cut > 0.0:  # distinct in/out arrays: aliasing would prevent vectorisation
+                    expm1_row(q_ch[:nk * w], bits[:nk * w], em_ch[:nk * w])
+            o = (k % F) * w
+            t1 = times[k]
+            hf = float(t1 - t0)
+            if k_cut > 0.0:
+                # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
+                for x in range(w):
+                    l0 = logi[y, x]
+                    l1 = l_ch[o + x]
+                    em = em_ch[o + x]
+                    f0 = lf[y, x]
+                    f0_t[x] = f0
+                    lf[y, x] = l1 + (l1 - l0) * em / (k_cut * hf * j_ch[o + x]) + (f0 - l0) * (1.0 + em)
+                    logi[y, x] = l1
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
+            else:
+                for x in range(w):
+                    f0_t[x] = lf[y, x]
+                    lf[y, x] = l_ch[o + x]
+                    logi[y, x] = l_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
+            # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
+            # comparison is linear in time, so there is no crossing iff the end point is inside the band.
+            # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
+            blind_from = t0 - refractory if refractory > 0 else np.iinfo(np.int64).max  # blind iff last_t >= it
+            for x in range(w):
+                d1 = lf[y, x] - ref[y, x] + drift[y, x] * ((t0 - tref[y, x]) + hf)
+                es = e_shot[y, x] - lam_t[x] * hf
+                eh = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
+                busy = ((d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0) | (eh <= 0.0)
+                        | (last_t[y, x] >= blind_from))
+                slow[x] = busy
+                e_shot[y, x] = e_shot[y, x] if busy else es
+                e_hot[y, x] = e_hot[y, x] if busy else eh
+            n_busy = 0
+            for x in range(w):  # branch-free compaction of the busy columns
+                todo[n_busy] = x
+                n_busy += slow[x]
+            # Events over (t0, t0 + hf] of the busy columns (Lf goes linearly from f0_t to lf_y).
+            for j in range(n_busy):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
+                x = np.uintp(todo[j])  # unsigned: no negative-index wraparound code on each access
+                G[0, j] = f0_t[x]
+                G[1, j] = lf[y, x]
+                G[2, j] = ref[y, x]
+                G[3, j] = tref[y, x]
+                G[4, j] = drift[y, x]
+                G[5, j] = np.float64(c_on[y, x])
+                G[6, j] = np.float64(c_off[y, x])
+                G[7, j] = e_shot[y, x] - lam_t[x] * hf
+                G[8, j] = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
+                G[9, j] = 1.0 if (refractory == 0) | (last_t[y, x] + refractory < t0) else 0.0
+            for j in range(n_busy):  # the one-crossing case for all busy columns at once (vectorised)
+                f0 = G[0, j]
+                f1 = G[1, j]
+                r = G[2, j]
+                tr = G[3, j]
+                dr = G[4, j]
+                con = G[5, j]
+                coff = G[6, j]
+                es = G[7, j]
+                eh = G[8, j]
+                g = (f1 - f0) / hf
+                m = g + dr
+                target = con if m > 0.0 else -coff
+                sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
+                sc = sc if sc > 0.0 else 0.0
+                sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+                d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
+                at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
+                sc = hf if at_end & (sc > hf) else sc
+                te = t0 + np.int64(math.ceil(sc))
+                te = te if te > t0 else t0 + 1
+                sb = float(te + refractory - t0)
+                blind_after = (refractory > 0) & (sb >= hf)
+                r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
+                tr2 = float(t0) + (sb if refractory > 0 else sc)
+                d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
+                ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
+                      & (blind_after | ((d_end < con) & (d_end > -coff))))
+                leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
+                te_j[j] = te
+                # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
+                code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
+                r2_j[j] = r2
+                tr2_j[j] = tr2
+                es_j[j] = es
+                eh_j[j] = eh
+            for j in range(n_busy):
+                x = np.uintp(todo[j])
+                code = code_j[j]
+                if code != 0:
+                    if cnt < cap:
+                        out_t[base + cnt] = te_j[j]
+                        out_x[base + cnt] = x
+                        out_p[base + cnt] = 1 if code & 2 else -1
+                        out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
+                    cnt += 1
+                    e_shot[y, x] = es_j[j]
+                    e_hot[y, x] = eh_j[j]
+                    last_t[y, x] = te_j[j]
+                    if not code & 8:
+                        ref[y, x] = r2_j[j]
+                        tref[y, x] = tr2_j[j]
+                else:
+                    e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], cnt = _pixel_events(
+                        t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate if hot[y, x] else 0.0, rows[i] * w + todo[j],
+                        todo[j], refractory, key, e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x],
+                        ctr[y, x], np.float64(c_on[y, x]), np.float64(c_off[y, x]), drift[y, x], out_t, out_x, out_p,
+                        out_lab, base, cap, cnt)
+            ends[i, k] = cnt
+            t0 = t1
         if cnt > cap:
             for x in range(w):
                 cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
@@ -116,180 +261,15 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 last_t[y, x], ctr[y, x] = saved_i[x], saved_u[x]
 
 
-@njit(cache=True, error_model="numpy")
-def _advance_row(frames, times, t_prev, y, base, cap, cur_y, logi_y, lf_y, ref_y, tref_y, es_y, eh_y, lt_y, ctr_y,
-                 con_y, coff_y, dr_y, hot_y, refractory, k_cut, dark, shot_rate, dark_shot_rate, key, out_t, out_x,
-                 out_p, out_lab, ends_y):
-    """Advance row y (its state given as row views) through all frames; return its event count.
+@njit(cache=True)
+def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, eh, r, tr, lt, c, con, coff, dr,
+                  out_t, out_x, out_p, out_lab, base, cap, cnt):
+    """Events of one pixel (flat index `pixel`, column x, state given as scalars) over (t0, t0 + hf].
 
-    ends_y[k] gets the row's event count after frame k.
+    Returns its new state (es, eh, r, tr, lt, c) and the row's event count. A called function, not inlined: the
+    array arguments of inlined code cost reference counting (atomic operations) on every busy pixel.
     """
-    w = cur_y.size
-    n = frames.shape[0]
-    c1_t, l1_t, q_t, em_t, j_t, f0_t, lam_t = (np.empty(w), np.empty(w), np.empty(w), np.empty(w), np.empty(w),
-                                               np.empty(w), np.empty(w))
-    bits = np.empty(w, dtype=np.int64)
-    slow = np.empty(w, dtype=np.bool_)
-    todo = np.empty(w, dtype=np.int64)
-    sf = np.empty((4, w))
-    G = np.empty((10, w))
-    si = np.empty((2, w), dtype=np.int64)
-    cnt = 0
-    t0 = t_prev
-    # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
-    for k in range(n):
-        t1 = times[k]
-        hf = float(t1 - t0)
-        for x in range(w):
-            c1_t[x] = float(frames[k, y, x]) + dark
-        log_response(c1_t, bits, l1_t)
-        for x in range(w):
-            j_t[x] = math.sqrt(cur_y[x] * c1_t[x])  # the interval's geometric-mean photocurrent
-            cur_y[x] = c1_t[x]
-        for x in range(w):
-            f0_t[x] = lf_y[x]
-        if k_cut > 0.0:
-            # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
-            for x in range(w):
-                q_t[x] = -k_cut * hf * j_t[x]
-            expm1_row(q_t, bits, em_t)  # distinct in/out arrays: aliasing would prevent vectorisation
-            for x in range(w):
-                l0 = logi_y[x]
-                l1 = l1_t[x]
-                em = em_t[x]
-                lf_y[x] = l1 + (l1 - l0) * em / (k_cut * hf * j_t[x]) + (f0_t[x] - l0) * (1.0 + em)
-        else:
-            for x in range(w):
-                lf_y[x] = l1_t[x]
-        for x in range(w):
-            logi_y[x] = l1_t[x]
-            lam_t[x] = shot_rate + dark_shot_rate * dark / j_t[x]
-        # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
-        # comparison is linear in time, so there is no crossing iff the end point is inside the band.
-        for x in range(w):
-            d1 = lf_y[x] - ref_y[x] + dr_y[x] * ((t0 - tref_y[x]) + hf)
-            slow[x] = (d1 >= con_y[x]) | (d1 <= -coff_y[x])
-        for x in range(w):
-            es = es_y[x] - lam_t[x] * hf
-            eh = eh_y[x] - hot_y[x] * hf
-            busy = slow[x] | (es <= 0.0) | (eh <= 0.0)
-            if refractory > 0:
-                busy |= lt_y[x] + refractory >= t0
-            slow[x] = busy
-            es_y[x] = es_y[x] if busy else es
-            eh_y[x] = eh_y[x] if busy else eh
-        n_slow = 0
-        for x in range(w):  # branch-free compaction of the busy columns
-            todo[n_slow] = x
-            n_slow += slow[x]
-        cnt = _row_events(todo[:n_slow], t0, hf, f0_t, lf_y, lam_t, hot_y, y, refractory, key, ref_y, tref_y,
-                          es_y, eh_y, lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base,
-                          cap, cnt, sf, si, G)
-        ends_y[k] = cnt
-        t0 = t1
-    return cnt
-
-
-@njit(cache=True, inline="always")
-def _row_events(todo, t0, hf, f0_t, f1_t, lam_t, hot_y, y, refractory, key, ref_y, tref_y, es_y, eh_y,
-                lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt, sf, si, G):
-    """Events over (t0, t0 + hf] of the columns `todo` of row y (Lf goes linearly from f0_t to f1_t).
-
-    The other arguments are that row's state; returns the row's updated event count. Almost every busy pixel has
-    exactly one crossing and no noise arrival in the interval: that case is computed for all busy columns at once
-    in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the others run _pixel_events.
-    Inlined into the caller, since array arguments of a called function cost reference counting on every call.
-    Scratch (float64 sf (4, W), G (10, W); int64 si (2, W)).
-    """
-    w = f0_t.size
-    n = todo.size
-    r2_j, tr2_j, es_j, eh_j = sf[0], sf[1], sf[2], sf[3]
-    te_j, code_j = si[0], si[1]
-    for j in range(n):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
-        x = todo[j]
-        G[0, j] = f0_t[x]
-        G[1, j] = f1_t[x]
-        G[2, j] = ref_y[x]
-        G[3, j] = tref_y[x]
-        G[4, j] = dr_y[x]
-        G[5, j] = con_y[x]
-        G[6, j] = coff_y[x]
-        G[7, j] = es_y[x] - lam_t[x] * hf
-        G[8, j] = eh_y[x] - hot_y[x] * hf
-        G[9, j] = 1.0 if (refractory == 0) | (lt_y[x] + refractory < t0) else 0.0
-    for j in range(n):  # the one-crossing case for all busy columns at once (vectorised)
-        f0 = G[0, j]
-        f1 = G[1, j]
-        r = G[2, j]
-        tr = G[3, j]
-        dr = G[4, j]
-        con = G[5, j]
-        coff = G[6, j]
-        es = G[7, j]
-        eh = G[8, j]
-        g = (f1 - f0) / hf
-        m = g + dr
-        target = con if m > 0.0 else -coff
-        sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
-        sc = sc if sc > 0.0 else 0.0
-        sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
-        d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
-        at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
-        sc = hf if at_end & (sc > hf) else sc
-        te = t0 + np.int64(math.ceil(sc))
-        te = te if te > t0 else t0 + 1
-        sb = float(te + refractory - t0)
-        blind_after = (refractory > 0) & (sb >= hf)
-        r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
-        tr2 = float(t0) + (sb if refractory > 0 else sc)
-        d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
-        ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
-              & (blind_after | ((d_end < con) & (d_end > -coff))))
-        leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
-        te_j[j] = te
-        # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
-        code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
-        r2_j[j] = r2
-        tr2_j[j] = tr2
-        es_j[j] = es
-        eh_j[j] = eh
-    for j in range(n):
-        x = todo[j]
-        code = code_j[j]
-        if code != 0:
-            if cnt < cap:
-                out_t[base + cnt] = te_j[j]
-                out_x[base + cnt] = x
-                out_p[base + cnt] = 1 if code & 2 else -1
-                out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
-            cnt += 1
-            es_y[x] = es_j[j]
-            eh_y[x] = eh_j[j]
-            lt_y[x] = te_j[j]
-            if not code & 8:
-                ref_y[x] = r2_j[j]
-                tref_y[x] = tr2_j[j]
-        else:
-            cnt = _pixel_events(t0, hf, f0_t[x], f1_t[x], lam_t[x], hot_y[x], y * w + x, x, refractory, key, ref_y,
-                                tref_y, es_y, eh_y, lt_y, ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab,
-                                base, cap, cnt)
-    return cnt
-
-
-@njit(cache=True, inline="always")
-def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y, tref_y, es_y, eh_y, lt_y,
-                  ctr_y, con_y, coff_y, dr_y, out_t, out_x, out_p, out_lab, base, cap, cnt):
-    """Events of one pixel (flat index `pixel`, column x) over (t0, t0 + hf]; returns the row's event count."""
-    es = es_y[x]
-    eh = eh_y[x]
-    r = ref_y[x]
-    tr = tref_y[x]
-    lt = lt_y[x]
-    con = con_y[x]
-    coff = coff_y[x]
-    dr = dr_y[x]
     pkey = mix64(key + np.uint64(pixel) * _PIXEL_MUL)
-    c = ctr_y[x]
     g = (f1 - f0) / hf
     s = 0.0
     done = False
@@ -370,13 +350,7 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, ref_y
                 r = f0 + g * se
             tr = float(t0) + se
             s = se
-    es_y[x] = es
-    eh_y[x] = eh
-    ref_y[x] = r
-    tref_y[x] = tr
-    lt_y[x] = lt
-    ctr_y[x] = c
-    return cnt
+    return es, eh, r, tr, lt, c, cnt
 
 
 @njit(cache=True, nogil=True)
@@ -421,22 +395,14 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
     j0, j1 = starts[:, k], starts[:, k + 1]
     if span <= 4 * m + 1024:  # counting sort over the interval's microseconds
         pos = np.zeros(span + 1, dtype=np.int64)
-        for i in range(row_ids.size):
-            bt = bufs_b[0] if src_b[i] else bufs_a[0]
-            for j in range(offsets[i] + j0[i], offsets[i] + j1[i]):
-                pos[bt[j] - t_lo] += 1
+        count_times(0, row_ids.size, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos)
         acc = out
         for b in range(span + 1):
             c = pos[b]
             pos[b] = acc
             acc += c
-        for i in range(row_ids.size):
-            bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
-            for j in range(offsets[i] + j0[i], offsets[i] + j1[i]):
-                b = bt[j] - t_lo
-                q = pos[b]
-                pos[b] = q + 1
-                _put(events, labels, q, bt[j], bx[j], row_ids[i], bp[j], bl[j])
+        scatter_events(0, row_ids.size, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events,
+                       labels)
         return
     # a long interval with few events: comparison sort
     tt = np.empty(m, dtype=np.int64)
@@ -455,6 +421,28 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
         i, j = src_i[order[q]], src_j[order[q]]
         bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
         _put(events, labels, out + q, bt[j], bx[j], row_ids[i], bp[j], bl[j])
+
+
+@njit(cache=True, nogil=True)
+def count_times(i0, i1, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos):
+    """pos[t - t_lo] += number of events at t of interval k in rows i0 .. i1 - 1 (counting sort, first pass)."""
+    for i in range(i0, i1):
+        bt = bufs_b[0] if src_b[i] else bufs_a[0]
+        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+            pos[np.uintp(bt[j] - t_lo)] += 1
+
+
+@njit(cache=True, nogil=True)
+def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, labels):
+    """Write the events of interval k in rows i0 .. i1 - 1 at pos[t - t_lo] (advanced), the second pass."""
+    for i in range(i0, i1):
+        bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
+        y = row_ids[i]
+        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+            b = np.uintp(bt[j] - t_lo)
+            q = np.uintp(pos[b])
+            pos[b] = q + 1
+            _put(events, labels, q, bt[j], bx[j], y, bp[j], bl[j])
 
 
 @njit(cache=True, inline="always")

@@ -4,7 +4,9 @@ costly. One pool per process (a forked child builds its own)."""
 
 from __future__ import annotations
 
+import itertools
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -13,20 +15,43 @@ _POOL: ThreadPoolExecutor | None = None
 _POOL_PID = 0  # the process that made _POOL: a forked child has its object but not its threads
 
 
-def in_parallel(fn, n: int, min_part: int) -> None:
+def in_parallel(fn, n: int, min_part: int, per_thread: int = 1) -> None:
     """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
-    numba.get_num_threads() threads (the kernels release the GIL); this thread runs the first part."""
+    numba.get_num_threads() threads (the kernels release the GIL), this thread included.
+
+    per_thread > 1 cuts up to that many parts per thread, taken in turn by whichever thread is free: on a loaded
+    machine a thread that is descheduled (or slow to wake) then delays the call by one small part, not by half of
+    the work. The first exception raised by fn is re-raised here once every part has run.
+    """
     global _POOL, _POOL_PID
-    parts = max(1, min(numba.get_num_threads(), n // max(1, min_part)))
-    bounds = [n * i // parts for i in range(parts + 1)]
-    if parts == 1:
+    most = n // max(1, min_part)
+    threads = max(1, min(numba.get_num_threads(), most)) if most > 1 else 1  # (get_num_threads costs ~10 us)
+    if threads == 1:
         fn(0, n)
         return
-    if _POOL is None or _POOL._max_workers < parts - 1 or _POOL_PID != os.getpid():
+    parts = min(most, threads * max(1, per_thread))
+    bounds = [n * i // parts for i in range(parts + 1)]
+    if _POOL is None or _POOL._max_workers < threads - 1 or _POOL_PID != os.getpid():
         _POOL_PID = os.getpid()
-        _POOL = ThreadPoolExecutor(max_workers=max(parts - 1, numba.config.NUMBA_NUM_THREADS - 1),
+        _POOL = ThreadPoolExecutor(max_workers=max(threads - 1, numba.config.NUMBA_NUM_THREADS - 1),
                                    thread_name_prefix="evsim-dvs")
-    futures = [_POOL.submit(fn, bounds[i], bounds[i + 1]) for i in range(1, parts)]
-    fn(bounds[0], bounds[1])
-    for f in futures:
-        f.result()
+    take = itertools.count().__next__  # atomic under the GIL
+    lock, finished, done, errors = threading.Lock(), threading.Event(), [0], []
+
+    def worker():
+        while (i := take()) < parts:
+            try:
+                fn(bounds[i], bounds[i + 1])
+            except BaseException as e:  # noqa: BLE001 (re-raised by the caller's thread)
+                errors.append(e)
+            with lock:
+                done[0] += 1
+                if done[0] == parts:
+                    finished.set()
+
+    for _ in range(threads - 1):
+        _POOL.submit(worker)  # a helper that starts after every part is taken returns at once
+    worker()
+    finished.wait()
+    if errors:
+        raise errors[0]

@@ -87,6 +87,46 @@ def test_small_buffers_rerun_rows_without_changing_events():
     assert a.feed(frames[5:], times[5:]).tobytes() == b.feed(frames[5:], times[5:]).tobytes()
 
 
+def test_single_frame_feeds_at_high_event_rates_match_one_stack():
+    """Frame by frame, the counting sort is split by rows over the threads (its counts taken by the emulating
+    threads, or recounted after a buffer overflow): the same events as one stack, on one thread or several."""
+    rng = np.random.default_rng(5)
+    frames = np.exp(rng.uniform(-3, 3, (6, 128, 64))).astype(np.float32)  # several events per pixel and frame
+    times = np.arange(6, dtype=np.int64) * 1000
+    whole = sim.emulate(frames, times, NOISY, seed=5, return_labels=True)
+    before = numba.get_num_threads()
+    try:
+        for threads in (1, numba.config.NUMBA_NUM_THREADS):
+            numba.set_num_threads(threads)
+            emu = sim.DVSEmulator(128, 64, NOISY, seed=5, return_labels=True)  # two row parts (64 rows)
+            parts = [emu.feed(frames[0], times[0])]
+            for k in range(1, 6):
+                if k == 4:  # buffers of 121 events per row (~166 needed): rows overflow and are rerun
+                    emu._row_rate = 70.0
+                parts.append(emu.feed(frames[k], times[k]))
+            joined = (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+            assert whole[0].size > 6 * 4096
+            assert as_bytes(joined) == as_bytes(whole)
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_in_parallel_runs_every_part_once_and_reraises():
+    from sim.parallel import in_parallel
+
+    seen = []
+    in_parallel(lambda a, b: seen.extend(range(a, b)), 103, 5, per_thread=3)
+    assert sorted(seen) == list(range(103))
+
+    def fail(a, b):
+        if a > 0:
+            raise KeyError(a)
+
+    if numba.get_num_threads() > 1:
+        with pytest.raises(KeyError):
+            in_parallel(fail, 100, 1, per_thread=2)
+
+
 def test_threshold_map_spread_and_separate_on_off():
     params = sim.DVSParams(pos_threshold=0.25, neg_threshold=0.15, threshold_sigma=0.03)
     emu = sim.DVSEmulator(100, 120, params, seed=0)
