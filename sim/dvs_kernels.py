@@ -40,14 +40,14 @@ def log_response(a, bits, out):
         out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _uniform(pixel_key, counter):
     """Uniform draw in (0, 1] number `counter` of the pixel's stream."""
     z = mix64(pixel_key + counter * GOLDEN)
     return (float(z >> _S11) + 1.0) * _TWO_M53
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _drop_arrivals(budget, rate, duration, pixel_key, counter):
     """Run a Poisson clock (remaining unit-exponential budget) through a dead time; arrivals are lost.
 

@@ -22,7 +22,7 @@ _ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2**52: (x + M) - M rounds x to an int
 _SQRT_HALF_BITS = np.int64(0x3FE6A09E667F3BCD)  # bit pattern of sqrt(1/2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def mix64(z):
     """splitmix64 finaliser: a bijective 64-bit hash."""
     z = (z ^ (z >> _S30)) * _M1
