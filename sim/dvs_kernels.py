@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernel_math import GOLDEN, expm1_row, log_row, mix64
+from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
@@ -450,7 +450,7 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
             src_i[q] = i
             src_j[q] = j
             q += 1
-    order = np.argsort(tt, kind="mergesort")
+    order = stable_argsort(tt)
     for q in range(m):
         i, j = src_i[order[q]], src_j[order[q]]
         bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a

@@ -84,3 +84,36 @@ def expm1_row(a, bits, out):
     two_k = bits.view(np.float64)
     for i in range(a.size):
         out[i] = two_k[i] * out[i] + (two_k[i] - 1.0)
+
+
+@njit(cache=True)
+def stable_argsort(keys):
+    """Indices that sort the int64 keys stably (ties keep their order): an LSD radix sort on 11-bit digits of
+    keys - min(keys), as many passes as the range needs. Compiles in a fraction of the time of numba's
+    np.argsort(kind="mergesort") and is faster on the event times it sorts."""
+    n = keys.size
+    order = np.arange(n)
+    if n < 2:
+        return order
+    lo, hi = keys[0], keys[0]
+    for i in range(n):
+        lo = min(lo, keys[i])
+        hi = max(hi, keys[i])
+    span = np.uint64(hi - lo)  # exact even when the difference overflows int64
+    tmp = np.empty(n, dtype=np.int64)
+    count = np.empty(2049, dtype=np.int64)
+    shift = np.uint64(0)
+    while shift < np.uint64(64) and (span >> shift) != np.uint64(0):
+        for d in range(2049):
+            count[d] = 0
+        for i in range(n):
+            count[np.int64((np.uint64(keys[order[i]] - lo) >> shift) & np.uint64(0x7FF)) + 1] += 1
+        for d in range(2048):
+            count[d + 1] += count[d]
+        for i in range(n):
+            d = np.int64((np.uint64(keys[order[i]] - lo) >> shift) & np.uint64(0x7FF))
+            tmp[count[d]] = order[i]
+            count[d] += 1
+        order, tmp = tmp, order
+        shift += np.uint64(11)
+    return order
