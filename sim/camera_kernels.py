@@ -16,6 +16,8 @@ from .parallel import in_parallel
 
 _NORMAL_SALT = np.uint64(0x94D049BB133111EB)  # keys the read-noise streams apart from the shot-noise ones
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2**-53
+# draw numbers as int64 globals: a literal argument (_uniform(s, 1)) would compile one more specialisation each
+_DRAW1, _DRAW2 = np.int64(1), np.int64(2)
 
 
 @njit(cache=True)
@@ -118,8 +120,8 @@ def _ptrs_first(lam, streams, res, f, bits):
         lm = lam[j]
         a, b, vr = _ptrs_constants(lm)
         s = streams[j]
-        u = _uniform(s, 1) - 0.5
-        v = _uniform(s, 2)
+        u = _uniform(s, _DRAW1) - 0.5
+        v = _uniform(s, _DRAW2)
         us = 0.5 - abs(u)
         k = math.floor((2.0 * a / us + b) * u + lm + 0.43)
         k_t[j] = k
@@ -227,8 +229,8 @@ def _normal_pairs(key, first_pair, sigma, z):
     bits = np.empty(n, dtype=np.int64)
     for j in range(n):
         s = mix64(key ^ ((first_pair + np.uint64(j)) * GOLDEN))
-        u1[j] = _uniform(s, 1)
-        z[2 * j] = _uniform(s, 2)
+        u1[j] = _uniform(s, _DRAW1)
+        z[2 * j] = _uniform(s, _DRAW2)
     log_row(u1, bits, lg)
     for j in range(n):
         radius = sigma * math.sqrt(-2.0 * lg[j])

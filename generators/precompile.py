@@ -1,0 +1,83 @@
+"""Compile the reconstruction's numba kernels in a second process while this one generates (the demo's cold start).
+
+numba compiles under a process-wide lock, so kernels compiled on first use run one after another: on an empty cache
+the demo would spend about half its time compiling the sensor kernels and then the reconstruction's. Run on a
+tiny synthetic recording, a child process compiles the reconstruction's kernels (AKF, baselines, metrics) into the
+numba cache on the other core meanwhile, and the demo loads them from there. Nothing starts when the cache already
+holds them.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def start_reconstruction_compile() -> subprocess.Popen | None:
+    """Start the child when the numba cache lacks the AKF's kernels; None when there is nothing to compile."""
+    if _akf_cached():
+        return None
+    root = str(Path(__file__).resolve().parents[1])  # the child imports the same evsim as this process
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    try:
+        return subprocess.Popen([sys.executable, "-m", "generators.precompile"], env=env, stdin=subprocess.DEVNULL,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    except OSError:
+        return None  # the demo then compiles everything itself
+
+
+def wait(proc: subprocess.Popen | None) -> None:
+    """Wait for the child (its kernels are then in the cache; if it failed, the caller compiles them itself)."""
+    if proc is not None:
+        proc.wait()
+
+
+def _akf_cached() -> bool:
+    """True when the numba cache has an entry for the current source of akf.kernels.akf_events."""
+    from akf import kernels
+
+    try:
+        return bool(kernels.akf_events._cache._cache_file._load_index())  # numba internals: guess cold if changed
+    except Exception:
+        return False
+
+
+def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events: int = 400, seed: int = 0):
+    """A small hybrid recording with the array types of a generated one (events, 8-bit frames, HDR reference,
+    threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses."""
+    import sim
+
+    from .recording import Recording
+
+    rng = np.random.default_rng(seed)
+    period, exposure = 33_333, 10_000
+    t_start = np.arange(n_frames, dtype=np.int64) * period
+    ev = sim.empty_events(n_events)
+    ev["t"] = np.sort(rng.integers(0, int(t_start[-1]) + exposure, n_events))
+    ev["x"] = rng.integers(0, width, n_events)
+    ev["y"] = rng.integers(0, height, n_events)
+    ev["p"] = rng.choice(np.array([-1, 1], np.int8), n_events)
+    reference = rng.uniform(0.1, 2.0, (n_frames, height, width)).astype(np.float32)
+    return Recording(
+        events=ev, height=height, width=width,
+        frames=rng.integers(0, 256, (n_frames, height, width)).astype(np.uint8),
+        frame_t_start_us=t_start, frame_t_mid_us=t_start + exposure // 2, frame_t_end_us=t_start + exposure,
+        frame_bit_depth=8, reference=reference, reference_t_us=t_start + period // 2,
+        crf={"name": "window", "params": {}}, threshold_maps=np.full((2, height, width), 0.2, np.float32),
+        metadata={"reference_white_radiance": 1.0, "reference_to_crf_x": 0.5},
+    )
+
+
+def main() -> int:
+    from .evaluation import evaluate_recording
+
+    evaluate_recording(toy_recording())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
