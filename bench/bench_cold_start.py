@@ -65,7 +65,7 @@ def main() -> None:
     if serial:
         import generators.precompile
 
-        generators.precompile.start_reconstruction_compile = lambda: None
+        generators.precompile.start_background_compile = lambda: None
 
     c_import = time.process_time() - c0
     cli_main(["demo", "--out", out, "--no-progress", *argv])

@@ -1,10 +1,10 @@
-"""Compile the reconstruction's numba kernels in a second process while this one generates (the demo's cold start).
+"""Compile the demo's later numba kernels in a second process while it compiles and runs the DVS (its cold start).
 
 numba compiles under a process-wide lock, so kernels compiled on first use run one after another: on an empty cache
-the demo would spend about half its time compiling the sensor kernels and then the reconstruction's. Run on a
-tiny synthetic recording, a child process compiles the reconstruction's kernels (AKF, baselines, metrics) into the
+the demo would compile the DVS kernels, then the camera's, then the reconstruction's. A child process compiles the
+camera's (a toy capture) and the reconstruction's (AKF, baselines, metrics on a tiny synthetic recording) into the
 numba cache on the other core meanwhile, and the demo loads them from there. Nothing starts when the cache already
-holds them.
+holds the AKF's kernels.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 
-def start_reconstruction_compile() -> subprocess.Popen | None:
+def start_background_compile() -> subprocess.Popen | None:
     """Start the child when the numba cache lacks the AKF's kernels; None when there is nothing to compile."""
     if _akf_cached():
         return None
@@ -72,9 +72,36 @@ def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events
     )
 
 
+class _FlatSource:
+    """A RadianceSource of constant radiance (for toy_capture)."""
+
+    def __init__(self, height: int, width: int, duration_us: int):
+        self.height, self.width, self.duration_us = height, width, duration_us
+        self._image = np.full((height, width), 0.5, np.float32)
+
+    def radiance(self, t_us: int) -> np.ndarray:
+        return self._image
+
+    def max_speed_px_per_s(self) -> float:
+        return 0.0
+
+
+def toy_capture(camera_params, crf, height: int = 16, width: int = 16) -> None:
+    """Capture 0.1 s of a flat scene with the LDR camera (compiles its kernels for camera_params' bit depth)."""
+    import sim
+
+    for _ in sim.LDRCamera(height, width, camera_params, crf, 0).capture(_FlatSource(height, width, 100_000)):
+        pass
+
+
 def main() -> int:
+    """The demo's kernels, in the order it needs them after the DVS: the camera's, then the reconstruction's."""
+    import crf_models
+
+    from .builtin import ahdr_suite_config
     from .evaluation import evaluate_recording
 
+    toy_capture(ahdr_suite_config().camera, crf_models.get("window"))
     evaluate_recording(toy_recording())
     return 0
 
