@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import intrinsic
 
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64 stream increment
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -20,6 +22,26 @@ _LN2_HI, _LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10  # Cod
 _INV_LN2 = 1.0 / _LN2
 _ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2**52: (x + M) - M rounds x to an integer
 _SQRT_HALF_BITS = np.int64(0x3FE6A09E667F3BCD)  # bit pattern of sqrt(1/2)
+
+
+@intrinsic
+def _as_int64(typingctx, x):
+    """The bits of a float64 as an int64 (no conversion; a bit cast, cheaper to compile than an array view)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.int64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _as_float64(typingctx, x):
+    """The float64 whose bits are the int64 x (a bit cast)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.float64))
+
+    return types.float64(types.int64), codegen
 
 
 @njit(cache=True)
@@ -33,14 +55,13 @@ def mix64(z):
 @njit(cache=True, error_model="numpy")
 def log_row(a, bits, out):
     """out = log(a) for positive normal a (within 1e-15 absolute); written so that LLVM vectorises it."""
-    ab = a.view(np.int64)
     for i in range(a.size):
-        e = (ab[i] - _SQRT_HALF_BITS) >> 52  # exponent that puts the mantissa in [sqrt(1/2), sqrt(2))
-        bits[i] = ab[i] - (e << 52)
+        ab = _as_int64(a[i])
+        e = (ab - _SQRT_HALF_BITS) >> 52  # exponent that puts the mantissa in [sqrt(1/2), sqrt(2))
+        bits[i] = ab - (e << 52)
         out[i] = float(e)
-    m = bits.view(np.float64)
     for i in range(a.size):
-        x = m[i]
+        x = _as_float64(bits[i])
         s = (x - 1.0) / (x + 1.0)  # log(x) = 2 atanh(s), |s| <= 0.172
         z = s * s
         p = 2.0 / 19.0
@@ -81,9 +102,9 @@ def expm1_row(a, bits, out):
         p = p * r + 0.5
         out[i] = (p * r + 1.0) * r  # expm1(r)
         bits[i] = (np.int64(k) + 1023) << 52  # 2^k
-    two_k = bits.view(np.float64)
     for i in range(a.size):
-        out[i] = two_k[i] * out[i] + (two_k[i] - 1.0)
+        two_k = _as_float64(bits[i])
+        out[i] = two_k * out[i] + (two_k - 1.0)
 
 
 @njit(cache=True)
