@@ -9,6 +9,7 @@ holds the AKF's kernels.
 
 from __future__ import annotations
 
+import atexit
 import os
 import subprocess
 import sys
@@ -24,22 +25,36 @@ def start_background_compile() -> subprocess.Popen | None:
     root = str(Path(__file__).resolve().parents[1])  # the child imports the same evsim as this process
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     try:
-        return subprocess.Popen([sys.executable, "-m", "generators.precompile"], env=env, stdin=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, "-m", "generators.precompile"], env=env, stdin=subprocess.DEVNULL,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except OSError:
         return None  # the demo then compiles everything itself
+    atexit.register(_stop, proc)  # a demo that ends early (error, interrupt) does not leave it running
+    return proc
 
 
-def wait(proc: subprocess.Popen | None) -> None:
+def wait(proc: subprocess.Popen | None, timeout_s: float = 600.0) -> None:
     """Wait for the child (its kernels are then in the cache; if it failed, the caller compiles them itself)."""
     if proc is not None:
+        try:
+            proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            _stop(proc)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:  # numba writes cache files by renaming complete ones: stopping it corrupts nothing
+        proc.kill()
         proc.wait()
 
 
 def _akf_cached() -> bool:
-    """True when the numba cache has an entry for the current source of akf.kernels.akf_events."""
-    from akf import kernels
-
+    """True when the numba cache has an entry for the current source of akf.kernels.akf_events, or when there is no
+    akf to compile."""
+    try:
+        from akf import kernels
+    except ImportError:
+        return True
     try:
         return bool(kernels.akf_events._cache._cache_file._load_index())  # numba internals: guess cold if changed
     except Exception:
@@ -86,12 +101,12 @@ class _FlatSource:
         return 0.0
 
 
-def toy_capture(camera_params, crf, height: int = 16, width: int = 16) -> None:
-    """Capture 0.1 s of a flat scene with the LDR camera (compiles its kernels for camera_params' bit depth)."""
+def toy_capture(camera_params, crf, height: int = 16, width: int = 16) -> list:
+    """The frames of 0.1 s of a flat scene through the LDR camera (compiles its kernels for camera_params' bit
+    depth)."""
     import sim
 
-    for _ in sim.LDRCamera(height, width, camera_params, crf, 0).capture(_FlatSource(height, width, 100_000)):
-        pass
+    return list(sim.LDRCamera(height, width, camera_params, crf, 0).capture(_FlatSource(height, width, 100_000)))
 
 
 def main() -> int:
