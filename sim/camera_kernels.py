@@ -9,12 +9,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .kernel_math import GOLDEN, log_row, mix64
+from .parallel import in_parallel
 
 _NORMAL_SALT = np.uint64(0x94D049BB133111EB)  # keys the read-noise streams apart from the shot-noise ones
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2**-53
+# draw numbers as int64 globals: a literal argument (_uniform(s, 1)) would compile one more specialisation each
+_DRAW1, _DRAW2 = np.int64(1), np.int64(2)
 
 
 @njit(cache=True)
@@ -38,13 +41,13 @@ def accumulate_rows(acc: np.ndarray, radiance: np.ndarray, row_weight: np.ndarra
     return good
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _uniform(stream, i):
     """Uniform in (0, 1): draw i (1, 2, ...) of the SplitMix64 stream that starts at counter `stream`."""
     return (np.float64(mix64(stream + np.uint64(i) * GOLDEN) >> np.uint64(11)) + 0.5) * _TO_UNIT
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _ptrs_constants(lam):
     """(a, b, vr) of Hoermann's PTRS for mean lam >= 10."""
     b = 0.931 + 2.53 * math.sqrt(lam)
@@ -83,7 +86,7 @@ def _poisson(lam, stream, i):
             return float(k)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _ptrs_inv_alpha(b):
     return 1.1239 + 1.1328 / (b - 3.4)
 
@@ -117,8 +120,8 @@ def _ptrs_first(lam, streams, res, f, bits):
         lm = lam[j]
         a, b, vr = _ptrs_constants(lm)
         s = streams[j]
-        u = _uniform(s, 1) - 0.5
-        v = _uniform(s, 2)
+        u = _uniform(s, _DRAW1) - 0.5
+        v = _uniform(s, _DRAW2)
         us = 0.5 - abs(u)
         k = math.floor((2.0 * a / us + b) * u + lm + 0.43)
         k_t[j] = k
@@ -147,7 +150,6 @@ def _ptrs_first(lam, streams, res, f, bits):
         res[j] = k if accept else (-2.0 if reject else -1.0)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
 def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key, thresholds, bin_start,
           image):
     """Digital numbers of one frame, written into `image` (uint8 or uint16 (H, W)).
@@ -158,35 +160,47 @@ def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, f
     thresholds <= x (see LDRCamera._quantiser), counted from bin_start[b], the count below b / n_bins for the
     bin b of x (bin_start has n_bins + 1 entries). key: 64-bit stream key of the frame.
 
-    Blocks of rows run in parallel, each row in short loops over its pixels that LLVM vectorises (see
-    _poisson_row and _normal_pairs). Every pixel draws from its own streams, so threads do not change the result.
+    Blocks of rows run on sim.parallel's threads (sense_rows releases the GIL; a numba parallel loop would cost
+    seconds of compilation), each row in short loops over its pixels that LLVM vectorises (see _poisson_row and
+    _normal_pairs). Every pixel draws from its own streams, so threads do not change the result.
     """
-    height, width = irradiance.shape
+    args = (irradiance, float(gain), float(dark_e), prnu, dsnu, bool(use_maps), bool(noise), float(read_noise_e),
+            float(full_well_e), np.uint64(key), thresholds, bin_start, image)
+    in_parallel(lambda r0, r1: sense_rows(r0, r1, *args), irradiance.shape[0], _MIN_ROWS)
+
+
+_MIN_ROWS = 16  # rows per thread at least: smaller parts cost more in hand-over than they save
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def sense_rows(r0, r1, irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key,
+               thresholds, bin_start, image):
+    """Rows r0 .. r1 - 1 of sense."""
+    width = irradiance.shape[1]
     normal_key = key ^ _NORMAL_SALT  # a second family of streams for the read noise
     n_pairs = (width + 1) // 2
-    rows_per_block = 8  # scratch arrays are allocated per block of rows
-    for blk in prange((height + rows_per_block - 1) // rows_per_block):
-        lam = np.empty(width)
-        e_t = np.empty(width)
-        streams = np.empty(width, dtype=np.uint64)
-        f = np.empty((10, width))
-        bits = np.empty((3, width), dtype=np.int64)
-        z = np.zeros(2 * n_pairs)
-        for r in range(blk * rows_per_block, min(height, (blk + 1) * rows_per_block)):
-            for c in range(width):
-                if use_maps:
-                    e = irradiance[r, c] * gain * prnu[r, c] + dark_e + dsnu[r, c]
-                else:
-                    e = irradiance[r, c] * gain + dark_e
-                lam[c] = max(e, 0.0)
-                streams[c] = mix64(key ^ (np.uint64(r * width + c) * GOLDEN))
-            if noise:
-                _poisson_row(lam, streams, e_t, f, bits)
-                if read_noise_e > 0.0:
-                    _normal_pairs(normal_key, np.uint64(r * n_pairs), read_noise_e, z)
+    lam = np.empty(width)
+    e_t = np.empty(width)
+    streams = np.empty(width, dtype=np.uint64)
+    f = np.empty((10, width))
+    bits = np.empty((3, width), dtype=np.int64)
+    z = np.zeros(2 * n_pairs)
+    for r in range(r0, r1):
+        for c in range(width):
+            if use_maps:
+                e = irradiance[r, c] * gain * prnu[r, c] + dark_e + dsnu[r, c]
             else:
-                e_t[:] = lam
-            _quantise_row(e_t, z, full_well_e, thresholds, bin_start, image[r])
+                e = irradiance[r, c] * gain + dark_e
+            lam[c] = max(e, 0.0)
+            streams[c] = mix64(key ^ (np.uint64(r * width + c) * GOLDEN))
+        if noise:
+            _poisson_row(lam, streams, e_t, f, bits)
+            if read_noise_e > 0.0:
+                _normal_pairs(normal_key, np.uint64(r * n_pairs), read_noise_e, z)
+        else:
+            for c in range(width):
+                e_t[c] = lam[c]
+        _quantise_row(e_t, z, full_well_e, thresholds, bin_start, image[r])
 
 
 @njit(cache=True, error_model="numpy")
@@ -215,8 +229,8 @@ def _normal_pairs(key, first_pair, sigma, z):
     bits = np.empty(n, dtype=np.int64)
     for j in range(n):
         s = mix64(key ^ ((first_pair + np.uint64(j)) * GOLDEN))
-        u1[j] = _uniform(s, 1)
-        z[2 * j] = _uniform(s, 2)
+        u1[j] = _uniform(s, _DRAW1)
+        z[2 * j] = _uniform(s, _DRAW2)
     log_row(u1, bits, lg)
     for j in range(n):
         radius = sigma * math.sqrt(-2.0 * lg[j])

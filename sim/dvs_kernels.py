@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernel_math import GOLDEN, expm1_row, log_row, mix64
+from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
@@ -40,14 +40,14 @@ def log_response(a, bits, out):
         out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _uniform(pixel_key, counter):
     """Uniform draw in (0, 1] number `counter` of the pixel's stream."""
     z = mix64(pixel_key + counter * GOLDEN)
     return (float(z >> _S11) + 1.0) * _TWO_M53
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _drop_arrivals(budget, rate, duration, pixel_key, counter):
     """Run a Poisson clock (remaining unit-exponential budget) through a dead time; arrivals are lost.
 
@@ -416,7 +416,7 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
             src_i[q] = i
             src_j[q] = j
             q += 1
-    order = np.argsort(tt, kind="mergesort")
+    order = stable_argsort(tt)
     for q in range(m):
         i, j = src_i[order[q]], src_j[order[q]]
         bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import intrinsic
 
 GOLDEN = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64 stream increment
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -22,7 +24,27 @@ _ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2**52: (x + M) - M rounds x to an int
 _SQRT_HALF_BITS = np.int64(0x3FE6A09E667F3BCD)  # bit pattern of sqrt(1/2)
 
 
-@njit(cache=True, inline="always")
+@intrinsic
+def _as_int64(typingctx, x):
+    """The bits of a float64 as an int64 (no conversion; a bit cast, cheaper to compile than an array view)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.int64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _as_float64(typingctx, x):
+    """The float64 whose bits are the int64 x (a bit cast)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.float64))
+
+    return types.float64(types.int64), codegen
+
+
+@njit(cache=True)
 def mix64(z):
     """splitmix64 finaliser: a bijective 64-bit hash."""
     z = (z ^ (z >> _S30)) * _M1
@@ -33,14 +55,13 @@ def mix64(z):
 @njit(cache=True, error_model="numpy")
 def log_row(a, bits, out):
     """out = log(a) for positive normal a (within 1e-15 absolute); written so that LLVM vectorises it."""
-    ab = a.view(np.int64)
     for i in range(a.size):
-        e = (ab[i] - _SQRT_HALF_BITS) >> 52  # exponent that puts the mantissa in [sqrt(1/2), sqrt(2))
-        bits[i] = ab[i] - (e << 52)
+        ab = _as_int64(a[i])
+        e = (ab - _SQRT_HALF_BITS) >> 52  # exponent that puts the mantissa in [sqrt(1/2), sqrt(2))
+        bits[i] = ab - (e << 52)
         out[i] = float(e)
-    m = bits.view(np.float64)
     for i in range(a.size):
-        x = m[i]
+        x = _as_float64(bits[i])
         s = (x - 1.0) / (x + 1.0)  # log(x) = 2 atanh(s), |s| <= 0.172
         z = s * s
         p = 2.0 / 19.0
@@ -81,6 +102,39 @@ def expm1_row(a, bits, out):
         p = p * r + 0.5
         out[i] = (p * r + 1.0) * r  # expm1(r)
         bits[i] = (np.int64(k) + 1023) << 52  # 2^k
-    two_k = bits.view(np.float64)
     for i in range(a.size):
-        out[i] = two_k[i] * out[i] + (two_k[i] - 1.0)
+        two_k = _as_float64(bits[i])
+        out[i] = two_k * out[i] + (two_k - 1.0)
+
+
+@njit(cache=True)
+def stable_argsort(keys):
+    """Indices that sort the int64 keys stably (ties keep their order): an LSD radix sort on 11-bit digits of
+    keys - min(keys), as many passes as the range needs. Compiles in a fraction of the time of numba's
+    np.argsort(kind="mergesort") and is faster on the event times it sorts."""
+    n = keys.size
+    order = np.arange(n)
+    if n < 2:
+        return order
+    lo, hi = keys[0], keys[0]
+    for i in range(n):
+        lo = min(lo, keys[i])
+        hi = max(hi, keys[i])
+    span = np.uint64(hi - lo)  # exact even when the difference overflows int64
+    tmp = np.empty(n, dtype=np.int64)
+    count = np.empty(2049, dtype=np.int64)
+    shift = np.uint64(0)
+    while shift < np.uint64(64) and (span >> shift) != np.uint64(0):
+        for d in range(2049):
+            count[d] = 0
+        for i in range(n):
+            count[np.int64((np.uint64(keys[order[i]] - lo) >> shift) & np.uint64(0x7FF)) + 1] += 1
+        for d in range(2048):
+            count[d + 1] += count[d]
+        for i in range(n):
+            d = np.int64((np.uint64(keys[order[i]] - lo) >> shift) & np.uint64(0x7FF))
+            tmp[count[d]] = order[i]
+            count[d] += 1
+        order, tmp = tmp, order
+        shift += np.uint64(11)
+    return order

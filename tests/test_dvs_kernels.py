@@ -24,3 +24,12 @@ def test_expm1_row_matches_numpy_and_saturates():
     out = np.empty_like(deep)
     K.expm1_row(deep, np.empty(deep.size, dtype=np.int64), out)
     assert np.all(out == -1.0)
+
+
+def test_stable_argsort_matches_numpy_stable_sort():
+    rng = np.random.default_rng(2)
+    cases = [np.zeros(0, np.int64), np.array([7]), rng.integers(0, 3, 500), rng.integers(-40_000, 40_000, 3000),
+             rng.integers(-2**62, 2**62, 3000), np.array([2**62, -2**62, 0, 2**62, -2**62, 0])]
+    for keys in cases:
+        keys = np.asarray(keys, dtype=np.int64)
+        assert np.array_equal(K.stable_argsort(keys), np.argsort(keys, kind="stable"))  # ties keep their order
