@@ -123,7 +123,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
             saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
             saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
             saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
-        cnt = 0
+        cnt = np.int64(0)  # an int64 from the start: a literal 0 compiles _pixel_events twice
         t0 = t_prev
         # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
         for k in range(n):
