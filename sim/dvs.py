@@ -130,7 +130,6 @@ class DVSEmulator:
         self._row_rate: float | None = None  # events per frame of the busiest row in the last block
         self._bufs = None
         self._rows = np.arange(self.height, dtype=np.int64)
-        self._no_src = np.zeros(self.height, dtype=np.bool_)
 
     # ----- inspectable state -----
     @property
@@ -274,19 +273,23 @@ class DVSEmulator:
         bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
         span = int(times[0] - t_prev)
-        # one frame: each thread also counts its rows' event times for the sort (one meeting of the threads fewer)
+        # one frame: each thread also counts its rows' event times for the sort (no second pass over the events)
         counts = {} if n == 1 and h * cap > 4096 and span <= 4 * h * cap + 1024 else None
-        self._emulate(frames, times, t_prev, rows, cap, bufs_a, ends, counts, span)
+        spills = self._emulate(frames, times, t_prev, cap, bufs_a, ends, counts, span)
         over = np.flatnonzero(ends[:, -1] > cap)
         offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
-        if over.size:  # rows that overflowed were rolled back: rerun them with room for all their events
-            cap_b = int(ends[over, -1].max())
-            bufs_b, ends_b = _new_buffers(over.size * cap_b), np.zeros((over.size, n), dtype=np.int64)
-            self._emulate(frames, times, t_prev, over, cap_b, bufs_b, ends_b)
-            ends[over] = ends_b
+        if over.size:  # rows that outgrew their buffer have all their events in the blocks' spills
+            firsts = sorted(spills)
+            bufs_b = tuple(np.concatenate([spills[a][f] for a in firsts]) for f in range(4))
+            done = 0
+            for a in firsts:
+                spill_start = spills[a][4]
+                mine = spill_start >= 0
+                offsets[a:a + spill_start.size][mine] = done + spill_start[mine]
+                done += spills[a][0].size
             src_b[over] = True
-            offsets[over] = np.arange(over.size) * cap_b
-        starts, first_out = K.interval_plan(ends)
+        starts, first_out = np.empty((h, n + 1), dtype=np.int64), np.empty(n + 1, dtype=np.int64)
+        K.interval_plan(ends, starts, first_out)
         total = int(first_out[-1])
         events, labels = np.empty(total, dtype=EVENT_DTYPE), np.empty(total, dtype=np.uint8)  # all fields written
 
@@ -295,65 +298,61 @@ class DVSEmulator:
                             labels)
 
         if counts is not None and span <= 4 * total + 1024:
-            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels,
-                             None if over.size else counts)
+            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, counts)
         else:
             in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
 
-    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, span, events, labels, parts) -> None:
-        """gather_sorted for a single frame interval, split by rows over the threads: a counting sort whose
-        per-part counts (parts: first row -> (end row, counts per microsecond), or None to count them here) are
-        merged, part p's events of time t going after those of the parts before it."""
-        rows = self._rows
-        if parts is None:
-            parts = {}
-
-            def count(a, b):
-                parts[a] = (b, np.zeros(span + 1, dtype=np.int64))
-                K.count_times(a, b, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, parts[a][1])
-
-            in_parallel(count, self.height, max(1, self.height // 2))
+    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, parts) -> None:
+        """gather_sorted for a single frame interval, from the event times counted per part of rows (parts: first
+        row -> (end row, counts per microsecond)): a serial counting sort (a second meeting of the threads would
+        cost more than it saves)."""
         firsts = sorted(parts)
+        bounds = np.array([*firsts, self.height], dtype=np.int64)
         counts = np.stack([parts[a][1] for a in firsts])
-        per_t = counts.sum(axis=0)
-        pos = (np.cumsum(per_t) - per_t) + np.cumsum(counts, axis=0) - counts  # (first index of each us) + parts'
+        K.scatter_parts(bounds, counts, self._rows, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels)
 
-        def scatter(p0, p1):
-            for p in range(p0, p1):
-                a = firsts[p]
-                K.scatter_events(a, parts[a][0], rows, bufs_a, bufs_b, src_b, offsets, starts, 0, t_prev, pos[p],
-                                 events, labels)
+    def _emulate(self, frames, times, t_prev, cap, bufs, ends, counts=None, span=0) -> dict:
+        """K.emulate_rows over blocks of all rows on the numba threads (row y's events at bufs[.][y * cap:]).
 
-        in_parallel(scatter, len(firsts), 1, per_thread=2)
-
-    def _emulate(self, frames, times, t_prev, rows, cap, bufs, ends, counts=None, span=0) -> None:
-        """K.emulate_rows over blocks of `rows` on the numba threads (row i's events at bufs[.][i * cap:]).
-
-        counts: a dict, or None; for one frame, gets first row -> (end row, counts of the block's event times per
-        microsecond of the interval of length span) for _gather_one (meaningless if a row overflowed)."""
+        Returns first row of each block -> its spill (see K.emulate_rows). counts: a dict, or None; for one frame,
+        gets first row -> (end row, counts of the block's event times per microsecond of the interval of length
+        span) for _gather_one."""
+        rows, spills = self._rows, {}
 
         def block(a, b):
             part = tuple(buf[a * cap:b * cap] for buf in bufs)
-            K.emulate_rows(frames, times, t_prev, rows[a:b], cap, self._state, self._fixed, self._scal, *part,
-                           ends[a:b])
+            c = np.zeros(span + 1 if counts is not None else 0, dtype=np.int64)
+            spills[a] = _returning_arrays(K.emulate_rows, frames, times, t_prev, rows[a:b], cap, self._state,
+                                          self._fixed, self._scal, *part, ends[a:b], c)
             if counts is not None:
-                c = np.zeros(span + 1, dtype=np.int64)
-                starts = np.zeros((b - a, 2), dtype=np.int64)
-                starts[:, 1] = np.minimum(ends[a:b, 0], cap)
-                K.count_times(0, b - a, part, part, self._no_src[:b - a], self._rows[:b - a] * cap, starts, 0,
-                              t_prev, c)
                 counts[a] = (b, c)
 
         in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))), per_thread=2)
+        return spills
 
     def _buffers(self, n: int):
         """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
         if self._bufs is None or self._bufs[0].size < n:
             self._bufs = _new_buffers(n)
         return self._bufs
+
+
+def _returning_arrays(kernel, *args):
+    """kernel(*args) for a numba kernel that returns arrays. Numba runs Python code to box them (it unpickles their
+    dtype), where a signal's handler may raise (Ctrl-C's KeyboardInterrupt, the CLI's SIGTERM exception); numba then
+    raises SystemError around it: raise the handler's exception instead, as anywhere else in Python code."""
+    try:
+        return kernel(*args)
+    except SystemError as e:
+        cause = e
+        while isinstance(cause, SystemError) and cause.__cause__ is not None:
+            cause = cause.__cause__
+        if cause is e:
+            raise
+        raise cause from None
 
 
 def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

@@ -82,7 +82,8 @@ def frames_valid(frames):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, out_x, out_p, out_lab, ends):
+def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, out_x, out_p, out_lab, ends,
+                 t_counts):
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
     state: (cur, logi, lf, ref, tref, e_shot, e_hot) float64 (H, W) arrays plus last_t int64 (H, W) and ctr
@@ -90,8 +91,12 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
         uint8, all (H, W). scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate) (rates per
         us, k_cut per us per radiance).
     Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
-    event count after frame k. A row with more than cap events is rolled back to its state at entry (so it can be
-    rerun with a larger buffer) and only its total ends[i, -1] is meaningful.
+    event count after frame k. A row with more than cap events continues in a buffer of its own and all its events
+    go to the spill instead: returns the spill (t, x, p, label) arrays and spill_start (rows.size,), the index of
+    row i's first event in the spill or -1 (rare: the caller sizes cap from the recent event rate). No state is
+    saved for a rerun, which would cost a pass over the state per call (as much as the rest when fed one frame).
+    t_counts: empty, or for a single frame (times[0] - t_prev + 1,) int64 to which the number of events at each
+    microsecond t_prev + i is added (the first pass of the counting sort, while the rows' events are in cache).
 
     A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has exactly
     one crossing and no noise arrival in the interval: that case is computed for all busy columns of the row at
@@ -105,24 +110,22 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     w = cur.shape[1]
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
-    saved_f, saved_i, saved_u = np.empty((7, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)
-    sf, si, slow = np.empty((16, w)), np.empty((3, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
-    f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:16]
+    sf, si, slow = np.empty((17, w)), np.empty((3, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:17]
     todo, te_j, code_j = si[0], si[1], si[2]
+    sv_f, sv_i, sv_u = np.empty((4, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)  # slow pixels
     # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
     # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
     F = max(1, min(n, 32768 // w))
     c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
     bits = np.empty(F * w, dtype=np.int64)
+    sp_t, sp_x, sp_p, sp_lab = _grown(out_t, out_x, out_p, out_lab, 0, 0, 0)  # the spill, empty
+    sp_n = 0
+    spill_start = np.full(rows.size, -1, dtype=np.int64)
     for i in range(rows.size):
         y = np.uintp(rows[i])
-        base = i * cap
-        # the row's state at entry, for the rollback (element loops: a row assignment would compile numba's
-        # shape-mismatch error path, seconds of compilation for nothing)
-        for x in range(w):
-            saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x] = cur[y, x], logi[y, x], lf[y, x], ref[y, x]
-            saved_f[4, x], saved_f[5, x], saved_f[6, x] = tref[y, x], e_shot[y, x], e_hot[y, x]
-            saved_i[x], saved_u[x] = last_t[y, x], ctr[y, x]
+        # where the row's events go: T, X, P, L from index base, room for lim (a buffer of its own once outgrown)
+        T, X, P, L, base, lim = out_t, out_x, out_p, out_lab, i * cap, np.int64(cap)
         cnt = np.int64(0)  # an int64 from the start: a literal 0 compiles _pixel_events twice
         t0 = t_prev
         # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
@@ -193,8 +196,12 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 G[6, j] = np.float64(c_off[y, x])
                 G[7, j] = e_shot[y, x] - lam_t[x] * hf
                 G[8, j] = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
-                G[9, j] = 1.0 if (refractory == 0) | (last_t[y, x] + refractory < t0) else 0.0
-            for j in range(n_busy):  # the one-crossing case for all busy columns at once (vectorised)
+                blind0 = last_t[y, x] >= blind_from  # blind at t0: wakes (and resets) s0 into the interval
+                G[9, j] = 1.0 if blind0 else 0.0
+                G[10, j] = float(last_t[y, x] + refractory - t0) if blind0 else 0.0
+            # The common cases for all busy columns at once (vectorised), each with no noise arrival: exactly one
+            # crossing, or (for a pixel blind at t0) none, the pixel waking in the interval or staying blind.
+            for j in range(n_busy):
                 f0 = G[0, j]
                 f1 = G[1, j]
                 r = G[2, j]
@@ -204,15 +211,22 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 coff = G[6, j]
                 es = G[7, j]
                 eh = G[8, j]
+                blind0 = G[9, j] != 0.0
+                s0 = G[10, j]
                 g = (f1 - f0) / hf
                 m = g + dr
+                r = f0 + g * s0 if blind0 else r  # the reset at the wake-up (s0 = 0 when awake at t0)
+                tr = float(t0) + s0 if blind0 else tr
                 target = con if m > 0.0 else -coff
-                sc = (target - (f0 - r + dr * (t0 - tr))) * (1.0 / m if m != 0.0 else 0.0)
-                sc = sc if sc > 0.0 else 0.0
+                d0 = f0 + g * s0 - r + dr * ((t0 - tr) + s0)
+                sc = s0 + (target - d0) * (1.0 / m if m != 0.0 else 0.0)
+                sc = sc if sc > s0 else s0
                 sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
                 d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
                 at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
                 sc = hf if at_end & (sc > hf) else sc
+                fires = (s0 < hf) & (m != 0.0) & (sc <= hf)  # (s0 >= hf: blind over the whole interval)
+                quiet = (s0 >= hf) | (m == 0.0) | (sc > hf)
                 te = t0 + np.int64(math.ceil(sc))
                 te = te if te > t0 else t0 + 1
                 sb = float(te + refractory - t0)
@@ -220,45 +234,88 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
                 tr2 = float(t0) + (sb if refractory > 0 else sc)
                 d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
-                ok = ((es > 0.0) & (eh > 0.0) & (m != 0.0) & (sc <= hf) & (G[9, j] != 0.0)
-                      & (blind_after | ((d_end < con) & (d_end > -coff))))
+                one = fires & (blind_after | ((d_end < con) & (d_end > -coff)))
+                ok = (es > 0.0) & (eh > 0.0) & (one | (blind0 & quiet))
                 leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
                 te_j[j] = te
-                # code: 0 not this case; else 1 + 2 * polarity bit + 4 * leak label + 8 * reference unchanged
-                code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * blind_after) if ok else 0
-                r2_j[j] = r2
-                tr2_j[j] = tr2
+                # code: 0 not these cases; else 1 + 2 * polarity bit + 4 * leak label + 8 * blind throughout (the
+                # reference unchanged) + 16 * an event
+                reset = fires & ((refractory == 0) | (sb < hf))  # a reset after the event, in the interval
+                code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * (s0 >= hf) + 16 * fires) if ok else 0
+                r2_j[j] = r2 if reset else r
+                tr2_j[j] = tr2 if reset else tr
                 es_j[j] = es
                 eh_j[j] = eh
-            for j in range(n_busy):
-                x = np.uintp(todo[j])
-                code = code_j[j]
-                if code != 0:
-                    if cnt < cap:
-                        out_t[base + cnt] = te_j[j]
-                        out_x[base + cnt] = x
-                        out_p[base + cnt] = 1 if code & 2 else -1
-                        out_lab[base + cnt] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
-                    cnt += 1
-                    e_shot[y, x] = es_j[j]
-                    e_hot[y, x] = eh_j[j]
-                    last_t[y, x] = te_j[j]
-                    if not code & 8:
-                        ref[y, x] = r2_j[j]
-                        tref[y, x] = tr2_j[j]
-                else:
-                    e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x], cnt = _pixel_events(
-                        t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate if hot[y, x] else 0.0, rows[i] * w + todo[j],
-                        todo[j], refractory, key, e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x],
-                        ctr[y, x], np.float64(c_on[y, x]), np.float64(c_off[y, x]), drift[y, x], out_t, out_x, out_p,
-                        out_lab, base, cap, cnt)
+            # The busy columns' events, in column order. The loop can run again from the start if the row outgrows
+            # its buffer (rare): it reads the slow pixels' state from where it saved it on their first visit, so a rerun
+            # gives the same events and state (the buffer is replaced here, not in the loop: array variables
+            # reassigned inside a loop cost reference counting on every iteration).
+            n_saved = 0  # slow pixels j < n_saved have their state at entry saved
+            while True:
+                n_ev, need = cnt, np.int64(0)
+                for j in range(n_busy):
+                    x = np.uintp(todo[j])
+                    code = code_j[j]
+                    if code != 0:
+                        if code & 16:
+                            if n_ev == lim:
+                                need = n_ev + n_busy
+                                break
+                            T[base + n_ev] = te_j[j]
+                            X[base + n_ev] = x
+                            P[base + n_ev] = 1 if code & 2 else -1
+                            L[base + n_ev] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
+                            n_ev += 1
+                            last_t[y, x] = te_j[j]
+                        e_shot[y, x] = es_j[j]
+                        e_hot[y, x] = eh_j[j]
+                        if not code & 8:
+                            ref[y, x] = r2_j[j]
+                            tref[y, x] = tr2_j[j]
+                    else:
+                        if j >= n_saved:
+                            sv_f[0, j], sv_f[1, j] = e_shot[y, x], e_hot[y, x]
+                            sv_f[2, j], sv_f[3, j] = ref[y, x], tref[y, x]
+                            sv_i[j], sv_u[j] = last_t[y, x], ctr[y, x]
+                            n_saved = j + 1
+                        es, eh, r, tr, lt, c, n_new = _pixel_events(
+                            t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate if hot[y, x] else 0.0,
+                            rows[i] * w + todo[j], todo[j], refractory, key, sv_f[0, j], sv_f[1, j], sv_f[2, j],
+                            sv_f[3, j], sv_i[j], sv_u[j], np.float64(c_on[y, x]), np.float64(c_off[y, x]),
+                            drift[y, x], T, X, P, L, base, lim, n_ev)
+                        if n_new > lim:
+                            need = n_new + n_busy
+                            break
+                        e_shot[y, x], e_hot[y, x], ref[y, x], tref[y, x], last_t[y, x], ctr[y, x] = es, eh, r, tr, lt, c
+                        n_ev = n_new
+                if need == 0:
+                    break
+                T, X, P, L = _grown(T, X, P, L, base, cnt, 2 * need)  # the row's events before this interval
+                base, lim = 0, T.size
+            cnt = n_ev
             ends[i, k] = cnt
             t0 = t1
-        if cnt > cap:
-            for x in range(w):
-                cur[y, x], logi[y, x], lf[y, x], ref[y, x] = saved_f[0, x], saved_f[1, x], saved_f[2, x], saved_f[3, x]
-                tref[y, x], e_shot[y, x], e_hot[y, x] = saved_f[4, x], saved_f[5, x], saved_f[6, x]
-                last_t[y, x], ctr[y, x] = saved_i[x], saved_u[x]
+        if t_counts.size:
+            for q in range(cnt):
+                t_counts[np.uintp(T[base + q] - t_prev)] += 1
+        if cnt > cap:  # the row's events, all in its own buffer, go to the spill
+            if sp_n + cnt > sp_t.size:
+                sp_t, sp_x, sp_p, sp_lab = _grown(sp_t, sp_x, sp_p, sp_lab, 0, sp_n, 2 * (sp_n + cnt))
+            for q in range(cnt):
+                sp_t[sp_n + q], sp_x[sp_n + q], sp_p[sp_n + q], sp_lab[sp_n + q] = T[q], X[q], P[q], L[q]
+            spill_start[i] = sp_n
+            sp_n += cnt
+    return sp_t[:sp_n], sp_x[:sp_n], sp_p[:sp_n], sp_lab[:sp_n], spill_start
+
+
+@njit(cache=True)
+def _grown(t, x, p, lab, base, n, size):
+    """New event arrays (t, x, p, label) of `size` holding the n events at index base of the given ones."""
+    t2, x2 = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.uint16)
+    p2, lab2 = np.empty(size, dtype=np.int8), np.empty(size, dtype=np.uint8)
+    for q in range(n):
+        t2[q], x2[q], p2[q], lab2[q] = t[base + q], x[base + q], p[base + q], lab[base + q]
+    return t2, x2, p2, lab2
 
 
 @njit(cache=True)
@@ -369,18 +426,19 @@ def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0
 
 
 @njit(cache=True)
-def interval_plan(ends):
-    """starts[i, k]: row i's first buffered event of interval k; first_out[k]: interval k's first output index."""
+def interval_plan(ends, starts, first_out):
+    """Fill starts (rows, n + 1), row i's first buffered event of interval k at [i, k], and first_out (n + 1,),
+    interval k's first output index (arguments, not returned: see sim.dvs._returning_arrays)."""
     n_rows, n = ends.shape
-    starts = np.zeros((n_rows, n + 1), dtype=np.int64)
-    first_out = np.zeros(n + 1, dtype=np.int64)
+    for k in range(n + 1):
+        first_out[k] = 0
     for i in range(n_rows):  # element loops: array expressions would compile numba's shape-error path
+        starts[i, 0] = 0
         for k in range(n):
             starts[i, k + 1] = ends[i, k]
             first_out[k + 1] += ends[i, k] - (ends[i, k - 1] if k > 0 else 0)
     for k in range(n):
         first_out[k + 1] += first_out[k]
-    return starts, first_out
 
 
 @njit(cache=True)
@@ -443,6 +501,21 @@ def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t
             q = np.uintp(pos[b])
             pos[b] = q + 1
             _put(events, labels, q, bt[j], bx[j], y, bp[j], bl[j])
+
+
+@njit(cache=True, nogil=True)
+def scatter_parts(bounds, counts, row_ids, bufs_a, bufs_b, src_b, offsets, starts, t_lo, events, labels):
+    """Write the events of a single frame interval (k = 0) sorted by (t, y, x), counted per part of the rows:
+    counts[p, t - t_lo] events at t in rows bounds[p] .. bounds[p + 1] - 1 (overwritten with their positions)."""
+    acc = 0
+    for b in range(counts.shape[1]):  # part p's events at t go after those of the earlier t, then earlier parts
+        for p in range(counts.shape[0]):
+            c = counts[p, b]
+            counts[p, b] = acc
+            acc += c
+    for p in range(counts.shape[0]):
+        scatter_events(bounds[p], bounds[p + 1], row_ids, bufs_a, bufs_b, src_b, offsets, starts, 0, t_lo, counts[p],
+                       events, labels)
 
 
 @njit(cache=True, inline="always")

@@ -75,8 +75,9 @@ def test_events_sorted_by_time_then_row_then_column_within_frame_interval():
     assert events["t"].min() > times[0] and events["t"].max() <= times[-1]
 
 
-def test_small_buffers_rerun_rows_without_changing_events():
-    """Rows overflowing the first event buffer are rolled back and rerun: same events as a roomy run."""
+def test_small_buffers_spill_rows_without_changing_events():
+    """Rows outgrowing the first event buffer continue in buffers of their own (grown as often as needed) and are
+    gathered from the spill: the same events and state as a roomy run."""
     frames, times = moving_scene()
     a = sim.DVSEmulator(H, W, NOISY, seed=4)
     a.feed(frames[:5], times[:5])
@@ -85,11 +86,13 @@ def test_small_buffers_rerun_rows_without_changing_events():
     b.feed(frames[:5], times[:5])
     b._row_rate = 100.0
     assert a.feed(frames[5:], times[5:]).tobytes() == b.feed(frames[5:], times[5:]).tobytes()
+    for x, y in zip(a._state, b._state):
+        np.testing.assert_array_equal(x, y)
 
 
 def test_single_frame_feeds_at_high_event_rates_match_one_stack():
-    """Frame by frame, the counting sort is split by rows over the threads (its counts taken by the emulating
-    threads, or recounted after a buffer overflow): the same events as one stack, on one thread or several."""
+    """Frame by frame, the emulating threads count their rows' event times (spilled rows included) for one
+    counting sort: the same events as one stack, on one thread or several."""
     rng = np.random.default_rng(5)
     frames = np.exp(rng.uniform(-3, 3, (6, 128, 64))).astype(np.float32)  # several events per pixel and frame
     times = np.arange(6, dtype=np.int64) * 1000
@@ -101,7 +104,7 @@ def test_single_frame_feeds_at_high_event_rates_match_one_stack():
             emu = sim.DVSEmulator(128, 64, NOISY, seed=5, return_labels=True)  # two row parts (64 rows)
             parts = [emu.feed(frames[0], times[0])]
             for k in range(1, 6):
-                if k == 4:  # buffers of 121 events per row (~166 needed): rows overflow and are rerun
+                if k == 4:  # buffers of 121 events per row (~166 needed): rows overflow and spill
                     emu._row_rate = 70.0
                 parts.append(emu.feed(frames[k], times[k]))
             joined = (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
@@ -109,6 +112,43 @@ def test_single_frame_feeds_at_high_event_rates_match_one_stack():
             assert as_bytes(joined) == as_bytes(whole)
     finally:
         numba.set_num_threads(before)
+
+
+def test_an_exception_a_signal_handler_raises_while_numba_boxes_arrays_surfaces_as_itself():
+    """Numba boxes returned arrays with Python code, where a signal handler's exception (Ctrl-C, the CLI's SIGTERM)
+    would come out as a SystemError: the emulator's kernel calls re-raise the handler's exception itself."""
+    import signal
+
+    from numba import njit
+
+    from sim.dvs import _returning_arrays
+
+    @njit(nogil=True)
+    def two_arrays(n):
+        a = np.empty(n)
+        for i in range(n):
+            a[i] = 0.5 * i
+        return a[:2], np.zeros(3, dtype=np.int64)
+
+    class Stop(Exception):
+        pass
+
+    def handler(*_):
+        raise Stop
+
+    two_arrays(10)
+    previous = signal.signal(signal.SIGALRM, handler)
+    try:
+        for k in range(20):  # a bare call gives SystemError in most of these
+            signal.setitimer(signal.ITIMER_REAL, 2e-4 + 2e-5 * k)
+            with pytest.raises(Stop):
+                while True:
+                    _returning_arrays(two_arrays, 20000)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    with pytest.raises(SystemError):  # other SystemErrors pass unchanged
+        _returning_arrays(lambda: (_ for _ in ()).throw(SystemError("other")))
 
 
 def test_in_parallel_runs_every_part_once_and_reraises():
