@@ -167,19 +167,19 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                     lf[y, x] = l_ch[o + x]
                     logi[y, x] = l_ch[o + x]
                     lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
-            # Quiet pixels (no crossing, no noise arrival, not blind) only run their noise clocks. The
-            # comparison is linear in time, so there is no crossing iff the end point is inside the band.
-            # (One loop: a second loop reading back `slow` stalled on store forwarding from masked vector stores.)
+            # Quiet pixels (no crossing, no shot-noise arrival, not blind, not hot) only run their shot-noise clock.
+            # The comparison is linear in time, so there is no crossing iff the end point is inside the band. Hot
+            # pixels (a few) always take the busy path, so this loop, which streams every pixel's state, leaves out
+            # their noise clock. (One loop: a second loop reading back `slow` stalled on store forwarding from masked
+            # vector stores.)
             blind_from = t0 - refractory if refractory > 0 else np.iinfo(np.int64).max  # blind iff last_t >= it
             for x in range(w):
                 d1 = lf[y, x] - ref[y, x] + drift[y, x] * ((t0 - tref[y, x]) + hf)
                 es = e_shot[y, x] - lam_t[x] * hf
-                eh = e_hot[y, x] - (hot_rate if hot[y, x] else 0.0) * hf
-                busy = ((d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0) | (eh <= 0.0)
-                        | (last_t[y, x] >= blind_from))
+                busy = ((d1 >= np.float64(c_on[y, x])) | (d1 <= -np.float64(c_off[y, x])) | (es <= 0.0)
+                        | (hot[y, x] != 0) | (last_t[y, x] >= blind_from))
                 slow[x] = busy
                 e_shot[y, x] = e_shot[y, x] if busy else es
-                e_hot[y, x] = e_hot[y, x] if busy else eh
             n_busy = 0
             for x in range(w):  # branch-free compaction of the busy columns
                 todo[n_busy] = x
