@@ -119,8 +119,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     F = max(1, min(n, 32768 // w))
     c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
     bits = np.empty(F * w, dtype=np.int64)
-    sp_t, sp_x, sp_p, sp_lab = _grown(out_t, out_x, out_p, out_lab, 0, 0, 0)  # the spill, empty
-    sp_n = 0
+    zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
+    sp_t, sp_x, sp_p, sp_lab = _grown(out_t, out_x, out_p, out_lab, zero, zero, zero)  # the spill, empty
+    sp_n = zero
     spill_start = np.full(rows.size, -1, dtype=np.int64)
     for i in range(rows.size):
         y = np.uintp(rows[i])
@@ -291,7 +292,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 if need == 0:
                     break
                 T, X, P, L = _grown(T, X, P, L, base, cnt, 2 * need)  # the row's events before this interval
-                base, lim = 0, T.size
+                base, lim = zero, np.int64(T.size)
             cnt = n_ev
             ends[i, k] = cnt
             t0 = t1
@@ -300,7 +301,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 t_counts[np.uintp(T[base + q] - t_prev)] += 1
         if cnt > cap:  # the row's events, all in its own buffer, go to the spill
             if sp_n + cnt > sp_t.size:
-                sp_t, sp_x, sp_p, sp_lab = _grown(sp_t, sp_x, sp_p, sp_lab, 0, sp_n, 2 * (sp_n + cnt))
+                sp_t, sp_x, sp_p, sp_lab = _grown(sp_t, sp_x, sp_p, sp_lab, zero, sp_n, 2 * (sp_n + cnt))
             for q in range(cnt):
                 sp_t[sp_n + q], sp_x[sp_n + q], sp_p[sp_n + q], sp_lab[sp_n + q] = T[q], X[q], P[q], L[q]
             spill_start[i] = sp_n
