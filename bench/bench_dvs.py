@@ -138,14 +138,17 @@ def run(height: int, width: int, n_frames: int, preset: str, fps: float, block: 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=3000, help="frames timed at 346x260 (default 3000)")
-    ap.add_argument("--frames-hd", type=int, default=300, help="frames timed at 1280x720 (default 300)")
+    ap.add_argument("--frames", type=int, default=3000, help="frames timed at 346x260 (default 3000; 0 skips)")
+    ap.add_argument("--frames-hd", type=int, default=300, help="frames timed at 1280x720 (default 300; 0 skips)")
     ap.add_argument("--preset", default="davis346", help="DVS preset (default davis346)")
     ap.add_argument("--fps", type=float, default=1000.0, help="frame rate of the input video (default 1000)")
     ap.add_argument("--block", type=int, default=0, help="frames per feed() call (default: the emulator's block)")
     ap.add_argument("--speed", type=float, default=0.2, help="scene motion in pixels per frame (default 0.2)")
     args = ap.parse_args()
-    run(260, 346, args.frames, args.preset, args.fps, args.block, args.speed)
+    if min(args.frames, args.frames_hd, args.block) < 0 or args.fps <= 0:
+        ap.error("--frames, --frames-hd and --block must be >= 0 and --fps > 0")
+    if args.frames > 0:
+        run(260, 346, args.frames, args.preset, args.fps, args.block, args.speed)
     if args.frames_hd > 0:
         run(720, 1280, args.frames_hd, args.preset, args.fps, args.block, args.speed)
 
