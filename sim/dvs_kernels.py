@@ -98,10 +98,10 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     t_counts: empty, or for a single frame (times[0] - t_prev + 1,) int64 to which the number of events at each
     microsecond t_prev + i is added (the first pass of the counting sort, while the rows' events are in cache).
 
-    A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has exactly
-    one crossing and no noise arrival in the interval: that case is computed for all busy columns of the row at
-    once in branch-free loops (vectorised; the same arithmetic as _pixel_events for it), the others run
-    _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of inlined
+    A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has no noise
+    arrival in the interval and either exactly one crossing or, blind at its start, wakes (or stays blind) without
+    one: those cases are computed for all busy columns of the row at once in branch-free loops (vectorised; the
+    same arithmetic as _pixel_events for them), the others (a hot pixel without a crossing too) run _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of inlined
     or called functions, cost reference counting (atomic operations) each time.
     """
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
