@@ -101,8 +101,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has no noise
     arrival in the interval and either exactly one crossing or, blind at its start, wakes (or stays blind) without
     one: those cases are computed for all busy columns of the row at once in branch-free loops (vectorised; the
-    same arithmetic as _pixel_events for them), the others (a hot pixel without a crossing too) run _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of inlined
-    or called functions, cost reference counting (atomic operations) each time.
+    same arithmetic as _pixel_events for them), the others (a hot pixel without a crossing too) run
+    _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of
+    inlined or called functions, cost reference counting (atomic operations) each time.
     """
     cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
     c_on, c_off, drift, hot = fixed
