@@ -90,6 +90,27 @@ def test_small_buffers_spill_rows_without_changing_events():
         np.testing.assert_array_equal(x, y)
 
 
+def test_a_row_outgrowing_its_buffer_many_times_in_one_interval_keeps_every_event():
+    """A 50x brightness step with no refractory: each pixel fires floor(ln 50 / C) = 19 ON events within one frame
+    interval (its own _pixel_events path), so rows sized for 16 events outgrow their buffer several times."""
+    ideal = sim.DVSParams.preset("ideal")
+    rng = np.random.default_rng(3)
+    base = np.exp(rng.uniform(-2, 2, (40, 64))).astype(np.float32)
+    frames, times = np.stack([base, base, base * 50]), np.array([0, 1000, 2000], dtype=np.int64)
+    out = []
+    for row_rate in (0.0, 4096.0):  # buffers of 16 events per row, or room for all
+        emu = sim.DVSEmulator(40, 64, ideal, seed=1, return_labels=True)
+        emu.feed(frames[:2], times[:2])
+        emu._row_rate = row_rate
+        out.append((as_bytes(emu.feed(frames[2], times[2])), emu._state))
+    assert out[0][0] == out[1][0]
+    for a, b in zip(out[0][1], out[1][1]):
+        np.testing.assert_array_equal(a, b)
+    events = sim.emulate(frames, times, ideal, seed=1)
+    assert events.size == 40 * 64 * int(np.log(50) / 0.2) and np.all(events["p"] == 1)
+    assert events.tobytes() == out[0][0][:events.nbytes]
+
+
 def test_single_frame_feeds_at_high_event_rates_match_one_stack():
     """Frame by frame, the emulating threads count their rows' event times (spilled rows included) for one
     counting sort: the same events as one stack, on one thread or several."""
