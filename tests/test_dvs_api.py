@@ -81,7 +81,7 @@ def test_small_buffers_spill_rows_without_changing_events():
     frames, times = moving_scene()
     a = sim.DVSEmulator(H, W, NOISY, seed=4)
     a.feed(frames[:5], times[:5])
-    a._row_rate = 0.0  # force overflow and reruns of busy rows
+    a._row_rate = 0.0  # buffers of 16 events per row: busy rows outgrow them
     b = sim.DVSEmulator(H, W, NOISY, seed=4)
     b.feed(frames[:5], times[:5])
     b._row_rate = 100.0
