@@ -228,7 +228,6 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
                 sc = hf if at_end & (sc > hf) else sc
                 fires = (s0 < hf) & (m != 0.0) & (sc <= hf)  # (s0 >= hf: blind over the whole interval)
-                quiet = (s0 >= hf) | (m == 0.0) | (sc > hf)
                 te = t0 + np.int64(math.ceil(sc))
                 te = te if te > t0 else t0 + 1
                 sb = float(te + refractory - t0)
@@ -237,7 +236,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                 tr2 = float(t0) + (sb if refractory > 0 else sc)
                 d_end = f1 - r2 + dr * ((t0 - tr2) + hf)
                 one = fires & (blind_after | ((d_end < con) & (d_end > -coff)))
-                ok = (es > 0.0) & (eh > 0.0) & (one | (blind0 & quiet))
+                ok = (es > 0.0) & (eh > 0.0) & (one | (blind0 & (not fires)))  # (a blind pixel without an event)
                 leak = (m > 0.0) & (dr * ((t0 - tr) + sc) >= 0.5 * con)
                 te_j[j] = te
                 # code: 0 not these cases; else 1 + 2 * polarity bit + 4 * leak label + 8 * blind throughout (the
