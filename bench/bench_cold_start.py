@@ -6,7 +6,7 @@ empty cache, and the whole run's CPU and wall time.
 Runs the demo in this process with NUMBA_CACHE_DIR pointed at a new empty folder (or DIR), listening to numba's
 compile events. Each kernel's time is its own (exclusive) thread CPU time, without the kernels it compiles in turn,
 so the column sums to the total; specialisations (one line per signature) show extra compiles. The kernels the
-demo's child process compiles in the background (generators.precompile) count as its CPU time; --serial runs
+demo's child process compiles in the background (evsim_app.precompile) count as its CPU time; --serial runs
 without it. CPU time rather than wall: the machine is shared. It is not a test.
 """
 
@@ -28,7 +28,7 @@ def main() -> None:
         i = argv.index("--keep-cache")
         cache = argv[i + 1]
         del argv[i:i + 2]
-    serial = "--serial" in argv  # no background compilation (generators.precompile), for comparison
+    serial = "--serial" in argv  # no background compilation (evsim_app.precompile), for comparison
     if serial:
         argv.remove("--serial")
     cache = cache or tempfile.mkdtemp(prefix="evsim-numba-")
@@ -60,12 +60,12 @@ def main() -> None:
                 local.stack[-1][1] += total
 
     ev.register("numba:compile", Compiles())
-    from generators.cli import main as cli_main
+    from evsim_app.cli import main as cli_main
 
     if serial:
-        import generators.precompile
+        import evsim_app.precompile
 
-        generators.precompile.start_background_compile = lambda: None
+        evsim_app.precompile.start_background_compile = lambda: None
 
     c_import = time.process_time() - c0
     cli_main(["demo", "--out", out, "--no-progress", *argv])
@@ -88,7 +88,7 @@ def main() -> None:
     total = sum(per_kernel.values())
     print(f"compilation in this process: {total:.1f} CPU-s over {len(per_kernel)} kernels, {len(own)} specialisations")
     print(f"whole run: {cpu:.1f} CPU-s in this process (imports {c_import:.1f}) + {child_cpu:.1f} CPU-s in child "
-          f"processes (generators.precompile), {wall:.1f} s wall, {os.cpu_count()} cores")
+          f"processes (evsim_app.precompile), {wall:.1f} s wall, {os.cpu_count()} cores")
 
 
 if __name__ == "__main__":

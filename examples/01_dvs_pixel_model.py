@@ -13,7 +13,7 @@ import numpy as np
 
 import sim
 from _shared import output_dir
-from generators.plots.common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
+from evsim_app.plots.common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
 
 DT_US, DURATION_US = 200, 500_000
 CASES = [

@@ -12,8 +12,8 @@ import numpy as np
 
 import sim
 from _shared import output_dir
-from generators.plots.common import pyplot, save_figure
-from generators.plots.events import event_frame, event_frame_rgb
+from evsim_app.plots.common import pyplot, save_figure
+from evsim_app.plots.events import event_frame, event_frame_rgb
 from generators.scenes import MovingEdge
 
 H, W, DURATION_US = 48, 64, 1_000_000

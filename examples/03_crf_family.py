@@ -12,8 +12,8 @@ import numpy as np
 import crf_models
 from _shared import output_dir
 from generators.scenes import builtin_hdr_image
-from generators.plots import ToneMap, plot_crfs
-from generators.plots.common import pyplot, save_figure
+from evsim_app.plots import ToneMap, plot_crfs
+from evsim_app.plots.common import pyplot, save_figure
 
 SHOWN = ("linear", "gamma", "srgb", "filmic", "window")
 

@@ -1,7 +1,7 @@
 """A noise-sweep study: how reconstruction quality degrades with DVS shot noise and threshold mismatch.
 
 generators.sweep writes one sequence per grid point (the same scene and seeds, only the swept DVS parameters
-change); generators.plots.plot_sweep scores the AKF, the complementary filter and frames only on each (against the
+change); evsim_app.plots.plot_sweep scores the AKF, the complementary filter and frames only on each (against the
 HDR reference, between the first and last frame) and draws each metric against each swept parameter.
 
 Run: python examples/05_noise_sweep.py [--out FOLDER]
@@ -9,7 +9,7 @@ Run: python examples/05_noise_sweep.py [--out FOLDER]
 
 from _shared import output_dir
 from generators.config import build_scene, parse_config, to_ahdr_config
-from generators.plots import plot_sweep
+from evsim_app.plots import plot_sweep
 from generators.sweep import generate_sweep
 
 GRID = {"shot_noise_hz": [0.0, 5.0, 20.0], "threshold_sigma": [0.0, 0.06]}

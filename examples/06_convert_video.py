@@ -19,8 +19,8 @@ import numpy as np
 from _shared import output_dir
 from generators.convert import convert
 from generators.formats import load
-from generators.plots.common import pyplot, save_figure
-from generators.plots.events import event_frame, event_frame_rgb, event_rate
+from evsim_app.plots.common import pyplot, save_figure
+from evsim_app.plots.events import event_frame, event_frame_rgb, event_rate
 from generators.scenes import Trajectory, builtin_image_scene
 
 BIKES = Path(__file__).resolve().parents[2] / "shared" / "data" / "video" / "bikes.mp4"

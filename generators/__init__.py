@@ -1,6 +1,11 @@
-"""Scenes and HDR sources, dataset generators, file formats and the evsim command line."""
+"""Generation: scenes and HDR sources, AHDR sequences, datasets, sweeps, video conversion, configurations and the
+runner that runs one task per sequence anywhere; file formats and the Recording in `generators.formats`."""
+
+from . import moved
 
 __all__ = ["load"]
+
+moved.install()
 
 
 def __getattr__(name: str):

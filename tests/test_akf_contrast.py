@@ -99,7 +99,7 @@ def test_carried_calibration_learns_a_pixel_threshold_and_shrinks_to_the_pooled_
 def test_interleave_on_a_davis_like_export_estimates_the_contrast_and_tunes(ideal_linear, tmp_path):
     """A real DAVIS recording carries neither contrast nor CRF: exported so (IJRR layout), the interleave protocol
     estimates the thresholds from the events and the fed frames only, and the tuning protocol runs on it."""
-    from generators.evaluation import evaluate_dataset, recording_task
+    from evsim_eval.evaluate import evaluate_dataset, recording_task
     from generators.formats import export
 
     bare = dataclasses.replace(ideal_linear, crf=None, metadata={}, threshold_maps=None)

@@ -3,7 +3,7 @@ import subprocess
 import sys
 
 from generators import load
-from generators.cli import main
+from evsim_app.cli import main
 
 SMALL = ["--duration-s", "0.05", "--height", "8", "--width", "10", "--no-progress"]
 
@@ -100,7 +100,7 @@ def test_unexpected_errors_exit_1(monkeypatch, tmp_path, capsys):
 
 
 def test_console_entry_point_help_documents_units():
-    out = subprocess.run([sys.executable, "-m", "generators.cli", "generate", "ahdr", "--help"],
+    out = subprocess.run([sys.executable, "-m", "evsim_app.cli", "generate", "ahdr", "--help"],
                          capture_output=True, text=True, check=True).stdout
     for unit in ("seconds", "pixels", "microseconds", "frames per second", "pixels per second", "Hz"):
         assert unit in out

@@ -21,7 +21,7 @@ import dask  # noqa: E402
 import cloudpickle  # noqa: E402
 
 import sim  # noqa: E402
-from generators.cli import main  # noqa: E402
+from evsim_app.cli import main  # noqa: E402
 from generators.config import load_config  # noqa: E402
 from generators.dataset import generate_dataset  # noqa: E402
 from generators.formats import load  # noqa: E402
@@ -162,7 +162,7 @@ def test_a_killed_worker_costs_only_its_task_and_resume_completes(serial, cluste
 
 def test_an_interrupted_run_resumes_to_the_same_dataset(serial, cluster, config_file, tmp_path, capsys):
     out = tmp_path / "d"
-    cmd = [sys.executable, "-m", "generators.cli", "generate", "ahdr", "--config", str(config_file), "--out", str(out),
+    cmd = [sys.executable, "-m", "evsim_app.cli", "generate", "ahdr", "--config", str(config_file), "--out", str(out),
            "--no-progress"]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:

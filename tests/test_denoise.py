@@ -1,4 +1,4 @@
-"""Event denoisers (akf.denoise) scored against the emulator's per-event labels (generators.denoising): the TPR/FPR
+"""Event denoisers (akf.denoise) scored against the emulator's per-event labels (evsim_eval.denoisers): the TPR/FPR
 arithmetic on a hand-made stream, the hot-pixel filter against the emulator's hot-pixel mask, the correlation
 filter's ROC under rising shot noise, the library wrappers against the libraries, and the CLI / plot / sweep."""
 
@@ -21,7 +21,7 @@ from akf.denoise import (
     hot_pixel_map,
     keep_mask,
 )
-from generators.denoising import filter_roc, rates, roc_auc
+from evsim_eval.denoisers import filter_roc, rates, roc_auc
 from sim import EvsimInputError, make_events
 
 H, W = 32, 48
@@ -208,8 +208,8 @@ def labelled_dataset(tmp_path_factory):
 
 
 def test_evaluate_task_denoise_prints_and_writes_scores(labelled_dataset, tmp_path, capsys):
-    from generators.cli import main
-    from generators.evaluation import evaluate_recording
+    from evsim_app.cli import main
+    from evsim_eval.evaluate import evaluate_recording
     from generators.formats import load
 
     js = tmp_path / "dn.json"
@@ -231,7 +231,7 @@ def test_evaluate_task_denoise_prints_and_writes_scores(labelled_dataset, tmp_pa
 
 def test_evaluate_task_denoise_needs_labels(tmp_path, capsys):
     from generators.ahdr import AHDRConfig, generate_ahdr
-    from generators.cli import main
+    from evsim_app.cli import main
     from generators.scenes import MovingEdge
 
     cfg = AHDRConfig(dvs=sim.DVSParams.preset("ideal"), camera=sim.CameraParams(fps=50.0, exposure_us=2000))
@@ -249,8 +249,8 @@ def _has_matplotlib() -> bool:
 @pytest.mark.skipif(not _has_matplotlib(), reason="matplotlib is not installed (pip install 'evsim[plot]')")
 def test_plot_roc_and_auc_sweep(labelled_dataset, tmp_path):
     from generators.ahdr import AHDRConfig
-    from generators.cli import main
-    from generators.plots.sweep import sweep_metrics
+    from evsim_app.cli import main
+    from evsim_app.plots.sweep import sweep_metrics
     from generators.scenes import MovingEdge
     from generators.sweep import generate_sweep
 

@@ -1,4 +1,4 @@
-"""`evsim evaluate` / `evsim reconstruct` and generators.evaluation: scores checked against akf.evaluate_sequence
+"""`evsim evaluate` / `evsim reconstruct` and evsim_eval.evaluate: scores checked against akf.evaluate_sequence
 run directly, the recorded unit factor against its closed form, EXR output read back, the interleave protocol on
 the IJRR and AKF .mat layouts, and bad inputs -> exit 2."""
 
@@ -13,8 +13,8 @@ import crf_models
 import sim
 from generators import load
 from generators.ahdr import AHDRConfig, generate_ahdr
-from generators.cli import main
-from generators.evaluation import evaluate_dataset, reference_to_x
+from evsim_app.cli import main
+from evsim_eval.evaluate import evaluate_dataset, reference_to_x
 from generators.formats import export
 from generators.formats.exr import read_exr_sequence
 from generators.scenes import MovingEdge
@@ -214,7 +214,7 @@ def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, messa
 
 def test_tune_searches_on_the_tuning_split_and_scores_on_the_rest(dataset, tmp_path, capsys):
     from akf.tuning import setting_options
-    from generators.evaluation import recording_task, split_times
+    from evsim_eval.evaluate import recording_task, split_times
 
     tuning = {}
     result, notes = evaluate_dataset(dataset, methods=("cf", "frames"), metrics=("mse01", "ssim01"), tune=True,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from generators.formats.atomic import atomic_path
-from generators.recording import Recording
+from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
 
 H, W = 6, 8

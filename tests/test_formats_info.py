@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from generators.formats import DatasetFormatError, export
-from generators.info import describe, format_description
-from generators.recording import Recording
+from evsim_app.info import describe, format_description
+from generators.formats.recording import Recording
 from sim import make_events
 
 

@@ -16,7 +16,7 @@ from generators.formats import (DatasetFormatError, ExportDropWarning, detect, e
                                 to_tonic)
 from generators.formats.native import write_native
 from generators.formats.prophesee import PropheseeWriter
-from generators.recording import Recording
+from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
 from test_formats_common import H, T0, W, make_recording
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from generators.formats import DatasetFormatError, export, load
-from generators.info import describe
+from evsim_app.info import describe
 from test_formats_common import assert_recordings_equal
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"

@@ -262,7 +262,7 @@ def test_akf_contrast_is_bounded_at_its_boundary():
 
 
 def test_reconstruct_refuses_an_existing_output_unless_overwrite(tmp_path):
-    from generators.cli import main
+    from evsim_app.cli import main
     from test_formats_common import make_recording
 
     from generators.formats import export

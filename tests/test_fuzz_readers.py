@@ -1,7 +1,7 @@
 """Fuzz suite: seeded mutants of files written by evsim's own writers, fed to generators.load.
 
 Every outcome must be a Recording that satisfies every documented rule (checked here independently of
-generators.recording.validate_recording), or a DatasetFormatError naming the file; never another exception type,
+generators.formats.recording.validate_recording), or a DatasetFormatError naming the file; never another exception type,
 never a hang (each case runs under a SIGALRM time bound). EVSIM_FUZZ_N sets the mutants per layout (default 40
 in CI: about 250 cases; EVSIM_FUZZ_N=350 runs 2,000+). EVSIM_FUZZ_SEED shifts the seeds.
 """
@@ -19,7 +19,7 @@ import pytest
 
 import fuzz_mutators as fm
 from generators.formats import DatasetFormatError, export, load
-from generators.recording import Recording
+from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
 from test_formats_common import make_recording
 
@@ -268,7 +268,7 @@ def test_streaming_readers_validate_too(originals, tmp_path):
 
 
 def test_evsim_info_and_evaluate_refuse_a_zero_width_file(originals, tmp_path):
-    from generators.cli import main
+    from evsim_app.cli import main
 
     p = _native(originals, tmp_path, lambda f: f.attrs.__setitem__("width", 0))
     assert main(["info", str(p)]) == 2

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from generators.evaluation import dataset_sequences
+from evsim_eval.evaluate import dataset_sequences
 from generators.formats import DatasetFormatError, load
 from generators.formats.exr import read_exr_sequence
 
@@ -31,7 +31,7 @@ SMALL = ["--duration-s", "0.3", "--height", "24", "--width", "32", "--no-progres
 
 
 def cli(*args) -> list[str]:
-    return [sys.executable, "-m", "generators.cli", *map(str, args)]
+    return [sys.executable, "-m", "evsim_app.cli", *map(str, args)]
 
 
 def start_and_kill(cmd, watch: Path, sig: int, rng) -> int:

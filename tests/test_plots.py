@@ -1,4 +1,4 @@
-"""generators.plots: each figure is rendered from a tiny built-in sequence and checked for content, and the data
+"""evsim_app.plots: each figure is rendered from a tiny built-in sequence and checked for content, and the data
 behind the pixel figure is checked against the ground truth of a noise-free sequence."""
 
 import json
@@ -20,10 +20,10 @@ if not isinstance(matplotlib, types.ModuleType):
     pytest.skip("matplotlib is not installed (pip install 'evsim[plot]')", allow_module_level=True)
 
 import akf  # noqa: E402
-from generators.cli import main  # noqa: E402
+from evsim_app.cli import main  # noqa: E402
 from generators.config import build_scene, parse_config, to_ahdr_config  # noqa: E402
 from generators.ahdr import generate_ahdr  # noqa: E402
-from generators.plots import (  # noqa: E402
+from evsim_app.plots import (  # noqa: E402
     animate,
     event_frame,
     event_rate,
@@ -36,8 +36,8 @@ from generators.plots import (  # noqa: E402
     prepare,
     time_surface,
 )
-from generators.plots.common import MATPLOTLIB_HINT, PlotDependencyError, ToneMap  # noqa: E402
-from generators.plots.pixel import pixel_series  # noqa: E402
+from evsim_app.plots.common import MATPLOTLIB_HINT, PlotDependencyError, ToneMap  # noqa: E402
+from evsim_app.plots.pixel import pixel_series  # noqa: E402
 from generators.sweep import generate_sweep  # noqa: E402
 from sim import EvsimInputError, make_events  # noqa: E402
 
@@ -226,7 +226,7 @@ def test_tone_map_is_monotone_and_bounded():
 
 
 def test_missing_matplotlib_gives_the_install_hint(monkeypatch):
-    from generators.plots.common import pyplot
+    from evsim_app.plots.common import pyplot
 
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # makes `import matplotlib` raise ImportError
     with pytest.raises(PlotDependencyError, match=r"pip install 'evsim\[plot\]'"):
@@ -240,8 +240,8 @@ def test_missing_matplotlib_gives_the_install_hint(monkeypatch):
 
 def test_cli_without_matplotlib_exits_2_with_the_hint(seq):
     code = ("import sys; sys.modules['matplotlib'] = None\n"
-            "import generators.plots\n"
-            "from generators.cli import main\n"
+            "import evsim_app.plots\n"
+            "from evsim_app.cli import main\n"
             f"sys.exit(main(['plot', 'events', {str(seq)!r}]))\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 2 and MATPLOTLIB_HINT in r.stderr and "Traceback" not in r.stderr

@@ -1,4 +1,4 @@
-"""The demo's background compilation (generators.precompile): its toy inputs must stay valid, since the child
+"""The demo's background compilation (evsim_app.precompile): its toy inputs must stay valid, since the child
 runs silently and a failing one would only make the cold demo slow."""
 
 import sys
@@ -8,8 +8,8 @@ import numpy as np
 import crf_models
 from generators import precompile
 from generators.builtin import ahdr_suite_config
-from generators.evaluation import evaluate_recording
-from generators.recording import validate_recording
+from evsim_eval.evaluate import evaluate_recording
+from generators.formats.recording import validate_recording
 
 
 def test_toy_recording_is_valid_and_every_demo_method_reconstructs_it():

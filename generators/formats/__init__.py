@@ -18,7 +18,7 @@ import h5py
 from sim import EvsimInputError
 
 from ..choices import EXPORT_FORMATS, FORMATS
-from ..recording import Recording
+from .recording import Recording
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
 from .common import DatasetFormatError, fail, open_h5, reading, validated
@@ -84,7 +84,7 @@ def load(path) -> Recording:
     """Read a dataset in any readable layout into a Recording (events, frames with exposure times, reference
     frames with times, threshold maps, labels, CRF and metadata, where the layout holds them).
 
-    What a reader returns is checked by generators.recording.validate_recording; every problem (an invalid
+    What a reader returns is checked by generators.formats.recording.validate_recording; every problem (an invalid
     recording, or what h5py, zlib, json, scipy.io or numpy raise on malformed content) is a DatasetFormatError
     naming the file."""
     readers = {"native": read_native, "e2vid": read_e2vid, "ijrr": read_ijrr, "akf-mat": read_akf_mat,

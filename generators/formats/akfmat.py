@@ -30,7 +30,7 @@ from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
-from ..recording import MAX_TIME_US, Recording, validate_recording
+from .recording import MAX_TIME_US, Recording, validate_recording
 from .atomic import atomic_path
 from .common import events_from_columns, fail, open_h5, polarity_pm1, to_json
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
 
-from ..recording import MAX_SENSOR_PX, MAX_TIME_US, validate_recording
+from .recording import MAX_SENSOR_PX, MAX_TIME_US, validate_recording
 
 EVENT_CHUNK = 1 << 20  # events per chunk when streaming between files (about 13 MB as EVENT_DTYPE)
 

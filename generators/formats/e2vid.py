@@ -21,7 +21,7 @@ from collections.abc import Iterator
 import h5py
 import numpy as np
 
-from ..recording import Recording, validate_recording
+from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import (
     append_rows,

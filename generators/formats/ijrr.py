@@ -35,7 +35,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..recording import Recording, validate_recording
+from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import DatasetFormatError, events_from_columns, fail, polarity_pm1, to_json
 from .exr import read_exr_sequence, write_exr_sequence

@@ -34,7 +34,7 @@ from isal import isal_zlib
 
 from sim import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError, validate_events
 
-from ..recording import Recording, validate_recording
+from .recording import Recording, validate_recording
 from .atomic import commit, discard, temp_sibling
 from .common import (
     EVENT_CHUNK,

@@ -31,7 +31,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..recording import Recording, validate_recording
+from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .native import recording_event_chunks

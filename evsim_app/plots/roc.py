@@ -1,6 +1,6 @@
 """ROC curves of event denoisers against evsim's per-event labels (`evsim plot roc DATASET`).
 
-DATASET is a labelled dataset (scored with generators.denoising.evaluate_denoise_dataset, filters only) or the JSON
+DATASET is a labelled dataset (scored with evsim_eval.denoisers.evaluate_denoise_dataset, filters only) or the JSON
 that `evsim evaluate DATASET --task denoise --json FILE` wrote. One panel per noise kind (all noise, then shot, leak
 and hot where the data has such events): TPR on signal events against FPR on that kind's events, one curve per
 filter through its parameter values (the default value ringed), between (0, 0) and (1, 1), with its AUC in the
@@ -31,7 +31,7 @@ def load_roc_result(source, filters=None) -> dict:
                                       f"{', '.join(result['filters'])}")
             result = {**result, "filters": {f: result["filters"][f] for f in filters}}
         return _nan_from_null(result)
-    from ..denoising import evaluate_denoise_dataset
+    from evsim_eval.denoisers import evaluate_denoise_dataset
 
     return evaluate_denoise_dataset(source, filters=filters, reconstruct=False)[0]
 
@@ -47,7 +47,7 @@ def _nan_from_null(obj):
 def plot_roc(result: dict, out, *, title: str | None = None) -> dict:
     """Draw the ROC panels of an evaluate_denoise_dataset result into `out`; returns {filter: {kind: AUC}} of the
     pooled points."""
-    from ..denoising import pooled_points, roc_auc
+    from evsim_eval.denoisers import pooled_points, roc_auc
 
     names = list(result["filters"])
     if not names or not result["sequences"]:

@@ -18,9 +18,9 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..formats import load
-from ..formats.atomic import atomic_path
-from ..recording import Recording
+from generators.formats import load
+from generators.formats.atomic import atomic_path
+from generators.formats.recording import Recording
 
 MATPLOTLIB_HINT = "matplotlib is not installed: pip install 'evsim[plot]'"
 REINHARD_KEY = 0.18
@@ -94,7 +94,7 @@ class ToneMap:
 
 @dataclass
 class Prepared:
-    """A recording ready for akf (built with generators.evaluation's helpers, so plots and scores agree).
+    """A recording ready for akf (built with evsim_eval.evaluate's helpers, so plots and scores agree).
 
     crf: the recorded CRF object (linear when the layout records none). contrast: the nominal (on, off) thresholds
     given to the reconstructions (log units; the per-pixel maps would be an oracle). thresholds: (2, H, W) float64
@@ -134,7 +134,7 @@ def load_recording(path) -> Recording:
 
 def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
     """Check that rec has frames (and a reference in known units when asked) and derive what akf needs."""
-    from ..evaluation import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
+    from evsim_eval.evaluate import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
 
     if rec.frames is None or rec.frames.shape[0] == 0:
         raise EvsimInputError("the dataset has no LDR frames: this plot needs frames and events")

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import sim
 
-from .choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
+from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from .plots.cli import add_plot_parser
-from .runner import TasksFailed, raise_failures
+from generators.runner import TasksFailed, raise_failures
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
@@ -50,7 +50,7 @@ def _settings_from_flags(args) -> dict:
 
 def _scene_sequences(args) -> list[dict]:
     """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
-    from .builtin_sequences import BUILTIN_SEQUENCES
+    from generators.builtin_sequences import BUILTIN_SEQUENCES
 
     if args.image is not None:
         traj = {"pan_px_per_s": list(args.pan), "zoom_per_s": args.zoom, "rotation_deg_per_s": args.rotation,
@@ -70,7 +70,7 @@ _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "expos
 
 
 def _dataset_config(args):
-    from .config import load_config, parse_config
+    from generators.config import load_config, parse_config
 
     if args.config is not None:
         given = [f for f in _SCENE_FLAGS if getattr(args, f) not in (None, False)]
@@ -89,7 +89,7 @@ def _dataset_config(args):
 # ----- subcommands -----------------------------------------------------------------------------------------
 
 def _cmd_generate_ahdr(args) -> int:
-    from .dataset import generate_dataset
+    from generators.dataset import generate_dataset
 
     cfg = _dataset_config(args)
     index = generate_dataset(cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress,
@@ -99,8 +99,8 @@ def _cmd_generate_ahdr(args) -> int:
 
 
 def _cmd_generate_sweep(args) -> int:
-    from .config import build_scene, to_ahdr_config
-    from .sweep import DEFAULT_GRID, GRID_KEYS, generate_sweep
+    from generators.config import build_scene, to_ahdr_config
+    from generators.sweep import DEFAULT_GRID, GRID_KEYS, generate_sweep
 
     cfg = _dataset_config(args)
     spec = cfg.sequences[0]
@@ -121,7 +121,7 @@ def _cmd_generate_sweep(args) -> int:
 def _cmd_convert(args) -> int:
     from types import SimpleNamespace
 
-    from .convert import convert
+    from generators.convert import convert
 
     # the sensor flags as generate reads them, with the LDR camera's frame rate from --camera-fps
     flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "duration_s": None, "height": None,
@@ -152,8 +152,8 @@ def _cmd_info(args) -> int:
 def _cmd_demo(args) -> int:
     import numpy as np
 
-    from .builtin import ahdr_suite, ahdr_suite_config
-    from .dataset import write_sequence
+    from generators.builtin import ahdr_suite, ahdr_suite_config
+    from generators.dataset import write_sequence
     from .precompile import start_background_compile, wait
 
     if args.duration_s <= 0 or args.height <= 0 or args.width <= 0:
@@ -179,9 +179,9 @@ def _cmd_demo(args) -> int:
     if akf is None or not hasattr(akf, "evaluate_sequence"):
         print("(reconstruction skipped: the akf package is not available)")
         return 0
-    from .evaluation import UNITS, evaluate_recording, format_scores
-    from .formats import load
-    from .formats.atomic import write_text_atomic
+    from evsim_eval.evaluate import UNITS, evaluate_recording, format_scores
+    from generators.formats import load
+    from generators.formats.atomic import write_text_atomic
 
     wait(compiling)
     table, _ = evaluate_recording(load(path))
@@ -195,8 +195,8 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from .evaluation import format_table, write_json
-    from .evaluation_tasks import evaluate_dataset_tasks
+    from evsim_eval.evaluate import format_table, write_json
+    from evsim_eval.evaluate_tasks import evaluate_dataset_tasks
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
@@ -220,7 +220,7 @@ def _cmd_evaluate(args) -> int:
 
 def _evaluate_tuned(args) -> int:
     """evaluate --tune: the tuning searches over the whole dataset at once, so it runs in this process."""
-    from .evaluation import evaluate_dataset, format_table, write_json
+    from evsim_eval.evaluate import evaluate_dataset, format_table, write_json
 
     _refuse_run_flags(args, "--tune runs in one process (its search scores every sequence per setting)")
     tuning = {}
@@ -242,7 +242,7 @@ def _refuse_run_flags(args, why: str) -> None:
 
 
 def _evaluate_denoise(args) -> int:
-    from .denoising import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
+    from evsim_eval.denoisers import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
 
     _refuse_run_flags(args, "--task denoise runs in this process")
     filters = None if args.filters is None else _names(args.filters)
@@ -258,7 +258,7 @@ def _evaluate_denoise(args) -> int:
 
 
 def _cmd_reconstruct(args) -> int:
-    from .evaluation import reconstruct_dataset
+    from evsim_eval.evaluate import reconstruct_dataset
 
     if args.leak_hz is not None and args.method != "akf":
         raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
@@ -267,7 +267,7 @@ def _cmd_reconstruct(args) -> int:
         raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
                                   "replace it")
     options = _akf_options(args).get(args.method)
-    from .formats.atomic import atomic_path
+    from generators.formats.atomic import atomic_path
 
     with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
         written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
@@ -358,7 +358,7 @@ def _add_sensor_flags(g) -> None:
 
 
 def _add_scene_flags(p) -> None:
-    from .builtin_sequences import BUILTIN_SEQUENCES
+    from generators.builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
     p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")
@@ -494,7 +494,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
                          "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
                          "methods on events denoised at each filter's default (needs files written with --labels; "
-                         "--json then writes generators.denoising's result)")
+                         "--json then writes the result of evsim_eval.denoisers)")
     dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
@@ -555,7 +555,7 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as e:
-        from .formats.atomic import is_disk_full
+        from generators.formats.atomic import is_disk_full
 
         if is_disk_full(e):
             print(f"evsim: error: disk full or file too large, nothing written in its place: {e}", file=sys.stderr)

@@ -1,10 +1,10 @@
 """Reconstruction error (or a denoiser's ROC AUC) against each swept noise parameter (`evsim plot sweep RESULTS`).
 
 RESULTS is a folder written by `evsim generate sweep` (generators.sweep): index.json lists one sequence per grid
-point with its parameters. Each sequence is scored with generators.evaluation.evaluate_recording (protocol
+point with its parameters. Each sequence is scored with evsim_eval.evaluate.evaluate_recording (protocol
 "reference": the reference frames strictly between the first and last LDR frame, in the CRF's units) for the
 requested metric, or, for the AUC metrics (auc over all noise, auc_shot, auc_leak, auc_hot; the sweep must be
-written with --labels), with generators.denoising for each denoising filter named as a method; the scores are
+written with --labels), with evsim_eval.denoisers for each denoising filter named as a method; the scores are
 cached per method and metric in RESULTS/sweep_metrics.json (written atomically) and reused. With several swept
 parameters, each panel shows the mean over the other parameters' values at each value, with min..max error bars.
 """
@@ -18,13 +18,13 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from ..dataset import INDEX_FILE
-from ..formats.atomic import write_text_atomic
+from generators.dataset import INDEX_FILE
+from generators.formats.atomic import write_text_atomic
 from .common import load_recording, pyplot, read_json, save_figure
 
 METRICS_FILE = "sweep_metrics.json"
 DEFAULT_METHODS = ("akf", "cf", "frames")
-AUC_METRICS = ("auc", "auc_shot", "auc_leak", "auc_hot")  # denoisers' ROC AUC (generators.denoising)
+AUC_METRICS = ("auc", "auc_shot", "auc_leak", "auc_hot")  # denoisers' ROC AUC (evsim_eval.denoisers)
 DEFAULT_FILTERS = ("correlation", "hot_pixel")  # the methods of an AUC sweep by default (evsim's own filters)
 
 
@@ -39,13 +39,13 @@ def read_index(results) -> dict:
 
 
 def score_sequence(path, methods=DEFAULT_METHODS, metrics=("mse",)) -> dict:
-    """{method: {metric: value}} of one sequence file (generators.evaluation, protocol "reference"), or, for
-    AUC_METRICS, {filter: {auc metric: value}} of the denoising filters named by methods (generators.denoising)."""
+    """{method: {metric: value}} of one sequence file (evsim_eval.evaluate, protocol "reference"), or, for
+    AUC_METRICS, {filter: {auc metric: value}} of the denoising filters named by methods (evsim_eval.denoisers)."""
     if any(m in AUC_METRICS for m in metrics):
-        from ..denoising import sequence_aucs
+        from evsim_eval.denoisers import sequence_aucs
 
         return {f: {m: scores[m] for m in metrics} for f, scores in sequence_aucs(path, tuple(methods)).items()}
-    from ..evaluation import evaluate_recording
+    from evsim_eval.evaluate import evaluate_recording
 
     return evaluate_recording(load_recording(path), methods=tuple(methods), metrics=tuple(metrics))[0]
 

@@ -38,10 +38,10 @@ import crf_models
 import sim
 from sim import EvsimInputError
 
-from .formats import detect, load
-from .formats.exr import write_exr_sequence
-from .formats.atomic import write_text_atomic
-from .recording import Recording
+from generators.formats import detect, load
+from generators.formats.exr import write_exr_sequence
+from generators.formats.atomic import write_text_atomic
+from generators.formats.recording import Recording
 
 PROTOCOLS = ("reference", "interleave")
 DEFAULT_METHODS = ("akf", "cf", "frames")

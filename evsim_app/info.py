@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import detect, load
-from .formats.common import json_attr, open_h5
-from .formats.native import iter_native_events, recording_event_chunks
+from generators.formats import detect, load
+from generators.formats.common import json_attr, open_h5
+from generators.formats.native import iter_native_events, recording_event_chunks
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")
 

@@ -1,7 +1,7 @@
 """`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
-this includes a missing matplotlib (generators.plots.common.PlotDependencyError, with the pip command to fix it).
+this includes a missing matplotlib (evsim_app.plots.common.PlotDependencyError, with the pip command to fix it).
 Figures are written atomically; the format follows the --out suffix (.png, .pdf, .svg, ...).
 """
 

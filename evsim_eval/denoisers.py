@@ -11,7 +11,7 @@ and (1, 1) (keep everything), and AUC is the area under it (trapezoids; 1 = perf
 type uses that type's FPR.
 
 Denoise-then-reconstruct: every filter at its default parameter (what a user without labels would run) removes
-events, and generators.evaluation.evaluate_recording scores the AKF and the baselines on what remains, in the same
+events, and evsim_eval.evaluate.evaluate_recording scores the AKF and the baselines on what remains, in the same
 table as on the raw events.
 """
 
@@ -27,10 +27,10 @@ import numpy as np
 from akf.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, filter_available, get_filter
 from sim import EVENT_LABELS, EvsimInputError
 
-from .evaluation import dataset_sequences, evaluate_recording
-from .formats import load
-from .formats.atomic import write_text_atomic
-from .recording import Recording
+from .evaluate import dataset_sequences, evaluate_recording
+from generators.formats import load
+from generators.formats.atomic import write_text_atomic
+from generators.formats.recording import Recording
 
 NOISE_TYPES = EVENT_LABELS[1:]  # ("shot", "leak", "hot")
 DEFAULT_RECONSTRUCT_METRICS = ("mse", "ssim")
@@ -142,7 +142,7 @@ def denoised(rec: Recording, keep) -> Recording:
 def reconstruct_denoised(rec: Recording, filters=None, *, protocol: str = "reference", methods=("akf", "cf"),
                          metrics=DEFAULT_RECONSTRUCT_METRICS, method_options=None) -> dict:
     """{row: {method: {metric: value}}}: row "raw" on all events, then "<filter>(<param>=<default>)" on the
-    events each filter keeps at its default parameter (generators.evaluation.evaluate_recording, same protocol)."""
+    events each filter keeps at its default parameter (evsim_eval.evaluate.evaluate_recording, same protocol)."""
     names, _ = resolve_filters(filters)
     kw = {"protocol": protocol, "methods": tuple(methods), "metrics": tuple(metrics), "method_options": method_options}
     rows = {"raw": evaluate_recording(rec, **kw)[0]}

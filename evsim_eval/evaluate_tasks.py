@@ -1,6 +1,6 @@
 """Dataset evaluation as one task per sequence (generators.runner): serially, on local workers or on a cluster.
 
-evaluate_sequence_file(file, ...) is the task: generators.evaluation.evaluate_recording of the loaded file.
+evaluate_sequence_file(file, ...) is the task: evsim_eval.evaluate.evaluate_recording of the loaded file.
 evaluate_dataset_tasks gathers the tasks' tables into evaluate_dataset's result, {method: {sequence: {metric:
 value}, "mean": {metric: value}}}, the mean taken over the sequences scored; sequences that failed come back
 separately, so the caller reports them with the scores of the others.
@@ -8,10 +8,10 @@ separately, so the caller reports them with the scores of the others.
 
 from __future__ import annotations
 
-from .evaluation import (DEFAULT_METHODS, DEFAULT_METRICS, add_means, check_request, dataset_sequences,
+from .evaluate import (DEFAULT_METHODS, DEFAULT_METRICS, add_means, check_request, dataset_sequences,
                          evaluate_recording)
-from .formats import load
-from .runner import TaskOutcome, run_tasks
+from generators.formats import load
+from generators.runner import TaskOutcome, run_tasks
 
 
 def evaluate_sequence_file(file, *, protocol: str, methods, metrics, method_options) -> tuple[dict, str]:

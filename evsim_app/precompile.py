@@ -25,7 +25,7 @@ def start_background_compile() -> subprocess.Popen | None:
     root = str(Path(__file__).resolve().parents[1])  # the child imports the same evsim as this process
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "generators.precompile"], env=env, stdin=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, "-m", "evsim_app.precompile"], env=env, stdin=subprocess.DEVNULL,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except OSError:
         return None  # the demo then compiles everything itself
@@ -66,7 +66,7 @@ def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events
     threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses."""
     import sim
 
-    from .recording import Recording
+    from generators.formats.recording import Recording
 
     rng = np.random.default_rng(seed)
     period, exposure = 33_333, 10_000
@@ -113,8 +113,8 @@ def main() -> int:
     """The demo's kernels, in the order it needs them after the DVS: the camera's, then the reconstruction's."""
     import crf_models
 
-    from .builtin import ahdr_suite_config
-    from .evaluation import evaluate_recording
+    from generators.builtin import ahdr_suite_config
+    from evsim_eval.evaluate import evaluate_recording
 
     toy_capture(ahdr_suite_config().camera, crf_models.get("window"))
     evaluate_recording(toy_recording())
