@@ -3,8 +3,9 @@
 A setting is a dict of the search parameters of SEARCH_SPACES[method]; setting_options() turns it into the
 method's contrast and keyword options. tune() starts from DEFAULTS (the untuned method) and, for each parameter in
 turn, keeps the value of its grid that minimises the objective with the other parameters at their best so far
-(one sweep: sum of the grid sizes runs, not their product). The objective is the caller's (e.g. the mean MSE of
-the [0, 1] protocol over the tuning split of every sequence); lower is better; ties keep the earlier value.
+(one sweep: sum of the grid sizes runs, not their product); lower is better; ties keep the earlier value.
+tune_cases() is the protocol's objective: the mean of one metric over the tuning split of every sequence (each an
+akf.evaluate.Case), negated for metrics where higher is better.
 
 Parameters (all multiplicative or in the method's units):
 - contrast_scale: multiplies the nominal contrast thresholds (every event-based method).
@@ -30,6 +31,7 @@ import numpy as np
 
 from sim.errors import InvalidParameterError
 
+from .metrics import HIGHER_IS_BETTER
 from .params import AKFParams
 
 _CONTRAST = (0.67, 0.8, 1.0, 1.25, 1.5)
@@ -108,6 +110,19 @@ def tune(method: str, objective, space: dict | None = None) -> Tuned:
                 best, best_v = trial, tv
     trials = tuple((dict(k), v) for k, v in seen.items())
     return Tuned(best, best_v, trials)
+
+
+def tune_cases(method: str, cases, selections, metric: str, space: dict | None = None) -> Tuned:
+    """tune() of `method` on the mean of `metric` over cases[i] (akf.evaluate.Case) scored at its times
+    [selections[i]]; the Tuned objective is that mean (negated where higher is better)."""
+    sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
+
+    def objective(setting):
+        values = [case.scores(case.run(method, sel, setting), sel, (metric,))[metric]
+                  for case, sel in zip(cases, selections)]
+        return sign * float(np.mean(values))
+
+    return tune(method, objective, space)
 
 
 def describe_setting(setting: dict) -> str:

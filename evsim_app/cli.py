@@ -19,9 +19,11 @@ from pathlib import Path
 
 import sim
 
+from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
-from .plots.cli import add_plot_parser
 from generators.runner import TasksFailed, raise_failures
+
+from .plots.cli import add_plot_parser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
@@ -172,14 +174,9 @@ def _cmd_demo(args) -> int:
     print(format_description(describe(path)))
     if args.no_reconstruct:
         return 0
-    try:
-        import akf
-    except ImportError:
-        akf = None
-    if akf is None or not hasattr(akf, "evaluate_sequence"):
-        print("(reconstruction skipped: the akf package is not available)")
-        return 0
-    from evsim_eval.evaluate import UNITS, evaluate_recording, format_scores
+    from evsim_eval.evaluate import evaluate_recording
+    from evsim_eval.protocols import UNITS
+    from evsim_eval.tables import format_scores
     from generators.formats import load
     from generators.formats.atomic import write_text_atomic
 
@@ -195,43 +192,22 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from evsim_eval.evaluate import format_table, write_json
-    from evsim_eval.evaluate_tasks import evaluate_dataset_tasks
+    from evsim_eval.evaluate import evaluate_dataset
+    from evsim_eval.tables import format_table, write_json
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
-    if args.tune:
-        return _evaluate_tuned(args)
-    result, notes, failures = evaluate_dataset_tasks(args.dataset, protocol=args.protocol,
-                                                     methods=_names(args.methods), metrics=_names(args.metrics),
-                                                     method_options=_akf_options(args),
-                                                     progress=False if args.no_progress else None,
-                                                     **_run_options(args))
-    scored = [s for s in next(iter(result.values()), {}) if s != "mean"]
+    scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
+                              metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
+                              tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
+                              progress=False if args.no_progress else None, strict=False, **_run_options(args))
+    scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
-        print(format_table(result, args.protocol, notes))
-    raise_failures("sequences", failures, len(failures) + len(scored),
+        print(format_table(scores.table, args.protocol, scores.notes))
+    raise_failures("sequences", scores.failures, len(scores.failures) + len(scored),
                    "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
     if args.json is not None:
-        write_json(result, args.json)
-        print(f"\nscores written to {args.json}")
-    return 0
-
-
-def _evaluate_tuned(args) -> int:
-    """evaluate --tune: the tuning searches over the whole dataset at once, so it runs in this process."""
-    from evsim_eval.evaluate import evaluate_dataset, format_table, write_json
-
-    _refuse_run_flags(args, "--tune runs in one process (its search scores every sequence per setting)")
-    tuning = {}
-    result, notes = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                                     metrics=_names(args.metrics), method_options=_akf_options(args),
-                                     tune=True, tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
-                                     tuning_out=tuning,
-                                     progress=None if args.no_progress else lambda t: print(t, file=sys.stderr))
-    print(format_table(result, args.protocol, notes))
-    if args.json is not None:
-        write_json(result, args.json, tuning)
+        write_json(scores.table, args.json, scores.tuning)
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -258,7 +234,7 @@ def _evaluate_denoise(args) -> int:
 
 
 def _cmd_reconstruct(args) -> int:
-    from evsim_eval.evaluate import reconstruct_dataset
+    from evsim_eval.reconstruct import reconstruct_dataset
 
     if args.leak_hz is not None and args.method != "akf":
         raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
@@ -468,13 +444,12 @@ def build_parser() -> argparse.ArgumentParser:
                         epilog=EPILOG)
     ev.add_argument("dataset", type=Path, help="a native .h5 file, a dataset folder (index.json or .h5 files), "
                                                "an IJRR folder or an AKF .mat")
-    ev.add_argument("--methods", default="akf,cf,frames", help="comma-separated methods (akf.METHODS; default "
-                                                               "akf,cf,frames)")
-    ev.add_argument("--metrics", default="mse01,ssim01,mse,log_mse,pu21_ssim",
-                    help="comma-separated metrics (akf.METRICS; default mse01,ssim01,mse,log_mse,pu21_ssim: the "
-                         "paper's [0, 1] protocol, raw MSE, log-domain MSE, PU21 SSIM; each table states its "
-                         "normalisation)")
-    ev.add_argument("--protocol", choices=("reference", "interleave"), default="reference",
+    ev.add_argument("--methods", default=",".join(DEFAULT_METHODS),
+                    help=f"comma-separated methods (akf.METHODS; default {','.join(DEFAULT_METHODS)})")
+    ev.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
+                    help=f"comma-separated metrics (akf.METRICS; default {','.join(DEFAULT_METRICS)}: the paper's "
+                         "[0, 1] protocol, raw MSE, log-domain MSE, PU21 SSIM; each table states its normalisation)")
+    ev.add_argument("--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
     ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
@@ -483,10 +458,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
                          "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
                          "every sequence's scored frames; all methods are then scored on the rest")
-    ev.add_argument("--tune-fraction", type=float, default=1 / 3,
-                    help="fraction of each sequence's scored frames that tunes (default 1/3)")
-    ev.add_argument("--tune-metric", default="mse01", help="metric the tuning minimises (maximises for "
-                                                           "SSIM/PSNR; default mse01)")
+    ev.add_argument("--tune-fraction", type=float, default=TUNE_FRACTION,
+                    help=f"fraction of each sequence's scored frames that tunes (default {TUNE_FRACTION:.3g})")
+    ev.add_argument("--tune-metric", default=TUNE_METRIC,
+                    help=f"metric the tuning minimises (maximises for SSIM/PSNR; default {TUNE_METRIC})")
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")

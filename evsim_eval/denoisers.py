@@ -27,7 +27,8 @@ import numpy as np
 from akf.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, filter_available, get_filter
 from sim import EVENT_LABELS, EvsimInputError
 
-from .evaluate import dataset_sequences, evaluate_recording
+from .evaluate import evaluate_recording
+from .protocols import dataset_sequences
 from generators.formats import load
 from generators.formats.atomic import write_text_atomic
 from generators.formats.recording import Recording

@@ -99,18 +99,19 @@ def test_carried_calibration_learns_a_pixel_threshold_and_shrinks_to_the_pooled_
 def test_interleave_on_a_davis_like_export_estimates_the_contrast_and_tunes(ideal_linear, tmp_path):
     """A real DAVIS recording carries neither contrast nor CRF: exported so (IJRR layout), the interleave protocol
     estimates the thresholds from the events and the fed frames only, and the tuning protocol runs on it."""
-    from evsim_eval.evaluate import evaluate_dataset, recording_task
+    from evsim_eval.evaluate import evaluate_dataset
+    from evsim_eval.protocols import recording_case
     from generators.formats import export
 
     bare = dataclasses.replace(ideal_linear, crf=None, metadata={}, threshold_maps=None)
     export(bare, tmp_path / "davis", "ijrr")
-    task, notes = recording_task(load(tmp_path / "davis"), "interleave")
+    task, notes = recording_case(load(tmp_path / "davis"), "interleave")
     assert any("estimated from the data" in n for n in notes) and any("assumed linear" in n for n in notes)
     assert task.contrast == pytest.approx((TRUE_C, TRUE_C), rel=0.15)
     assert task.frames.shape[0] == (ideal_linear.frames.shape[0] + 1) // 2  # held-out frames are not fed
-    tuning = {}
-    result, notes = evaluate_dataset(tmp_path / "davis", protocol="interleave", methods=("akf", "cf", "frames"),
-                                     metrics=("mse01", "ssim01"), tune=True, tuning_out=tuning)
+    result, notes, tuning, _ = evaluate_dataset(tmp_path / "davis", protocol="interleave",
+                                                methods=("akf", "cf", "frames"), metrics=("mse01", "ssim01"),
+                                                tune=True, progress=False)
     assert set(tuning) == {"akf", "cf", "frames"} and "alpha" in tuning["cf"]
     assert any(n.startswith("tuned cf: alpha=") for n in notes)
     assert result["akf"]["davis"]["mse01"] < result["frames"]["davis"]["mse01"]

@@ -22,7 +22,7 @@ HDR_PRESENT = all((hdr_data_dir() / f).is_file() for _, f, _ in AHDR_SUITE_HDR)
 def suite(tmp_path_factory):
     out = tmp_path_factory.mktemp("ahdr_suite")
     generate_ahdr_suite(out, height=64, width=80, duration_s=0.5, seed=0)
-    result, notes = evaluate_dataset(out, methods=("akf", "cf", "frames"), metrics=("mse", "ssim"))
+    result, notes, _, _ = evaluate_dataset(out, methods=("akf", "cf", "frames"), metrics=("mse", "ssim"))
     print("\nAHDR suite 64x80, 0.5 s (MSE in x units, SSIM):")
     for seq in result["akf"]:
         print(f"  {seq:20s} " + "  ".join(f"{m} {result[m][seq]['mse']:.4g}/{result[m][seq]['ssim']:.3f}"

@@ -4,6 +4,7 @@ import sys
 
 from generators import load
 from evsim_app.cli import main
+from evsim_eval.choices import DEFAULT_METRICS
 
 SMALL = ["--duration-s", "0.05", "--height", "8", "--width", "10", "--no-progress"]
 
@@ -16,15 +17,10 @@ def test_demo_generates_and_reports(tmp_path, capsys):
     rec = load(out / "demo.h5")
     assert rec.events.size > 0 and rec.frames.shape[1:] == (24, 32)
     assert f"{rec.events.size} (ON" in text and str(out / "demo.h5") in text
-    try:
-        import akf
-    except ImportError:
-        akf = None
-    if akf is not None and hasattr(akf, "evaluate_sequence"):
-        table = (out / "metrics.txt").read_text()
-        assert table.splitlines()[0].split()[:2] == ["method", "mse"]
-        assert {line.split()[0] for line in table.splitlines()[1:]} == {"akf", "cf", "frames"}
-        assert table in text
+    table = (out / "metrics.txt").read_text()
+    assert table.splitlines()[0].split() == ["method", *DEFAULT_METRICS]
+    assert {line.split()[0] for line in table.splitlines()[1:]} == {"akf", "cf", "frames"}
+    assert table in text
 
 
 def test_generate_refuses_to_overwrite_without_the_flag(tmp_path, capsys):
@@ -106,16 +102,7 @@ def test_console_entry_point_help_documents_units():
         assert unit in out
 
 
-def test_demo_works_without_akf(monkeypatch, tmp_path, capsys):
-    monkeypatch.setitem(sys.modules, "akf", None)  # `import akf` now raises ImportError
-    assert main(["demo", "--out", str(tmp_path), "--duration-s", "0.1", "--height", "12", "--width", "16",
-                 "--no-progress"]) == 0
-    assert "reconstruction skipped" in capsys.readouterr().out
-    assert (tmp_path / "demo.h5").is_file() and not (tmp_path / "metrics.txt").exists()
-
-
-def test_evaluate_modes_that_run_in_one_process_refuse_workers(tmp_path, capsys):
-    # checked before the dataset is read: the tuning search and the denoising task do not run as tasks
-    for extra in (["--tune"], ["--task", "denoise"]):
-        assert main(["evaluate", str(tmp_path), *extra, "--workers", "2"]) == 2
-        assert "drop --workers/--scheduler" in capsys.readouterr().err
+def test_denoise_evaluation_refuses_workers(tmp_path, capsys):
+    # checked before the dataset is read: the denoising task runs in this process
+    assert main(["evaluate", str(tmp_path), "--task", "denoise", "--workers", "2"]) == 2
+    assert "drop --workers/--scheduler" in capsys.readouterr().err

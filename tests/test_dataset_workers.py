@@ -199,12 +199,17 @@ def test_a_failing_sequence_is_reported_and_the_others_complete(cluster, config_
     assert {p.name for p in out.iterdir()} == {f"{n}.h5" for n in NAMES}  # no index.json: not complete
 
 
-def test_evaluate_on_workers_equals_serial(serial, cluster, tmp_path, capsys):
-    common = ["evaluate", str(serial), "--methods", "akf,frames", "--metrics", "mse,ssim"]
+@pytest.mark.parametrize("tune", [[], ["--tune", "--no-progress"]], ids=["untuned", "tuned"])
+def test_evaluate_on_workers_equals_serial(serial, cluster, tmp_path, capsys, tune):
+    # tuning searches in this process, then the sequences are scored where the runner sends them
+    common = ["evaluate", str(serial), "--methods", "akf,frames", "--metrics", "mse,ssim", *tune]
     assert main(common + ["--json", str(tmp_path / "a.json")]) == 0
     assert main(common + ["--json", str(tmp_path / "b.json"), "--scheduler", cluster]) == 0
     a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
     assert a == b and set(a["akf"]) == {*NAMES, "mean"}
+    if tune:
+        assert set(a["tuning"]["akf"]) == {"contrast_scale", "event_noise_scale", "frame_noise_scale",
+                                           "max_intensity"}
 
 
 def test_resume_redoes_what_changed_or_is_unreadable(tmp_path, capsys):

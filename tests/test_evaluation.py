@@ -14,7 +14,8 @@ import sim
 from generators import load
 from generators.ahdr import AHDRConfig, generate_ahdr
 from evsim_app.cli import main
-from evsim_eval.evaluate import evaluate_dataset, reference_to_x
+from evsim_eval.evaluate import evaluate_dataset
+from evsim_eval.protocols import reference_to_x
 from generators.formats import export
 from generators.formats.exr import read_exr_sequence
 from generators.scenes import MovingEdge
@@ -127,7 +128,7 @@ def test_dataset_index_folder_is_read_in_index_order(tmp_path):
     _generate(tmp_path / "z.h5", 2)
     _generate(tmp_path / "y.h5", 3)
     write_index(tmp_path, {"sequences": [{"name": "z", "file": "z.h5"}, {"name": "y", "file": "y.h5"}]})
-    result, notes = evaluate_dataset(tmp_path, methods=("frames",), metrics=("mse",))
+    result, notes, _, _ = evaluate_dataset(tmp_path, methods=("frames",), metrics=("mse",))
     assert list(result["frames"]) == ["z", "y", "mean"] and notes == []
 
 
@@ -156,7 +157,7 @@ def test_interleave_protocol_on_exported_layouts(dataset, tmp_path, layout):
     rec = load(dataset / "a.h5")
     target = tmp_path / ("seq" if layout == "ijrr" else "seq.mat")
     export(rec, target, layout)
-    result, notes = evaluate_dataset(target, protocol="interleave", methods=("akf", "frames"), metrics=("mse",))
+    result, notes, _, _ = evaluate_dataset(target, protocol="interleave", methods=("akf", "frames"), metrics=("mse",))
     # ground truth by hand: odd frames between even ones, x = CRF^-1(frame), frames-only from the even frames
     crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
     fed = np.arange(0, rec.frames.shape[0], 2)
@@ -177,8 +178,8 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     assert main(["evaluate", str(tmp_path / "davis"), "--protocol", "interleave", "--metrics", "mse"]) == 0
     text = capsys.readouterr().out
     assert "assumed linear" in text
-    result, _ = evaluate_dataset(tmp_path / "davis", protocol="interleave", metrics=("mse",))
-    with_crf, _ = evaluate_dataset(tmp_path / "lin.h5", protocol="interleave", metrics=("mse",))
+    result, *_ = evaluate_dataset(tmp_path / "davis", protocol="interleave", metrics=("mse",))
+    with_crf, *_ = evaluate_dataset(tmp_path / "lin.h5", protocol="interleave", metrics=("mse",))
     for m in result:  # the recorded CRF was linear: assuming it changes nothing
         assert result[m]["mean"]["mse"] == pytest.approx(with_crf[m]["mean"]["mse"], rel=1e-9)
 
@@ -213,30 +214,26 @@ def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, messa
 
 
 def test_tune_searches_on_the_tuning_split_and_scores_on_the_rest(dataset, tmp_path, capsys):
-    from akf.tuning import setting_options
-    from evsim_eval.evaluate import recording_task, split_times
+    from evsim_eval.evaluate import split_times
+    from evsim_eval.protocols import recording_case
 
-    tuning = {}
-    result, notes = evaluate_dataset(dataset, methods=("cf", "frames"), metrics=("mse01", "ssim01"), tune=True,
-                                     tuning_out=tuning)
+    result, notes, tuning, _ = evaluate_dataset(dataset, methods=("cf", "frames"), metrics=("mse01", "ssim01"),
+                                                tune=True, progress=False)
     assert set(tuning) == {"cf", "frames"} and tuning["frames"] == {}
     assert any("first 33%" in n for n in notes) and any(n.startswith("tuned cf: alpha=") for n in notes)
-    for name in ("a", "b"):  # the scores are those of the chosen setting on the held-back part only
-        task, _ = recording_task(load(dataset / f"{name}.h5"))
-        tune_sel, score_sel = split_times(task.times.size, 1 / 3)
+    cases = {name: recording_case(load(dataset / f"{name}.h5"))[0] for name in ("a", "b")}
+    for case in cases.values():  # the scores are those of the chosen setting on the held-back part only
+        tune_sel, score_sel = split_times(case.times.size, 1 / 3)
         assert tune_sel.size and score_sel.size and tune_sel[-1] < score_sel[0]
-        contrast, opts = setting_options("cf", tuning["cf"], task.contrast, task.options.get("cf"))
-        direct = task.scores(task.run("cf", score_sel, contrast, opts), score_sel, ("mse01",))
+    for name, case in cases.items():
+        score_sel = split_times(case.times.size, 1 / 3)[1]
+        direct = case.scores(case.run("cf", score_sel, tuning["cf"]), score_sel, ("mse01",))
         assert result["cf"][name]["mse01"] == pytest.approx(direct["mse01"], rel=1e-12)
-    # the tuned setting is no worse than the defaults on the tuning split (it was chosen there)
-    def tuning_objective(setting):
-        values = []
-        for name in ("a", "b"):
-            task, _ = recording_task(load(dataset / f"{name}.h5"))
-            sel = split_times(task.times.size, 1 / 3)[0]
-            contrast, opts = setting_options("cf", setting, task.contrast, task.options.get("cf"))
-            values.append(task.scores(task.run("cf", sel, contrast, opts), sel, ("mse01",))["mse01"])
-        return np.mean(values)
+
+    def tuning_objective(setting):  # the tuned setting is no worse than the defaults on the tuning split
+        sels = [split_times(case.times.size, 1 / 3)[0] for case in cases.values()]
+        return np.mean([c.scores(c.run("cf", sel, setting), sel, ("mse01",))["mse01"]
+                        for c, sel in zip(cases.values(), sels)])
     assert tuning_objective(tuning["cf"]) <= tuning_objective({"alpha": 2 * np.pi * 0.5, "contrast_scale": 1.0})
     out = tmp_path / "t.json"
     assert main(["evaluate", str(dataset), "--methods", "cf", "--metrics", "mse01", "--tune", "--no-progress",

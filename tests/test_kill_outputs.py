@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evsim_eval.evaluate import dataset_sequences
+from evsim_eval.protocols import dataset_sequences
 from generators.formats import DatasetFormatError, load
 from generators.formats.exr import read_exr_sequence
 

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 
 import crf_models
-from generators import precompile
+from evsim_app import precompile
 from generators.builtin import ahdr_suite_config
 from evsim_eval.evaluate import evaluate_recording
 from generators.formats.recording import validate_recording

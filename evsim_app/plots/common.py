@@ -134,7 +134,7 @@ def load_recording(path) -> Recording:
 
 def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
     """Check that rec has frames (and a reference in known units when asked) and derive what akf needs."""
-    from evsim_eval.evaluate import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
+    from evsim_eval.protocols import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
 
     if rec.frames is None or rec.frames.shape[0] == 0:
         raise EvsimInputError("the dataset has no LDR frames: this plot needs frames and events")

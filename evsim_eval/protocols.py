@@ -1,0 +1,206 @@
+"""The evaluation protocols: what every method gets from a recording and what it is scored against (akf.evaluate.Case),
+for the paper's Table 1 (protocol "reference") and supplementary Table 2 (protocol "interleave").
+
+Units. Every method outputs linear intensity in the CRF's scaled-irradiance units "x" of the first input frame's
+exposure (x = 1 is the full well; crf.forward(x) is the normalised response; the AKF and the CF output at most
+their max_intensity, default 1: what the camera can represent). Scores are computed in those units:
+- protocol "reference" (synthetic data with HDR ground truth): the reference radiance is multiplied by
+  reference_to_x(rec) (recorded at generation time as metadata["reference_to_crf_x"], else computed from the
+  recorded camera configuration), and the scored times are the reference times strictly between the first and the
+  last frame's mid-exposure (the filters need a frame on each side).
+- protocol "interleave" (real recordings, paper supplementary Table 2): the even frames 0, 2, 4, ... are the input
+  (with the full event stream) and every odd frame between two of them is the ground truth at its mid-exposure
+  time, as x = CRF^-1(response) * T_0 / T_k. A frame only measures x inside the CRF's range
+  [CRF^-1(0), CRF^-1(1)], so reconstructions are clipped to that range (of the held-out frame's exposure) before
+  scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
+  assumed linear (x = response).
+Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
+The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 the recorded reference_white_radiance (reference
+protocol; else the reference's 98th percentile, with a note) or CRF^-1(1) (interleave: a held-out frame's white).
+Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), the
+thresholds estimated from its events and the fed frames (akf.estimate_contrast; never the held-out frames); the
+AKF also gets its DVS leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see
+akf.reconstruct), unless method_options say otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+import akf
+import crf_models
+import sim
+from akf.evaluate import Case
+from generators.formats import detect
+from generators.formats.recording import Recording
+from sim import EvsimInputError
+
+from .choices import PROTOCOLS
+
+DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
+WHITE = {"reference": " (white = the recorded reference_white_radiance in x units)",
+         "interleave": " (white = CRF^-1(1))"}
+UNITS = {"reference": "x = CRF scaled irradiance of frame 0's exposure (reference radiance * reference_to_crf_x)",
+         "interleave": "x = CRF^-1(held-out frame) of frame 0's exposure; reconstructions clipped to the CRF range"}
+
+
+# ----- what a dataset holds ------------------------------------------------------------------------------------
+
+def dataset_sequences(path) -> list[tuple[str, Path]]:
+    """(name, file) of every sequence of DATASET: a readable file or IJRR folder (one sequence), a generated dataset
+    folder (its index.json), or a folder of native .h5 files."""
+    path = Path(path)
+    if not path.exists():
+        raise EvsimInputError(f"{path}: no such file or directory")
+    if path.is_dir() and (path / "index.json").is_file():
+        try:
+            entries = json.loads((path / "index.json").read_text())["sequences"]
+            return [(e["name"], path / e["file"]) for e in entries]
+        except (ValueError, KeyError, TypeError) as e:
+            raise EvsimInputError(f"{path / 'index.json'}: not a dataset index ({e})") from None
+    if path.is_dir() and not (path / "events.txt").is_file():
+        files = sorted(path.glob("*.h5"))
+        if not files:
+            raise EvsimInputError(f"{path}: a folder with neither index.json, .h5 files nor events.txt")
+        return [(f.stem, f) for f in files]
+    detect(path)  # raises DatasetFormatError (an EvsimInputError) naming the problem
+    return [(path.stem if path.is_file() else path.name, path)]
+
+
+def recording_crf(rec: Recording):
+    """(crf object, note): the recorded CRF, or a linear one (note says so) when the layout carries none."""
+    if rec.crf:
+        try:
+            return crf_models.get(rec.crf["name"], **rec.crf.get("params", {})), ""
+        except (crf_models.CRFError, KeyError, TypeError) as e:
+            raise EvsimInputError(f"cannot rebuild the recorded CRF {rec.crf!r}: {e}") from None
+    return crf_models.get("linear"), "no CRF recorded: assumed linear (x = response)"
+
+
+def _recorded_contrast(rec: Recording):
+    """(ON, OFF) from the recorded DVS configuration, else the AKF .mat's ct, else None."""
+    dvs = rec.metadata.get("config", {}).get("dvs", {})
+    if "pos_threshold" in dvs and "neg_threshold" in dvs:
+        return float(dvs["pos_threshold"]), float(dvs["neg_threshold"])
+    ct = rec.metadata.get("akf_mat", {}).get("ct")
+    if isinstance(ct, (int, float)) and ct > 0:
+        return float(ct), float(ct)
+    return None
+
+
+def recording_contrast(rec: Recording):
+    """Nominal (ON, OFF) contrast thresholds (log units) from the recorded DVS configuration, else the AKF .mat's
+    ct, else estimated from the events and all frames (akf.estimate_contrast), else DEFAULT_CONTRAST. The per-pixel
+    threshold maps are ground truth, not used (a real camera does not know them)."""
+    if rec.frames is None or rec.frames.shape[0] < 2:
+        return _recorded_contrast(rec) or (DEFAULT_CONTRAST, DEFAULT_CONTRAST)
+    return recording_contrast_or_estimate(rec, recording_crf(rec)[0], np.arange(rec.frames.shape[0]))[0]
+
+
+def recording_leak_rate(rec: Recording) -> float:
+    """The DVS's mean leak rate (Hz) from the recorded configuration, else 0 (unknown: the AKF then ignores leak)."""
+    leak = rec.metadata.get("config", {}).get("dvs", {}).get("leak_hz", 0.0)
+    return float(leak) if isinstance(leak, (int, float)) and math.isfinite(leak) and leak > 0 else 0.0
+
+
+def method_options_for(rec: Recording, method_options=None) -> dict:
+    """{method: {keyword: value}}: what the recording tells a method beyond the shared inputs (the AKF's
+    leak_rate_hz), overridden by method_options."""
+    merged = {"akf": {"leak_rate_hz": recording_leak_rate(rec)}}
+    for name, options in (method_options or {}).items():
+        merged[name] = {**merged.get(name, {}), **options}
+    return merged
+
+
+def reference_to_x(rec: Recording) -> float:
+    """The factor from reference radiance to the CRF's x units of frame 0's exposure: metadata
+    "reference_to_crf_x" (written by generators.ahdr), else electrons_per_radiance_us * exposure_0 / full_well_e
+    of the recorded camera configuration (older files)."""
+    factor = rec.metadata.get("reference_to_crf_x")
+    if factor is not None:
+        return float(factor)
+    cam = rec.metadata.get("config", {}).get("camera")
+    if cam is None or rec.frames is None:
+        raise EvsimInputError("the recording has no reference_to_crf_x nor camera configuration: the reference "
+                              "radiance cannot be put in the CRF's units (use --protocol interleave)")
+    params = sim.CameraParams(**{k: tuple(v) if isinstance(v, list) else v for k, v in cam.items()})
+    exposure = int(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
+    return params.electrons_per_radiance_us * exposure / params.full_well_e
+
+
+def check_frames(rec: Recording, need: int, what: str) -> None:
+    n = 0 if rec.frames is None else rec.frames.shape[0]
+    if n < need:
+        raise EvsimInputError(f"{what} needs at least {need} frame{'s' * (need != 1)}, the recording has {n}")
+
+
+# ----- the two protocols -----------------------------------------------------------------------------------------
+
+def recording_case(rec: Recording, protocol: str = "reference", method_options=None) -> tuple[Case, list[str]]:
+    """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made."""
+    crf, note = recording_crf(rec)
+    notes = [note] if note else []
+    options = method_options_for(rec, method_options)
+    if protocol == "reference":
+        check_frames(rec, 2, "protocol 'reference'")
+        if rec.reference is None:
+            raise EvsimInputError("the recording has no HDR reference frames (use --protocol interleave)")
+        inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
+        if not inside.any():
+            raise EvsimInputError("no reference frame lies between the first and the last frame")
+        to_x = reference_to_x(rec)
+        truth = rec.reference[inside] * to_x
+        white_radiance = rec.metadata.get("reference_white_radiance")
+        if isinstance(white_radiance, (int, float)) and white_radiance > 0:
+            white = float(white_radiance) * to_x
+        else:
+            white = float(np.percentile(truth, 98))
+            notes.append("no reference_white_radiance recorded: [0, 1] metrics map the reference's 98th "
+                         "percentile to 1")
+        fed = np.arange(rec.frames.shape[0])
+        times, clip = rec.reference_t_us[inside], None
+    elif protocol == "interleave":
+        check_frames(rec, 3, "protocol 'interleave'")
+        nf = rec.frames.shape[0]
+        fed = np.arange(0, nf, 2)
+        held = np.arange(1, fed[-1], 2)
+        t0 = float(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
+        gains = np.ones(held.size)
+        for i, k in enumerate(held):
+            tk = float(rec.frame_t_end_us[k] - rec.frame_t_start_us[k])
+            gains[i] = t0 / tk if t0 > 0 and tk > 0 else 1.0
+        full = float((1 << rec.frame_bit_depth) - 1)
+        truth = np.stack([g * np.asarray(crf.inverse(rec.frames[k] / full), np.float64)
+                          for g, k in zip(gains, held)])
+        x_lo, x_hi = float(crf.inverse(0.0)), float(crf.inverse(1.0))
+        white, times, clip = x_hi, rec.frame_t_mid_us[held], np.stack([gains * x_lo, gains * x_hi], axis=1)
+    else:
+        raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
+    contrast, c_note = recording_contrast_or_estimate(rec, crf, fed)
+    if c_note:
+        notes.append(c_note)
+    case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
+                rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options)
+    return case, notes
+
+
+def recording_contrast_or_estimate(rec: Recording, crf, fed) -> tuple[tuple, str]:
+    """(ON, OFF) contrast: the recorded one (see recording_contrast), else estimated from the events and the fed
+    frames (akf.estimate_contrast; held-out frames are never used), else DEFAULT_CONTRAST; and a note saying
+    which ("" when recorded)."""
+    recorded = _recorded_contrast(rec)
+    if recorded is not None:
+        return recorded, ""
+    try:
+        est = akf.estimate_contrast(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
+                                    crf, bit_depth=rec.frame_bit_depth)
+    except EvsimInputError as e:
+        return (DEFAULT_CONTRAST, DEFAULT_CONTRAST), f"no contrast recorded, estimation failed ({e}): assumed " \
+                                                     f"{DEFAULT_CONTRAST}"
+    return est.pair, (f"no contrast recorded: estimated from the data, ON {est.c_on:.3f}, OFF {est.c_off:.3f} "
+                      f"({est.n_on} + {est.n_off} unclipped pixel intervals)")
+

@@ -1,0 +1,64 @@
+"""Reconstruction of every sequence of a dataset to files: linear float32 EXR frames with their timestamps
+(`evsim reconstruct`), each method given what the evaluation protocols give it (evsim_eval.protocols)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+import akf
+from generators.formats import load
+from generators.formats.exr import write_exr_sequence
+from generators.formats.recording import Recording
+from sim import EvsimInputError
+
+from .protocols import check_frames, dataset_sequences, method_options_for, recording_contrast, recording_crf
+
+
+def output_times(rec: Recording, times: str) -> np.ndarray:
+    """int64 us output times for --times: "reference" (the reference times from the first exposure start on),
+    "frames" (every frame's mid-exposure) or "fps:N" (N per second from the first exposure start to the last
+    frame's exposure end)."""
+    check_frames(rec, 1, "reconstruction")
+    start, end = int(rec.frame_t_start_us[0]), int(rec.frame_t_end_us[-1])
+    if times == "reference":
+        if rec.reference_t_us is None:
+            raise EvsimInputError("--times reference: the recording has no reference frames (use frames or fps:N)")
+        return rec.reference_t_us[rec.reference_t_us >= start].astype(np.int64)
+    if times == "frames":
+        return rec.frame_t_mid_us.astype(np.int64)
+    if times.startswith("fps:"):
+        try:
+            fps = float(times[4:])
+        except ValueError:
+            fps = math.nan
+        if not (math.isfinite(fps) and fps > 0):
+            raise EvsimInputError(f"--times {times!r}: fps:N needs a positive rate in Hz")
+        return np.arange(start, end + 1, 1e6 / fps).round().astype(np.int64)
+    raise EvsimInputError(f"--times {times!r}: one of reference, frames, fps:N")
+
+
+def reconstruct_dataset(path, out_dir, *, method: str = "akf", times: str = "reference",
+                        method_options=None) -> list[tuple[str, Path, int]]:
+    """Reconstruct every sequence of a dataset with `method` and write float32 EXR folders (frame_NNNNNN.exr and
+    timestamps.txt, see generators.formats.exr; values in x units, see evsim_eval.protocols), atomically.
+    One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""
+    if method not in akf.METHODS:
+        raise EvsimInputError(f"unknown method {method!r}; one of {', '.join(sorted(akf.METHODS))}")
+    sequences = dataset_sequences(path)
+    written = []
+    for name, file in sequences:
+        rec = load(file)
+        t = output_times(rec, times)
+        if t.size == 0:
+            raise EvsimInputError(f"{name}: no output time at or after the first exposure start")
+        crf, _ = recording_crf(rec)
+        images = akf.METHODS[method](rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf, t,
+                                     contrast=recording_contrast(rec), bit_depth=rec.frame_bit_depth,
+                                     **method_options_for(rec, {method: method_options or {}}).get(method, {}))
+        folder = Path(out_dir) if len(sequences) == 1 else Path(out_dir) / name
+        write_exr_sequence(folder, images, t)
+        written.append((name, folder, int(t.size)))
+    return written
