@@ -254,8 +254,8 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
     fr = _Frames(inp, crf, params)
     strong = params.sigma_im2 / params.max_variance
-    noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
-                      leak_rate_hz * 1e-6])
+    noise = kernels.noise_params(params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
+                                 leak_rate_hz * 1e-6)
     s0 = int(inp.t_start[0])
 
     m0, scale0, side0 = fr.interval(0)
@@ -321,8 +321,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     for k in range(nf):
         if j == nt:
             break
-        win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
-                       np.float64)
+        win = kernels.window(inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)])
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
             m_new, scale, side, r_next = pending.result()
             pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
