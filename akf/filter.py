@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -50,6 +51,22 @@ class _Blocks:
         in_parallel(parts, len(self.te), 1)
 
 
+class _Deblurred(NamedTuple):
+    """A frame's EDI-deblurred log image (log(I + I0), flat) at the start and at the end of its exposure."""
+
+    start: np.ndarray
+    end: np.ndarray
+
+
+class _Interval(NamedTuple):
+    """The interval from frame j to frame j + 1, per pixel (flat): its curve is start + scale * (nominal event change
+    since s_j) minus the leak part of those events (see augmented_measurement)."""
+
+    start: np.ndarray  # curve value at s_j, the exposure start of frame j (log)
+    scale: np.ndarray  # contrast calibration (dimensionless): the interval's contrasts are scale * c_on, scale * c_off
+    side: np.ndarray  # clip side: +1 / -1 where both frames are clipped high / low, else 0
+
+
 class _Frames:
     """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
 
@@ -80,32 +97,32 @@ class _Frames:
         table = self._tables[gain]
         return FrameMeasurement(*(np.take(getattr(table, f.name), frame) for f in fields(table)))
 
-    def deblurred(self, k):
-        """(L^D at exposure start, L^D at exposure end) of frame k, flat."""
+    def deblurred(self, k) -> _Deblurred:
+        """L^D of frame k at its exposure start and end."""
         if k not in self._deb:
             self._deb = {j: d for j, d in self._deb.items() if j >= k - 1}
             inp = self.inp
             log = self.measurement(k).log.ravel()
             if self.params.deblur:
                 ev = slice_time(inp.events, int(inp.t_start[k]), int(inp.t_end[k]))
-                self._deb[k] = edi_deblur(log, ev, inp.t_start[k], inp.t_end[k], inp.c_on, inp.c_off, inp.shape[1])
+                self._deb[k] = _Deblurred(*edi_deblur(log, ev, inp.t_start[k], inp.t_end[k], inp.c_on, inp.c_off,
+                                                      inp.shape[1]))
             else:
-                self._deb[k] = (log, log)
+                self._deb[k] = _Deblurred(log, log)
         return self._deb[k]
 
-    def interval(self, j):
-        """(curve value at s_j, contrast scale, clip side) of the interval from frame j to frame j + 1; the side is
-        +1 / -1 where both frames are clipped high / low. The last frame's interval is open-ended: forward
-        integration from its deblurred start with the carried contrast calibration, side of that frame.
+    def interval(self, j) -> _Interval:
+        """The interval from frame j to frame j + 1. The last frame's interval is open-ended: forward integration
+        from its deblurred start with the carried contrast calibration, side of that frame.
         Intervals are taken once each, in order (see akf.augmentation.ContrastCalibration)."""
         if j != self._next:
             raise AssertionError(f"interval {j} taken out of order (expected {self._next})")
         self._next += 1
         inp = self.inp
-        d_start = self.deblurred(j)[0]
+        d_start = self.deblurred(j).start
         if j == inp.frames.shape[0] - 1:
-            return d_start.copy(), self._calibration.carried(), self.measurement(j).side.ravel()
-        d_end = self.deblurred(j + 1)[1]
+            return _Interval(d_start.copy(), self._calibration.carried(), self.measurement(j).side.ravel())
+        d_end = self.deblurred(j + 1).end
         ev = slice_time(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
         change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
         start_clipped = self.measurement(j).clipped.ravel()
@@ -113,7 +130,7 @@ class _Frames:
         scale = self._calibration.interval(d_start, d_end, change, net, start_clipped | end_clipped)
         side_a, side_b = self.measurement(j).side.ravel(), self.measurement(j + 1).side.ravel()
         side = np.where(side_a == side_b, side_b, 0)
-        return interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side
+        return _Interval(interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side)
 
 
 @dataclass(frozen=True)
@@ -154,8 +171,8 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
     nf, t = inp.frames.shape[0], inp.out_t.astype(np.int64)
     start, scale = np.empty((nf, pixels.size)), np.empty((nf, pixels.size))
     for j in range(nf):
-        m, sc = fr.interval(j)[:2]
-        start[j], scale[j] = m[pixels], sc[pixels]
+        iv = fr.interval(j)
+        start[j], scale[j] = iv.start[pixels], iv.scale[pixels]
     s_k = inp.t_start.astype(np.int64)
     k = np.clip(np.searchsorted(s_k, t, side="right") - 1, 0, nf - 1)
     kp = np.maximum(k - 1, 0)
@@ -176,7 +193,7 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
         cur = start[k, n] + scale[k, n] * change(s_k[k], t, cum) - change(s_k[k], t, leaked)
         prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t, cum) - change(s_k[kp], t, leaked)
         out[:, n] = prev + wt * (cur - prev)
-    deb = np.array([[d[pixels] for d in fr.deblurred(j)] for j in range(nf)])
+    deb = np.array([(d.start[pixels], d.end[pixels]) for d in map(fr.deblurred, range(nf))])
     intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
     clipped = np.array([fr.measurement(j).clipped.ravel()[pixels] for j in range(nf)])
     return AugmentedMeasurement(out, deb, intensity, clipped)
@@ -254,31 +271,34 @@ def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
     fr = _Frames(inp, crf, params)
     strong = params.sigma_im2 / params.max_variance
-    noise = np.array([params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
-                      leak_rate_hz * 1e-6])
+    noise = kernels.noise_params(params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
+                                 leak_rate_hz * 1e-6)
     s0 = int(inp.t_start[0])
 
-    m0, scale0, side0 = fr.interval(0)
+    iv0 = fr.interval(0)
     S = _rows(n, kernels.N_STATE)
-    S[:, [kernels.SL, kernels.SMP, kernels.SMC]] = m0[:, None]
+    S[:, [kernels.SL, kernels.SMP, kernels.SMC]] = iv0.start[:, None]
     S[:, kernels.SP] = params.p0
     S[:, kernels.ST] = s0
     r0 = fr.measurement(0).r.ravel()
     S[:, kernels.SRA] = S[:, kernels.SRB] = r0
     S[:, kernels.SRC] = fr.measurement(1).r.ravel() if nf > 1 else r0
     C = _rows(n, kernels.N_C)
-    C[:, [kernels.CP_ON, kernels.CC_ON]] = (scale0 * inp.c_on)[:, None]
-    C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (scale0 * inp.c_off)[:, None]
-    C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = side0[:, None]
+    C[:, [kernels.CP_ON, kernels.CC_ON]] = (iv0.scale * inp.c_on)[:, None]
+    C[:, [kernels.CP_OFF, kernels.CC_OFF]] = (iv0.scale * inp.c_off)[:, None]
+    C[:, [kernels.CP_SIDE, kernels.CC_SIDE]] = iv0.side[:, None]
     C[:, kernels.C_FIRST] = 1.0
     blocks = _Blocks(h, w, s0)
-    args = (inp, fr, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+
+    def run(ahead):
+        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k)
+
     if numba.get_num_threads() > 1:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
                                 initargs=(numba.get_num_threads(),)) as ahead:  # the thread count is per thread
-            _filter(ahead, *args)
+            run(ahead)
     else:  # one thread allowed (e.g. a dataset worker's share of the cores): the frame work runs in turn
-        _filter(_AtOnce(), *args)
+        run(_AtOnce())
     np.clip(out_i, 0.0, np.inf if max_intensity is None else max_intensity, out=out_i)
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)
@@ -296,11 +316,9 @@ class _AtOnce:
         return f
 
 
-def _next_interval(fr: _Frames, k: int):
-    """Interval k's (curve value at s_k, contrast scale, clip side) and frame k + 1's log variance (None after the
-    last frame)."""
-    m_new, scale, side = fr.interval(k)
-    return m_new, scale, side, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None)
+def _next_interval(fr: _Frames, k: int) -> tuple[_Interval, np.ndarray | None]:
+    """Interval k and frame k + 1's log variance R (None after the last frame)."""
+    return fr.interval(k), (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None)
 
 
 def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k):
@@ -314,6 +332,17 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
 
+    def publish(t, win, oi, op, ok):  # output images (flat) at t (us)
+        blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
+
+    def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
+        on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)
+
+        def part(q, y0, y1):
+            kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to t
+            kernels.akf_rotate(S, C, iv.start, on_new, off_new, side_new, r_next, y0 * w, y1 * w)
+        blocks.run(part)
+
     tau = inp.tau
     j = 0  # next output index
     prev_win = None  # the previous frame window (set at the end of every iteration)
@@ -321,19 +350,11 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     for k in range(nf):
         if j == nt:
             break
-        win = np.array([inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)]],
-                       np.float64)
+        win = kernels.window(inp.t_start[k], inp.t_end[k], tau[max(k - 1, 0)], tau[k], tau[min(k + 1, nf - 1)])
         if k > 0:  # bring every pixel to s_k, then rotate the intervals and frame variances
-            m_new, scale, side, r_next = pending.result()
+            iv, r_next = pending.result()
             pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
-            if r_next is None:
-                r_next = S[:, kernels.SRC].copy()
-            rot = (S, C, m_new, scale * inp.c_on, scale * inp.c_off, side.astype(np.float64), r_next)
-
-            def switch(q, y0, y1, t=float(inp.t_start[k]), win=prev_win, rot=rot):
-                kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to s_k
-                kernels.akf_rotate(*rot, y0 * w, y1 * w)
-            blocks.run(switch)
+            switch(float(inp.t_start[k]), prev_win, iv, S[:, kernels.SRC].copy() if r_next is None else r_next)
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
         s_k = int(inp.t_start[k])
@@ -343,9 +364,8 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
             t_out = int(inp.out_t[j])
             n1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
             events(ev[n0:n1], win)
-            args = (float(t_out), S, C, win, strong, i0, out_i[j].reshape(-1),
-                    none if out_p is None else out_p[j].reshape(-1), none if out_k is None else out_k[j].reshape(-1))
-            blocks.run(lambda q, y0, y1: kernels.akf_publish(*args, y0 * w, y1 * w))
+            publish(float(t_out), win, out_i[j].reshape(-1), none if out_p is None else out_p[j].reshape(-1),
+                    none if out_k is None else out_k[j].reshape(-1))
             n0 = n1
             j += 1
         if j < nt:

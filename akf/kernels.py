@@ -1,7 +1,8 @@
 """Numba kernels: the AKF's exact between-event propagation, per-event updates and publishing; the EDI exposure
 integral; the baselines' per-event loops.
 
-Per-pixel state lives in rows indexed by y * width + x (see the S and C column constants). Times are microseconds;
+Per-pixel state lives in rows indexed by y * width + x (see the S and C column constants); the frame window and the
+event noise parameters are float64 arrays with named slots (W_* and NZ_*). Times are microseconds;
 differences are converted to seconds inside the equations. The filter runs window by window: frame window k spans
 [s_k, s_{k+1}) (s_k: exposure start of frame k). Inside it the augmented measurement of a pixel is
     L^A(t) = Mprev + w(t) * (Mcur - Mprev),  w(t) = clip((t - s_k) / (e_k - s_k), 0, 1)          (eq. 13)
@@ -210,16 +211,60 @@ def leaked_before_first_event(drift, c_on):
     return 0.5 * c_on + drift - drift * drift / (2.0 * c_on)
 
 
-# Columns of the per-pixel state S (one 64-byte row per pixel, so an event touches one cache line):
-# log estimate, variance, last update time (us, exact in float64), the previous / current interval curves and the
-# log-space frame variances at tau_a, tau_b, tau_c.
-SL, SP, ST, SMP, SMC, SRA, SRB, SRC = 0, 1, 2, 3, 4, 5, 6, 7
+# Columns of the per-pixel state S (float64; rows of N_STATE values start on 64-byte boundaries, so an event
+# touches one cache line). Log quantities are in units of log(I + I0).
+SL = 0  # L: log estimate (log)
+SP = 1  # P: variance of the estimate (log^2)
+ST = 2  # time of the last update (us; integers, exact in float64)
+SMP = 3  # Mprev: value of the previous interval's curve, the one ending at the window's frame (log)
+SMC = 4  # Mcur: value of the current interval's curve, the one starting at the window's frame (log)
+SRA = 5  # R at tau_a: log-space frame variance of the frame at W_TAU_A (log^2)
+SRB = 6  # R at tau_b: log-space frame variance of the frame at W_TAU_B (log^2)
+SRC = 7  # R at tau_c: log-space frame variance of the frame at W_TAU_C (log^2)
 N_STATE = 8
-# Columns of C: calibrated ON / OFF contrasts of the previous and of the current interval (log units, both > 0),
-# the clip side of each interval curve (+1 / -1 where both of its frames are clipped high / low, else 0), and 1 while
-# the pixel's first event (which carries the unknown leak drift from before the start) is still to come.
-CP_ON, CP_OFF, CC_ON, CC_OFF, CP_SIDE, CC_SIDE, C_FIRST = 0, 1, 2, 3, 4, 5, 6
-N_C = 8
+
+# Columns of the per-pixel contrasts C (float64, rows as in S).
+CP_ON = 0  # calibrated ON contrast of the previous interval (log, > 0)
+CP_OFF = 1  # calibrated OFF contrast of the previous interval (log, a magnitude > 0)
+CC_ON = 2  # calibrated ON contrast of the current interval (log, > 0)
+CC_OFF = 3  # calibrated OFF contrast of the current interval (log, a magnitude > 0)
+CP_SIDE = 4  # clip side of the previous interval's curve: +1 / -1 where both its frames are clipped high / low, else 0
+CC_SIDE = 5  # clip side of the current interval's curve (as CP_SIDE)
+C_FIRST = 6  # 1 while the pixel's first event (which carries the unknown leak drift from before the start) is to
+#              come, else 0
+N_C = 8  # the last column is padding: a row fills one 64-byte cache line
+
+# Slots of the frame window w (float64, us) of akf_events / akf_publish; window k spans [s_k, s_{k+1}).
+W_S = 0  # s: exposure start of frame k (us)
+W_E = 1  # e: exposure end of frame k (us)
+W_TAU_A = 2  # tau_a: mid-exposure time of frame k - 1 (us; of frame 0 in the first window)
+W_TAU_B = 3  # tau_b: mid-exposure time of frame k (us)
+W_TAU_C = 4  # tau_c: mid-exposure time of frame k + 1 (us; of the last frame in the last window)
+N_W = 5
+
+# Slots of the event noise parameters `noise` (float64) of akf_events (see akf.AKFParams).
+NZ_PROC = 0  # sigma_proc2: process noise density (log^2 / s)
+NZ_ISO = 1  # sigma_iso2: isolated-pixel noise density (log^2 / s)
+NZ_REF = 2  # sigma_ref2: refractory noise (log^2)
+NZ_RHO = 3  # rho_bar: upper bound of the refractory period (us)
+NZ_STRONG = 4  # strong = sigma_im2 / max_variance: R factor on the impossible side of a clipped frame (see advance)
+NZ_LEAK = 5  # leak rate (1/us: ON events per us of a static pixel; 0: no leak correction)
+N_NOISE = 6
+
+
+def window(s, e, tau_a, tau_b, tau_c) -> np.ndarray:
+    """The frame window array w of akf_events / akf_publish (slots W_*; times in us)."""
+    w = np.empty(N_W)
+    w[W_S], w[W_E], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C] = s, e, tau_a, tau_b, tau_c
+    return w
+
+
+def noise_params(sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, strong, leak_per_us) -> np.ndarray:
+    """The event noise array `noise` of akf_events (slots NZ_*, units there)."""
+    q = np.empty(N_NOISE)
+    q[NZ_PROC], q[NZ_ISO], q[NZ_REF], q[NZ_RHO], q[NZ_STRONG], q[NZ_LEAK] = (sigma_proc2, sigma_iso2, sigma_ref2,
+                                                                             rho_bar_us, strong, leak_per_us)
+    return q
 
 
 @njit(cache=True, nogil=True, fastmath=FAST, error_model="numpy")
@@ -232,11 +277,11 @@ def akf_events(ev, width, S, C, te, w, noise, y0, y1):
     S, C: per-pixel state and contrasts (columns above). te: the block's last event time per pixel (for Q_iso), flat
     (y1 - y0 + 2) * (width + 2): rows y0 - 1 .. y1 with a one-pixel border; the rows outside [y0, y1) mirror the
     neighbouring blocks' (very old times beyond the image) and are updated here from their events.
-    w: float64 [s, e, tau_a, tau_b, tau_c] of the window (us).
-    noise: [sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, sigma_im2 / max_variance, leak rate (1/us)].
+    w: the frame window (slots W_*, see window). noise: the event noise parameters (slots NZ_*, see noise_params).
     """
-    s, e, tau_a, tau_b, tau_c = w[0], w[1], w[2], w[3], w[4]
-    sp2, si2, sr2, rho, strong, leak = noise[0], noise[1], noise[2], noise[3], noise[4], noise[5]
+    s, e, tau_a, tau_b, tau_c = w[W_S], w[W_E], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C]
+    sp2, si2, sr2, rho = noise[NZ_PROC], noise[NZ_ISO], noise[NZ_REF], noise[NZ_RHO]
+    strong, leak = noise[NZ_STRONG], noise[NZ_LEAK]
     wp = width + 2
     m = ev.shape[0]
     for n in range(m):
@@ -312,7 +357,7 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
         if t > S[i, ST]:
             mp = S[i, SMP]
             L, P = advance(S[i, ST], t, L, P, mp, S[i, SMC] - mp, S[i, SRA], S[i, SRB], S[i, SRC],
-                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[0], w[1], w[2], w[3], w[4])
+                           C[i, CP_SIDE], C[i, CC_SIDE], strong, w[W_S], w[W_E], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C])
             if commit:
                 S[i, SL], S[i, SP], S[i, ST] = L, P, t
         if commit:
@@ -321,7 +366,7 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
         if out_p.shape[0]:
             out_p[i] = P
         if out_k.shape[0]:
-            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[2], w[3], w[4])
+            out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C])
 
 
 @njit(cache=True, nogil=True)
