@@ -111,20 +111,25 @@ class DVSEmulator:
         hot[rng.choice(hot.size, int(round(p.hot_pixel_fraction * hot.size)), replace=False)] = True
         hot = hot.reshape(shape)
         self._leak_phase = rng.random(shape)
-        self._init_budgets = rng.standard_exponential((2, *shape))
+        self._init_shot_budget, self._init_hot_budget = rng.standard_exponential((2, *shape))
         # Thresholds are stored as float32, exactly (multiples of 2**-32 with at most 24 significant bits), and hot
         # pixels as a mask: fewer bytes per pixel to stream through memory on every feed.
-        self._fixed = (c_on.astype(np.float32), c_off.astype(np.float32), leak_hz * 1e-6 * c_on, hot.astype(np.uint8))
+        self._fixed = _slot_tuple(K.N_FIXED, {
+            K.FX_C_ON: c_on.astype(np.float32),
+            K.FX_C_OFF: c_off.astype(np.float32),
+            K.FX_DRIFT: leak_hz * 1e-6 * c_on,
+            K.FX_HOT: hot.astype(np.uint8),
+        })
         self._leak_hz, self._hot = leak_hz, hot
-        self._scal = (
-            np.int64(p.refractory_us),
-            2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
-            p.dark_fraction * p.full_illumination,
-            p.shot_noise_hz * 1e-6,
-            p.dark_shot_noise_hz * 1e-6,
-            stream_ss.generate_state(1, dtype=np.uint64)[0],
-            p.hot_pixel_hz * 1e-6,
-        )
+        self._scal = _slot_tuple(K.N_SCAL, {
+            K.SC_REFRACTORY: np.int64(p.refractory_us),
+            K.SC_K_CUT: 2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
+            K.SC_DARK: p.dark_fraction * p.full_illumination,
+            K.SC_SHOT_RATE: p.shot_noise_hz * 1e-6,
+            K.SC_DARK_SHOT_RATE: p.dark_shot_noise_hz * 1e-6,
+            K.SC_KEY: stream_ss.generate_state(1, dtype=np.uint64)[0],
+            K.SC_HOT_RATE: p.hot_pixel_hz * 1e-6,
+        })
         self._state = None
         self._t: int | None = None
         self._row_rate: float | None = None  # events per frame of the busiest row in the last block
@@ -140,7 +145,7 @@ class DVSEmulator:
     @property
     def threshold_map(self) -> np.ndarray:
         """(2, H, W) float32 per-pixel contrast thresholds [C_on, C_off] (positive, log units)."""
-        return np.stack(self._fixed[:2]).astype(np.float32)
+        return np.stack((self._fixed[K.FX_C_ON], self._fixed[K.FX_C_OFF])).astype(np.float32)
 
     @property
     def leak_rate_map(self) -> np.ndarray:
@@ -155,18 +160,18 @@ class DVSEmulator:
     @property
     def log_intensity(self) -> np.ndarray:
         """(H, W) float64 photoreceptor output Lf (filtered log of radiance + dark level) at time_us."""
-        return self._require_state()[2].copy()
+        return self._require_state()[K.ST_LF].copy()
 
     @property
     def reference_log(self) -> np.ndarray:
         """(H, W) float64 reference level at time_us, leak drift included (stale while a pixel is blind)."""
         st = self._require_state()
-        return st[3] - self._fixed[2] * (self._t - st[4])
+        return st[K.ST_REF] - self._fixed[K.FX_DRIFT] * (self._t - st[K.ST_REF_T])
 
     @property
     def last_event_us(self) -> np.ndarray:
         """(H, W) int64 time of each pixel's last event (NO_EVENT_US when it has not fired)."""
-        return self._require_state()[7].copy()
+        return self._require_state()[K.ST_LAST_EVENT].copy()
 
     def _require_state(self):
         if self._state is None:
@@ -252,17 +257,23 @@ class DVSEmulator:
 
     def _initialise(self, frame: np.ndarray, t: int) -> None:
         shape = (self.height, self.width)
-        cur = frame.astype(np.float64) + self._scal[2]
+        cur = frame.astype(np.float64) + self._scal[K.SC_DARK]
         logi = np.empty(shape)  # the kernels' log response, so that a pixel back at its first level is at it
         K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))
         # random leak phase: as if the reference had been reset a uniform fraction of a leak period ago
-        drift = self._fixed[2]
-        since = np.divide(self._leak_phase * self._fixed[0], drift, out=np.zeros(shape), where=drift > 0)
-        self._state = (
-            cur, logi, logi.copy(), logi.copy(), t - since,
-            self._init_budgets[0].copy(), self._init_budgets[1].copy(),
-            np.full(shape, NO_EVENT_US, dtype=np.int64), np.zeros(shape, dtype=np.uint64),
-        )
+        drift = self._fixed[K.FX_DRIFT]
+        since = np.divide(self._leak_phase * self._fixed[K.FX_C_ON], drift, out=np.zeros(shape), where=drift > 0)
+        self._state = _slot_tuple(K.N_STATE, {
+            K.ST_CURRENT: cur,
+            K.ST_LOG: logi,
+            K.ST_LF: logi.copy(),
+            K.ST_REF: logi.copy(),
+            K.ST_REF_T: t - since,
+            K.ST_SHOT_BUDGET: self._init_shot_budget.copy(),
+            K.ST_HOT_BUDGET: self._init_hot_budget.copy(),
+            K.ST_LAST_EVENT: np.full(shape, NO_EVENT_US, dtype=np.int64),
+            K.ST_DRAWS: np.zeros(shape, dtype=np.uint64),
+        })
         self._t = t
 
     def _run(self, frames: np.ndarray, times: np.ndarray):
@@ -338,6 +349,13 @@ class DVSEmulator:
         if self._bufs is None or self._bufs[0].size < n:
             self._bufs = _new_buffers(n)
         return self._bufs
+
+
+def _slot_tuple(n: int, slots: dict) -> tuple:
+    """The kernel-input tuple of n slots holding slots[i] at index i (i: the slot constants of sim.dvs_kernels)."""
+    if sorted(slots) != list(range(n)):
+        raise ValueError(f"slots {sorted(slots)} are not 0 .. {n - 1}")
+    return tuple(slots[i] for i in range(n))
 
 
 def _returning_arrays(kernel, *args):

@@ -19,6 +19,43 @@ from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
 
+# Slots of the emulator's kernel inputs, three tuples (numba takes these module-level ints as compile-time constants).
+# Log values are natural logs of photocurrent in radiance units; times are microseconds (us).
+#
+# state: the evolving per-pixel state, (H, W) arrays.
+#   ST_CURRENT      float64  photocurrent I + I_d of the last frame (radiance units)
+#   ST_LOG          float64  log response L of the last frame (log units, a multiple of LOG_GRID)
+#   ST_LF           float64  photoreceptor output Lf at the last frame time (log units)
+#   ST_REF          float64  reference level R at time ST_REF_T (log units); at time t it is
+#                            R - drift * (t - ST_REF_T), with drift the FX_DRIFT slot
+#   ST_REF_T        float64  time of the reference's last reset, from which its leak drift runs (us, not always an
+#                            integer; at the first frame a random fraction of a leak period before it)
+#   ST_SHOT_BUDGET  float64  remaining unit-exponential budget of the shot-noise Poisson clock (an arrival at 0)
+#   ST_HOT_BUDGET   float64  remaining unit-exponential budget of the hot-pixel Poisson clock (an arrival at 0)
+#   ST_LAST_EVENT   int64    time of the last event (us; NO_EVENT_US before the first)
+#   ST_DRAWS        uint64   number of random draws taken from the pixel's stream (its counter)
+(ST_CURRENT, ST_LOG, ST_LF, ST_REF, ST_REF_T, ST_SHOT_BUDGET, ST_HOT_BUDGET, ST_LAST_EVENT,
+ ST_DRAWS) = 0, 1, 2, 3, 4, 5, 6, 7, 8
+N_STATE = 9
+# fixed: the per-pixel fixed pattern, (H, W) arrays.
+#   FX_C_ON   float32  ON contrast threshold C_on (log units, > 0, a multiple of LOG_GRID)
+#   FX_C_OFF  float32  OFF contrast threshold C_off (log units, > 0, a multiple of LOG_GRID)
+#   FX_DRIFT  float64  leak drift: the reference falls at this rate (log units per us, >= 0)
+#   FX_HOT    uint8    1 at hot pixels, else 0
+FX_C_ON, FX_C_OFF, FX_DRIFT, FX_HOT = 0, 1, 2, 3
+N_FIXED = 4
+# scal: scalars shared by all pixels.
+#   SC_REFRACTORY      int64    refractory period (us)
+#   SC_K_CUT           float64  photoreceptor bandwidth per unit photocurrent: 1 / tau = SC_K_CUT * J, J the
+#                               interval's geometric-mean photocurrent (per us per radiance unit; 0: no filter, Lf = L)
+#   SC_DARK            float64  dark current I_d (radiance units)
+#   SC_SHOT_RATE       float64  shot-noise rate (per us)
+#   SC_DARK_SHOT_RATE  float64  dark shot-noise rate at J = I_d (per us; the rate scales with I_d / J)
+#   SC_KEY             uint64   key of the random streams (a pixel's key mixes it with the pixel's flat index)
+#   SC_HOT_RATE        float64  hot-pixel noise rate (per us)
+SC_REFRACTORY, SC_K_CUT, SC_DARK, SC_SHOT_RATE, SC_DARK_SHOT_RATE, SC_KEY, SC_HOT_RATE = 0, 1, 2, 3, 4, 5, 6
+N_SCAL = 7
+
 _PIXEL_MUL = np.uint64(0xD1B54A32D192ED03)
 _S11 = np.uint64(11)
 _ONE = np.uint64(1)
@@ -86,10 +123,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                  t_counts):
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
-    state: (cur, logi, lf, ref, tref, e_shot, e_hot) float64 (H, W) arrays plus last_t int64 (H, W) and ctr
-        uint64 (H, W), passed as a tuple. fixed: (c_on, c_off) float32, drift float64 and the hot-pixel mask
-        uint8, all (H, W). scal: (refractory_us, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate) (rates per
-        us, k_cut per us per radiance).
+    state, fixed, scal: tuples of the per-pixel state (updated in place), the per-pixel fixed pattern and the
+        scalars, with the slots ST_*, FX_* and SC_* above.
     Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
     event count after frame k. A row with more than cap events continues in a buffer of its own and all its events
     go to the spill instead: returns the spill (t, x, p, label) arrays and spill_start (rows.size,), the index of
@@ -105,9 +140,11 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of
     inlined or called functions, cost reference counting (atomic operations) each time.
     """
-    cur, logi, lf, ref, tref, e_shot, e_hot, last_t, ctr = state
-    c_on, c_off, drift, hot = fixed
-    refractory, k_cut, dark, shot_rate, dark_shot_rate, key, hot_rate = scal
+    cur, logi, lf, ref, tref = state[ST_CURRENT], state[ST_LOG], state[ST_LF], state[ST_REF], state[ST_REF_T]
+    e_shot, e_hot, last_t, ctr = state[ST_SHOT_BUDGET], state[ST_HOT_BUDGET], state[ST_LAST_EVENT], state[ST_DRAWS]
+    c_on, c_off, drift, hot = fixed[FX_C_ON], fixed[FX_C_OFF], fixed[FX_DRIFT], fixed[FX_HOT]
+    refractory, k_cut, dark, shot_rate = scal[SC_REFRACTORY], scal[SC_K_CUT], scal[SC_DARK], scal[SC_SHOT_RATE]
+    dark_shot_rate, key, hot_rate = scal[SC_DARK_SHOT_RATE], scal[SC_KEY], scal[SC_HOT_RATE]
     w = cur.shape[1]
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
