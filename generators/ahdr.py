@@ -30,7 +30,7 @@ import sim
 from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
-from .formats.native import NativeWriter
+from .formats.native import NativeWriter, check_compression
 from .sampling import make_sampler
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
@@ -91,8 +91,7 @@ class AHDRConfig:
                                         f"{self.reference_rate_hz}")
         if not (math.isfinite(self.rate_hz) and 0 < self.rate_hz <= MAX_RATE_HZ):
             raise InvalidParameterError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}] Hz, got {self.rate_hz}")
-        if self.compression not in ("gzip", "lzf", None):
-            raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {self.compression!r}")
+        check_compression(self.compression)
         if not 0.5 <= self.sampling_quantile <= 1:
             raise InvalidParameterError(f"sampling_quantile must be in [0.5, 1], got {self.sampling_quantile!r}")
         if self.sampling not in ("adaptive", "fixed"):

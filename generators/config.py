@@ -48,6 +48,7 @@ from sim import EvsimInputError, InvalidParameterError
 from . import scenes
 from .ahdr import AHDRConfig
 from .formats import EXPORT_FORMATS
+from .formats.native import COMPRESSIONS
 
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
@@ -109,6 +110,11 @@ class DatasetConfig:
     source: str = "<flags>"
 
 
+def _compression(name: str):
+    """A configuration's compression name as NativeWriter takes it ("none" -> None)."""
+    return None if name == "none" else name
+
+
 def _fail(where: str, msg: str) -> InvalidParameterError:
     return InvalidParameterError(f"{where}: {msg}")
 
@@ -162,7 +168,7 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
                                        f"{', '.join(sorted(sim.DVS_PRESETS))}")
     if settings["sampling"]["mode"] not in ("adaptive", "fixed"):
         raise _fail(f"{where}.sampling.mode", f"must be 'adaptive' or 'fixed', got {settings['sampling']['mode']!r}")
-    if settings["output"]["compression"] not in ("gzip", "lzf", "none"):
+    if _compression(settings["output"]["compression"]) not in COMPRESSIONS:
         raise _fail(f"{where}.output.compression",
                     f"must be 'gzip', 'lzf' or 'none', got {settings['output']['compression']!r}")
     for key in ("height", "width"):
@@ -373,7 +379,7 @@ def to_ahdr_config(settings: dict, *, where: str = "settings"):
             min_step_us=sampling["min_step_us"], max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
             reference_times_us=tuple(output["reference_times_us"]), reference_rate_hz=output["reference_rate_hz"],
             threshold_maps=output["threshold_maps"], labels=output["labels"],
-            compression=None if output["compression"] == "none" else output["compression"],
+            compression=_compression(output["compression"]),
         )
     except InvalidParameterError as e:
         raise _fail(where, str(e)) from None

@@ -103,6 +103,18 @@ class _ChunkAppender:
         self.ds.id.write_direct_chunk(offset, data)
 
 
+#: HDF5 compression of the native layout's datasets: gzip (shuffle + deflate, the default), lzf (faster to write,
+#: larger) or None (uncompressed; "none" in a TOML configuration)
+COMPRESSIONS = ("gzip", "lzf", None)
+
+
+def check_compression(compression: str | None) -> str | None:
+    """compression if it is one of COMPRESSIONS, else InvalidParameterError naming them."""
+    if compression not in COMPRESSIONS:
+        raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {compression!r}")
+    return compression
+
+
 class NativeWriter:
     """Stream one sequence into a native HDF5 file, atomically.
 
@@ -118,8 +130,7 @@ class NativeWriter:
             raise InvalidParameterError(f"sensor size must be positive, got {height}x{width}")
         if not 8 <= int(frame_bit_depth) <= 16:
             raise InvalidParameterError(f"frame_bit_depth must be in 8..16, got {frame_bit_depth}")
-        if compression not in ("gzip", "lzf", None):
-            raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {compression!r}")
+        check_compression(compression)
         self.path = Path(path)
         self.height, self.width, self.bit_depth = int(height), int(width), int(frame_bit_depth)
         self._metadata = {}
