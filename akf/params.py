@@ -57,9 +57,8 @@ class AKFParams:
     "so the filter trusts events there"). Where the state is consistent with a clipped frame its pull is then weak
     (a time constant of seconds instead of ~10 ms), so events carry the clipped regions; the drift of event noise
     there is bounded by the output bound (reconstruct's max_intensity, the full well) above and by the strong
-    one-sided pull at the clip level. Chosen on the built-in AHDR suite (tuned; mean mse01 0.0349 at the earlier
-    100 sigma_im2, 0.0321 at 1e4, 0.0332 at 1e5, 0.0320 at 3e3 but lower ssim01 (0.528 against 0.532) and
-    PU21-SSIM; measured before clipped pixels lost eq. 8's correction and frame_noise_scale stopped scaling it).
+    one-sided pull at the clip level. max_variance was chosen on the built-in AHDR suite with the tuning protocol
+    (evsim_eval), among 100, 3e3, 1e4 and 1e5 times sigma_im2 (CHANGELOG.md, 0.1.0).
     """
 
     sigma_proc2: float = 5e-4

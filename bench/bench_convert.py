@@ -16,13 +16,6 @@ upsampling mode (none, linear, flow):
 Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short
 warm-up first. Wall-clock figures depend on whatever else the machine runs; CPU time (time.process_time, all
 threads) is the steadier figure.
-
-Measured (events only, synthetic 10 s clip; x real time, wall / per CPU-s): before the cv2.remap key frames, on a
-quiet machine, flow (DIS medium, flow scale 0.5) 0.83-0.92 / 0.53-0.59, --flow-preset fast 1.09 / 0.64, none
-2.08-3.02 / 1.74-1.79; after, three or four runs at a load average of 6-13 (7 helpers on the 2 cores, so the wall
-figures are the load's), flow 0.18-0.41 / 0.83-0.85, fast 0.40-0.95 / 0.97-1.00, none 0.41-0.92 / 1.76-1.93,
-linear 0.37-0.92 / 1.82-2.02. bikes.mp4, first 4 s: flow 0.05 / 0.08 before, 0.16 / 0.21 after (at most 32 key frames
-per pair), none 0.95 / 1.47. README, "Converting videos", has the breakdown.
 """
 
 from __future__ import annotations

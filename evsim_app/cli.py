@@ -327,7 +327,7 @@ def _add_sensor_flags(g) -> None:
     g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
     g.add_argument("--sampling-quantile", type=float,
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
-                        "sample (default 0.95; 1 = the worst pixel, the former denser rule)")
+                        "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")

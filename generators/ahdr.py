@@ -53,7 +53,7 @@ class AHDRConfig:
         t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
         radiance units; the resolved values are recorded in the metadata.
     sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample for the sampling_quantile of
-        the per-pixel log change (1.0: the worst pixel, the former rule, ~10x denser; on the built-in 346x260 pans
+        the per-pixel log change (1.0: the worst pixel, about 10x denser; on the built-in 346x260 pans
         and zooms 0.95 gives the same event count within 0.2 %, per-pixel count correlation 0.9998, event times
         within 14 us median, 277 us at the 99th percentile), min/max step in microseconds)
         or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
