@@ -56,7 +56,8 @@ def run(height, width, seconds, subframes, crf_name):
     print(
         f"{width}x{height} crf={crf_name} subframes/frame={subframes}: {n_frames} frames in {dt:.2f} s, "
         f"{rate / 1e6:.0f} M pixel-subframes/s, {n_frames / dt:.1f} frames/s, CPU time {cpu:.2f} s "
-        f"({n_sub * height * width / cpu / 1e6:.0f} M pixel-subframes per CPU-second), peak traced memory {peak / 2**20:.1f} MiB, "
+        f"({n_sub * height * width / cpu / 1e6:.0f} M pixel-subframes per CPU-second), "
+        f"peak traced memory {peak / 2**20:.1f} MiB, "
         f"process max RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB"
     )
 

@@ -39,10 +39,10 @@ def _generate(duration_s: float, out: Path) -> None:
 
 def _repeat(src: Path, out: Path, times: int) -> None:
     """A native file holding `times` back-to-back copies of src (events, frames and reference shifted)."""
+    import h5py
+
     from generators.formats import NativeWriter
     from generators.formats.native import iter_native_events, open_native_images
-
-    import h5py
 
     with h5py.File(src) as f:
         t_last = int(f["events/t"][-1] + f["t_offset"][()])

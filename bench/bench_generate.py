@@ -147,7 +147,8 @@ def main() -> None:
             m = _spawn(args, d, keep=Path(tmp) / "seq.h5")
             e = _spawn_export(Path(tmp) / "seq.h5") if args.export else None
         print(f"  {d:6.1f} s: peak RSS {m['peak_rss_mb']:7.0f} MB ({m['n_events']:,} events, {m['file_mb']:.0f} MB "
-              f"file, {m['cpu_s']:.1f} CPU-s)" + (f"; export {e['peak_rss_mb']:.0f} MB ({e['wall_s']:.1f} s)" if e else ""))
+              f"file, {m['cpu_s']:.1f} CPU-s)"
+              + (f"; export {e['peak_rss_mb']:.0f} MB ({e['wall_s']:.1f} s)" if e else ""))
 
 
 def _pixel_counts(path: Path, height: int, width: int):
@@ -164,7 +165,8 @@ def _print_split(name: str, compression: str, r: dict) -> None:
     other_c, other_w = c["total"] - sum(c[k] for k in STAGES), w["total"] - sum(w[k] for k in STAGES)
     for k, vc, vw in [(k, c[k], w[k]) for k in STAGES] + [("other", other_c, other_w)]:
         print(f"  {k:<8} {vc:6.3f} CPU-s ({100 * vc / c['total']:4.1f} %)   wall {vw:6.3f} s")
-    print(f"  work     {r['cpu_s']:6.3f} CPU-s (time.process_time of the generate_ahdr call, all threads; warm process: "
+    print(f"  work     {r['cpu_s']:6.3f} CPU-s (time.process_time of the generate_ahdr call, all threads; "
+          "warm process: "
           f"no interpreter start, imports or numba compilation) for {r['duration_s']:g} s of sequence -> "
           f"{r['duration_s'] / r['cpu_s']:.2f}x real time per CPU-second ({r['n_frames'] / r['cpu_s']:.1f} frames "
           f"per CPU-second); wall {r['wall_s']:.2f} s; peak RSS {r['peak_rss_mb']:.0f} MB")

@@ -18,7 +18,6 @@ import traceback
 from pathlib import Path
 
 import sim
-
 from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
@@ -156,6 +155,7 @@ def _cmd_demo(args) -> int:
 
     from generators.builtin import ahdr_suite, ahdr_suite_config
     from generators.dataset import write_sequence
+
     from .precompile import start_background_compile, wait
 
     if args.duration_s <= 0 or args.height <= 0 or args.width <= 0:

@@ -65,7 +65,6 @@ def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events
     """A small hybrid recording with the array types of a generated one (events, 8-bit frames, HDR reference,
     threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses."""
     import sim
-
     from generators.formats.recording import Recording
 
     rng = np.random.default_rng(seed)
@@ -112,9 +111,8 @@ def toy_capture(camera_params, crf, height: int = 16, width: int = 16) -> list:
 def main() -> int:
     """The demo's kernels, in the order it needs them after the DVS: the camera's, then the reconstruction's."""
     import crf_models
-
-    from generators.builtin import ahdr_suite_config
     from evsim_eval.evaluate import evaluate_recording
+    from generators.builtin import ahdr_suite_config
 
     toy_capture(ahdr_suite_config().camera, crf_models.get("window"))
     evaluate_recording(toy_recording())

@@ -25,13 +25,13 @@ import sys
 import numpy as np
 
 from akf.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, filter_available, get_filter
+from generators.formats import load
+from generators.formats.atomic import write_text_atomic
+from generators.formats.recording import Recording
 from sim import EVENT_LABELS, EvsimInputError
 
 from .evaluate import evaluate_recording
 from .protocols import dataset_sequences
-from generators.formats import load
-from generators.formats.atomic import write_text_atomic
-from generators.formats.recording import Recording
 
 NOISE_TYPES = EVENT_LABELS[1:]  # ("shot", "leak", "hot")
 DEFAULT_RECONSTRUCT_METRICS = ("mse", "ssim")

@@ -119,9 +119,9 @@ def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHO
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
 
     progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
-    the messages and, on a terminal only, the bar. strict: raise when sequences fail (EvsimInputError when every one failed on the same bad
-    input, else generators.runner.TasksFailed); with strict=False they come back in DatasetScores.failures and
-    the table holds the others.
+    the messages and, on a terminal only, the bar. strict: raise when sequences fail (EvsimInputError when every
+    one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
+    DatasetScores.failures and the table holds the others.
     """
     methods, metrics = tuple(methods), tuple(metrics)
     check_request(protocol, methods, metrics, tune_metric, tune_fraction)

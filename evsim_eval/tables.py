@@ -20,7 +20,8 @@ def format_table(result: dict, protocol: str = "reference", notes=()) -> str:
     width = max(12, *(len(s) + 2 for s in sequences))
     lines = [f"units: {UNITS[protocol]}", *(f"note: {n}" for n in notes)]
     for metric in metrics:
-        lines += ["", f"{metric}: {akf.NORMALISATION[metric]}{WHITE[protocol] if metric in akf.metrics.NEEDS_WHITE else ''}",
+        white = WHITE[protocol] if metric in akf.metrics.NEEDS_WHITE else ""
+        lines += ["", f"{metric}: {akf.NORMALISATION[metric]}{white}",
                   f"{metric:<{width}}" + "".join(f"{m:>14}" for m in methods)]
         for seq in sequences:
             lines.append(f"{seq:<{width}}" + "".join(f"{_fmt(result[m][seq][metric]):>14}" for m in methods))

@@ -10,9 +10,9 @@ Run: python examples/01_dvs_pixel_model.py [--out FOLDER]
 """
 
 import numpy as np
+from _shared import output_dir
 
 import sim
-from _shared import output_dir
 from evsim_app.plots.common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
 
 DT_US, DURATION_US = 200, 500_000

@@ -9,9 +9,9 @@ Run: python examples/02_noise_types.py [--out FOLDER]
 """
 
 import numpy as np
+from _shared import output_dir
 
 import sim
-from _shared import output_dir
 from evsim_app.plots.common import pyplot, save_figure
 from evsim_app.plots.events import event_frame, event_frame_rgb
 from generators.scenes import MovingEdge

@@ -8,12 +8,12 @@ Run: python examples/03_crf_family.py [--out FOLDER]
 """
 
 import numpy as np
+from _shared import output_dir
 
 import crf_models
-from _shared import output_dir
-from generators.scenes import builtin_hdr_image
 from evsim_app.plots import ToneMap, plot_crfs
 from evsim_app.plots.common import pyplot, save_figure
+from generators.scenes import builtin_hdr_image
 
 SHOWN = ("linear", "gamma", "srgb", "filmic", "window")
 

@@ -13,8 +13,8 @@ Run: python examples/04_akf_step_by_step.py [--out FOLDER]
 """
 
 import numpy as np
-
 from _shared import builtin_sequence, output_dir
+
 from evsim_app.plots import animate, load_recording, plot_compare, plot_events, plot_pixel, prepare
 
 

@@ -8,8 +8,9 @@ Run: python examples/05_noise_sweep.py [--out FOLDER]
 """
 
 from _shared import output_dir
-from generators.config import build_scene, parse_config, to_ahdr_config
+
 from evsim_app.plots import plot_sweep
+from generators.config import build_scene, parse_config, to_ahdr_config
 from generators.sweep import generate_sweep
 
 GRID = {"shot_noise_hz": [0.0, 5.0, 20.0], "threshold_sigma": [0.0, 0.06]}

@@ -15,12 +15,12 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
 from _shared import output_dir
-from generators.convert import convert
-from generators.formats import load
+
 from evsim_app.plots.common import pyplot, save_figure
 from evsim_app.plots.events import event_frame, event_frame_rgb, event_rate
+from generators.convert import convert
+from generators.formats import load
 from generators.scenes import Trajectory, builtin_image_scene
 
 BIKES = Path(__file__).resolve().parents[2] / "shared" / "data" / "video" / "bikes.mp4"

@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 from _shared import builtin_sequence
+
 from evsim_app.plots import load_recording, plot_compare, plot_events, plot_pixel, prepare
 
 PIXEL = (11, 49)  # x, y: a mostly well-exposed pixel of the sequence below, with clipped stretches

@@ -59,9 +59,11 @@ SCENE_TYPES = {
               "set the duration; their size must match height and width)",
     "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "
              "fps (input frame rate, for folders and stacks), timestamps (file), upsample (flow | linear | none), "
-             "flow (dis | farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, channel "
-             "(the clip sets the duration; it is cropped to the aspect ratio of height x width and area-resized to it)",
-    "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, trajectory {...}",
+             "flow (dis | farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, "
+             "channel (the clip sets the duration; it is cropped to the aspect ratio of height x width and "
+             "area-resized to it)",
+    "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, "
+                     "trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",
     "rotating_disk": "RotatingDisk", "flicker": "FlickeringLight", "sun": "SunPatch",
 }
@@ -280,8 +282,8 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
                 raise _fail(f"{where}.speeds", "expected a non-empty list of speed factors")
             _check_speed_values(where, scene)
             if not _has_speed(scene):
-                raise _fail(f"{where}.speeds", "would be ignored: the scene sets none of "
-                                               f"{', '.join(_SPEED_KEYS)} or trajectory.{{{', '.join(_TRAJECTORY_SPEED_KEYS)}}}")
+                keys = f"{', '.join(_SPEED_KEYS)} or trajectory.{{{', '.join(_TRAJECTORY_SPEED_KEYS)}}}"
+                raise _fail(f"{where}.speeds", f"would be ignored: the scene sets none of {keys}")
         for k in speeds:
             if k is not None:
                 k = _check_type(f"{where}.speeds", k, float)

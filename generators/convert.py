@@ -15,7 +15,7 @@ from sim import EvsimInputError
 
 from .config import parse_config
 from .dataset import generate_dataset
-from .scenes.video import LDR_IMAGE_SUFFIXES, HDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
+from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",

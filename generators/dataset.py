@@ -188,7 +188,8 @@ def run_sequences(out_dir, jobs: list[tuple[SequenceTask, object]], header: dict
                   progress: bool = True) -> Path:
     """Generate (task, scene) jobs into out_dir and write index.json = header + {"sequences": entries} last;
     return its path. When sequences fail, raises generators.runner.TasksFailed once the others are written
-    (EvsimInputError when all failed on bad input), and index.json is not written. See the module docstring for overwrite and resume."""
+    (EvsimInputError when all failed on bad input), and index.json is not written. See the module docstring for
+    overwrite and resume."""
     check_run_options(workers, scheduler)
     if overwrite and resume:
         raise EvsimInputError("--resume and --overwrite exclude each other: --resume keeps the complete, "

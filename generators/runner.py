@@ -9,9 +9,10 @@ which order it runs does not change its result.
 - scheduler=ADDRESS: an existing Dask cluster (e.g. "tcp://host:8786"); its workers need evsim installed and the
   same files (inputs and output folder) at the same paths.
 On a cluster, no more tasks are submitted at a time than it has worker threads (results come back in task order
-whatever order they finish in). One progress bar counts the finished tasks. A task that raises does not stop the others: its error comes back in
-its TaskOutcome (callers raise TasksFailed at the end). A task whose worker process dies is retried by Dask on
-another worker (distributed.scheduler.allowed-failures, default 3), then reported as failed (KilledWorker).
+whatever order they finish in). One progress bar counts the finished tasks. A task that raises does not stop the
+others: its error comes back in its TaskOutcome (callers raise TasksFailed at the end). A task whose worker process
+dies is retried by Dask on another worker (distributed.scheduler.allowed-failures, default 3), then reported as
+failed (KilledWorker).
 Threads: in each worker, numba and OpenCV get cores // (dask threads on that host) threads (at least 1), so that
 N workers do not oversubscribe the cores; BLAS/OpenMP pools of local workers get the same number.
 Arguments shared by several tasks (the same object, e.g. one scene for a whole sweep) are sent to the cluster once.
@@ -232,7 +233,7 @@ def _run_on(client, fn, tasks, done) -> list[TaskOutcome]:
 
     pending = iter(range(len(tasks)))
     running = as_completed()
-    for i in range(min(len(tasks), max(1, sum(client.nthreads().values())))):
+    for _ in range(min(len(tasks), max(1, sum(client.nthreads().values())))):
         submit(next(pending))
     for future in running:
         i = futures.pop(future)

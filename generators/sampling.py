@@ -110,7 +110,8 @@ class AdaptiveSampler:
         rate = None  # largest per-pixel |dL/dt| seen between the last two samples, per microsecond
         linear_until = getattr(self.source, "log_linear_until", None)
         while t < self.t_end:
-            dt = self.max_step if not rate else int(np.clip(_SAFETY * self.max_change / rate, self.min_step, self.max_step))
+            dt = (self.max_step if not rate
+                  else int(np.clip(_SAFETY * self.max_change / rate, self.min_step, self.max_step)))
             k = np.searchsorted(self.breakpoints, t, side="right")
             to_break = (self.breakpoints[k] if k < self.breakpoints.size else self.t_end) - t
             if linear_until is not None:  # a log-linear piece: step to its end (or a breakpoint), no bound check

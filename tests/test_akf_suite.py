@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import crf_models
+from evsim_eval.evaluate import evaluate_dataset
 from generators import load
 from generators.builtin import AHDR_BLACK, AHDR_SUITE_HDR, AHDR_SUITE_PHOTOS, generate_ahdr_suite, hdr_data_dir
-from evsim_eval.evaluate import evaluate_dataset
 
 HDR_PRESENT = all((hdr_data_dir() / f).is_file() for _, f, _ in AHDR_SUITE_HDR)
 

@@ -132,7 +132,8 @@ def test_bad_input_is_rejected():
         cam.expose(np.zeros((32, 64)), 1000)
     with pytest.raises(InvalidParameterError, match="exposure_us"):
         cam.expose(np.zeros((64, 64)), -5)
-    for kw, msg in [({"bit_depth": 7}, "bit_depth"), ({"bit_depth": 17}, "bit_depth"), ({"exposure_us": -1}, "exposure_us"),
+    for kw, msg in [({"bit_depth": 7}, "bit_depth"), ({"bit_depth": 17}, "bit_depth"),
+                    ({"exposure_us": -1}, "exposure_us"),
                     ({"full_well_e": 0.0}, "full_well_e"), ({"read_noise_e": -1.0}, "read_noise_e"),
                     ({"n_subframes": 0}, "n_subframes"), ({"reference_fill": 1.5}, "reference_fill")]:
         with pytest.raises(InvalidParameterError, match=msg):

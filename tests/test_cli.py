@@ -2,9 +2,11 @@ import json
 import subprocess
 import sys
 
-from generators import load
+import pytest
+
 from evsim_app.cli import main
 from evsim_eval.choices import DEFAULT_METRICS
+from generators import load
 
 SMALL = ["--duration-s", "0.05", "--height", "8", "--width", "10", "--no-progress"]
 
@@ -95,6 +97,7 @@ def test_unexpected_errors_exit_1(monkeypatch, tmp_path, capsys):
     assert "RuntimeError: boom" in err and "unexpected error" in err
 
 
+@pytest.mark.slow  # a subprocess
 def test_console_entry_point_help_documents_units():
     out = subprocess.run([sys.executable, "-m", "evsim_app.cli", "generate", "ahdr", "--help"],
                          capture_output=True, text=True, check=True).stdout

@@ -139,7 +139,8 @@ def test_robertson_weighting():
 
 def test_registry_lists_names_and_rejects_bad_input():
     names = crf_models.available()
-    for n in ("linear", "gamma", "srgb", "bt709", "hlg", "logc3", "slog3", "sigmoid", "filmic", "window", "lut", "tabulated"):
+    for n in ("linear", "gamma", "srgb", "bt709", "hlg", "logc3", "slog3", "sigmoid", "filmic", "window", "lut",
+              "tabulated"):
         assert n in names
     with pytest.raises(CRFError, match="unknown CRF 'nope'"):
         crf_models.get("nope")

@@ -60,7 +60,8 @@ def test_recovered_curve_predicts_one_exposure_from_another(stack, channel):
     images, times = _load(stack, channel)
     crf = crf_models.recover_debevec(images, times)
     linear = crf_models.get("linear")
-    for (err, frac), (err_lin, _) in zip(_prediction_errors(crf, images, times), _prediction_errors(linear, images, times)):
+    pairs = zip(_prediction_errors(crf, images, times), _prediction_errors(linear, images, times))
+    for (err, frac), (err_lin, _) in pairs:
         # measured: frobisher (JPEG) 2 DN; memorial (film scan, green) 1-3 DN, 5-6 DN on the two darkest pairs
         # where under 3% of pixels are usable
         assert err <= (3.0 if frac > 0.1 else 7.0)

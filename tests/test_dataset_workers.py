@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 distributed = pytest.importorskip("distributed")
-import dask  # noqa: E402
 import cloudpickle  # noqa: E402
+import dask  # noqa: E402
 
 import sim  # noqa: E402
 from evsim_app.cli import main  # noqa: E402
@@ -28,6 +28,8 @@ from generators.formats import load  # noqa: E402
 from generators.runner import TasksFailed, local_cluster  # noqa: E402
 from generators.scenes import MovingEdge  # noqa: E402
 from generators.sweep import generate_sweep  # noqa: E402
+
+pytestmark = pytest.mark.slow  # Dask clusters of worker processes: left out of the fast loop
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = """

@@ -230,8 +230,8 @@ def test_evaluate_task_denoise_prints_and_writes_scores(labelled_dataset, tmp_pa
 
 
 def test_evaluate_task_denoise_needs_labels(tmp_path, capsys):
-    from generators.ahdr import AHDRConfig, generate_ahdr
     from evsim_app.cli import main
+    from generators.ahdr import AHDRConfig, generate_ahdr
     from generators.scenes import MovingEdge
 
     cfg = AHDRConfig(dvs=sim.DVSParams.preset("ideal"), camera=sim.CameraParams(fps=50.0, exposure_us=2000))
@@ -248,9 +248,9 @@ def _has_matplotlib() -> bool:
 
 @pytest.mark.skipif(not _has_matplotlib(), reason="matplotlib is not installed (pip install 'evsim[plot]')")
 def test_plot_roc_and_auc_sweep(labelled_dataset, tmp_path):
-    from generators.ahdr import AHDRConfig
     from evsim_app.cli import main
     from evsim_app.plots.sweep import sweep_metrics
+    from generators.ahdr import AHDRConfig
     from generators.scenes import MovingEdge
     from generators.sweep import generate_sweep
 

@@ -11,32 +11,21 @@ import pytest
 import akf
 import crf_models
 import sim
-from generators import load
-from generators.ahdr import AHDRConfig, generate_ahdr
 from evsim_app.cli import main
 from evsim_eval.evaluate import evaluate_dataset
 from evsim_eval.protocols import reference_to_x
+from generators import load
 from generators.formats import export
 from generators.formats.exr import read_exr_sequence
-from generators.scenes import MovingEdge
 
-H, W, DURATION_US = 16, 20, 300_000
+from recordings import generate_tiny
+
 METRICS = ("mse", "ssim")
 
 
-def _generate(path, seed=0, crf="window"):
-    scene = MovingEdge(H, W, DURATION_US, speed_px_per_s=40.0)
-    config = AHDRConfig(dvs=sim.DVSParams.preset("davis346"), crf=crf, reference_rate_hz=50.0, compression=None)
-    generate_ahdr(scene, path, config, seed, progress=False)
-    return path
-
-
-@pytest.fixture(scope="module")
-def dataset(tmp_path_factory):
-    d = tmp_path_factory.mktemp("ds")
-    _generate(d / "a.h5", 0)
-    _generate(d / "b.h5", 1)
-    return d
+@pytest.fixture
+def dataset(tiny_dataset):
+    return tiny_dataset
 
 
 def _direct(path, methods=("akf", "cf", "frames"), leak_rate_hz=None):
@@ -125,8 +114,8 @@ def test_leak_rate_option_overrides_the_recorded_one(dataset, tmp_path):
 def test_dataset_index_folder_is_read_in_index_order(tmp_path):
     from generators.dataset import write_index
 
-    _generate(tmp_path / "z.h5", 2)
-    _generate(tmp_path / "y.h5", 3)
+    generate_tiny(tmp_path / "z.h5", 2)
+    generate_tiny(tmp_path / "y.h5", 3)
     write_index(tmp_path, {"sequences": [{"name": "z", "file": "z.h5"}, {"name": "y", "file": "y.h5"}]})
     result, notes, _, _ = evaluate_dataset(tmp_path, methods=("frames",), metrics=("mse",))
     assert list(result["frames"]) == ["z", "y", "mean"] and notes == []
@@ -173,7 +162,7 @@ def test_interleave_protocol_on_exported_layouts(dataset, tmp_path, layout):
 
 
 def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
-    rec = load(_generate(tmp_path / "lin.h5", 4, crf="linear"))
+    rec = load(generate_tiny(tmp_path / "lin.h5", 4, crf="linear"))
     export(dataclasses.replace(rec, crf=None), tmp_path / "davis", "ijrr")
     assert main(["evaluate", str(tmp_path / "davis"), "--protocol", "interleave", "--metrics", "mse"]) == 0
     text = capsys.readouterr().out
@@ -197,7 +186,8 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["evaluate", "{a}", "--leak-hz", "-1"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf method only"),
-    (["reconstruct", "{ijrr_noframes}", "--out", "{out}", "--times", "fps:10"], "at least 1 frame, the recording has 0"),
+    (["reconstruct", "{ijrr_noframes}", "--out", "{out}", "--times", "fps:10"],
+     "at least 1 frame, the recording has 0"),
     (["evaluate", "{ijrr_noframes}", "--protocol", "interleave"], "at least 3 frames, the recording has 0"),
 ])
 def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, message):

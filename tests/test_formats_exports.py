@@ -17,12 +17,13 @@ from generators.formats.exr import read_exr, read_exr_sequence, write_exr
 from generators.formats.ijrr import seconds_text
 from generators.formats.native import write_native
 from sim import EvsimInputError
-from test_formats_common import H, T0, W, assert_recordings_equal, files_in, make_recording
+
+from recordings import T0, H, W, assert_recordings_equal, files_in, make_recording
 
 
 # -- E2VID ------------------------------------------------------------------------------------------------------
-def test_e2vid_layout_matches_event_cnn_minimal(tmp_path):
-    rec = make_recording()
+def test_e2vid_layout_matches_event_cnn_minimal(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "e.h5", "e2vid")
     ev = rec.events
     with h5py.File(tmp_path / "e.h5") as f:
@@ -47,8 +48,8 @@ def test_e2vid_layout_matches_event_cnn_minimal(tmp_path):
             assert img.attrs["event_idx"] == max(0, first - 1)
 
 
-def test_e2vid_round_trip_is_exact_after_rounding_seconds_to_microseconds(tmp_path):
-    rec = make_recording()
+def test_e2vid_round_trip_is_exact_after_rounding_seconds_to_microseconds(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "e.h5", "e2vid")
     assert detect(tmp_path / "e.h5") == "e2vid"
     assert_recordings_equal(rec, load(tmp_path / "e.h5"))
@@ -83,8 +84,8 @@ def test_e2vid_reads_foreign_files_without_evsim_extras(tmp_path):
 
 
 # -- IJRR -------------------------------------------------------------------------------------------------------
-def test_ijrr_text_is_exact_microseconds(tmp_path):
-    rec = make_recording()
+def test_ijrr_text_is_exact_microseconds(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "ij", "ijrr")
     lines = (tmp_path / "ij" / "events.txt").read_text().splitlines()
     e = rec.events[0]
@@ -141,8 +142,8 @@ def test_ijrr_errors_name_the_file_and_line_problem(tmp_path):
         load(d)
 
 
-def test_ijrr_export_is_atomic_at_folder_level(tmp_path, monkeypatch):
-    rec = make_recording()
+def test_ijrr_export_is_atomic_at_folder_level(tmp_path, monkeypatch, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "ij", "ijrr")
     before = {p.name: p.read_bytes() for p in (tmp_path / "ij").iterdir() if p.is_file()}
     calls, real_imwrite = [], cv2.imwrite
@@ -171,8 +172,8 @@ def test_ijrr_export_is_atomic_at_folder_level(tmp_path, monkeypatch):
 
 
 # -- AKF .mat ---------------------------------------------------------------------------------------------------
-def test_akf_mat_variables_follow_the_authors_conventions(tmp_path):
-    rec = make_recording()
+def test_akf_mat_variables_follow_the_authors_conventions(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "a.mat", "akf-mat")
     m = scipy.io.loadmat(tmp_path / "a.mat")
     ev = rec.events
@@ -187,11 +188,11 @@ def test_akf_mat_variables_follow_the_authors_conventions(tmp_path):
     assert m["f_Q"].shape == (256, 1)
 
 
-def test_akf_mat_vectors_are_the_columns_the_authors_code_indexes(tmp_path):
+def test_akf_mat_vectors_are_the_columns_the_authors_code_indexes(tmp_path, tiny_recording):
     # github.com/ziweiWWANG/AKF, deblur_edge_left.m: t1 = time_image(img_idx_now, 1) - exposure/2 for every frame
     # from the second on; with a 1 x F row this is "time_image(2,_): out of bound". akf_reconstruction.m indexes
     # exposure(i) and f_Q(z + 1) linearly, which columns satisfy too.
-    rec = make_recording()
+    rec = tiny_recording
     export(rec, tmp_path / "a.mat", "akf-mat")
     m = scipy.io.loadmat(tmp_path / "a.mat")
     nf = rec.frames.shape[0]
@@ -210,8 +211,8 @@ def test_akf_mat_vectors_are_the_columns_the_authors_code_indexes(tmp_path):
     assert_recordings_equal(new, old, skip=("metadata",))
 
 
-def test_akf_mat_round_trip_is_exact(tmp_path):
-    rec = make_recording()
+def test_akf_mat_round_trip_is_exact(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "a.mat", "akf-mat")
     assert detect(tmp_path / "a.mat") == "akf-mat"
     back = load(tmp_path / "a.mat")
@@ -221,8 +222,8 @@ def test_akf_mat_round_trip_is_exact(tmp_path):
     assert akf["ct"] == pytest.approx(rec.threshold_maps.mean(), rel=1e-6) and len(akf["f_Q"]) == 256
 
 
-def test_f_q_is_the_authors_table_for_robertson_and_floored_where_the_crf_clips(tmp_path):
-    rec = make_recording()
+def test_f_q_is_the_authors_table_for_robertson_and_floored_where_the_crf_clips(tmp_path, tiny_recording):
+    rec = tiny_recording
     rec.crf = {"name": "gamma", "params": {"gamma": 2.2, "weighting": "robertson"}}
     export(rec, tmp_path / "r.mat", "akf-mat")
     z = np.arange(256)
@@ -287,8 +288,8 @@ def test_akf_mat_errors(tmp_path):
 
 
 # -- OpenEXR ----------------------------------------------------------------------------------------------------
-def test_exr_reference_sequence_round_trip(tmp_path):
-    rec = make_recording()
+def test_exr_reference_sequence_round_trip(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "ref", "exr")
     images, t = read_exr_sequence(tmp_path / "ref")
     np.testing.assert_array_equal(images, rec.reference)  # float32: lossless
@@ -316,8 +317,8 @@ def test_exr_errors(tmp_path):
 
 # -- export from a native file ----------------------------------------------------------------------------------
 @pytest.mark.parametrize("fmt,name", [("e2vid", "e.h5"), ("ijrr", "ij"), ("akf-mat", "a.mat")])
-def test_export_from_native_file_equals_export_from_recording(tmp_path, fmt, name):
-    rec = make_recording()
+def test_export_from_native_file_equals_export_from_recording(tmp_path, fmt, name, tiny_recording):
+    rec = tiny_recording
     write_native(rec, tmp_path / "n.h5")
     export(tmp_path / "n.h5", tmp_path / name, fmt)
     back = load(tmp_path / name)
@@ -328,9 +329,9 @@ def test_export_from_native_file_equals_export_from_recording(tmp_path, fmt, nam
 
 
 @pytest.mark.parametrize("fmt,name", [("native", "b.h5"), ("e2vid", "e.h5"), ("ijrr", "ij"), ("exr", "ref")])
-def test_export_from_native_file_reads_one_image_at_a_time(tmp_path, monkeypatch, fmt, name):
+def test_export_from_native_file_reads_one_image_at_a_time(tmp_path, monkeypatch, fmt, name, tiny_recording):
     """Memory stays flat in the sequence length: frames and reference images are read singly from the file."""
-    rec = make_recording()
+    rec = tiny_recording
     write_native(rec, tmp_path / "n.h5")
     reads = []
     getitem = h5py.Dataset.__getitem__
@@ -353,8 +354,8 @@ def test_export_from_native_file_reads_one_image_at_a_time(tmp_path, monkeypatch
         assert_recordings_equal(rec, load(tmp_path / name), skip=("metadata",))
 
 
-def test_exr_sequence_is_atomic_at_folder_level(tmp_path):
-    rec = make_recording()
+def test_exr_sequence_is_atomic_at_folder_level(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "ref", "exr")
     before = {p.name: p.read_bytes() for p in (tmp_path / "ref").iterdir()}
     bad = make_recording()

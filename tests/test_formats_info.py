@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from generators.formats import DatasetFormatError, export
 from evsim_app.info import describe, format_description
+from generators.formats import DatasetFormatError, export
 from generators.formats.recording import Recording
 from sim import make_events
 

@@ -12,13 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from generators.formats import (DatasetFormatError, ExportDropWarning, detect, export, from_tonic, load,
-                                to_tonic)
+from generators.formats import DatasetFormatError, ExportDropWarning, detect, export, from_tonic, load, to_tonic
 from generators.formats.native import write_native
 from generators.formats.prophesee import PropheseeWriter
 from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
-from test_formats_common import H, T0, W, make_recording
+
+from recordings import T0, H, W, make_recording
 
 
 def export_quietly(rec, path, fmt):
@@ -48,11 +48,11 @@ def long_recording() -> Recording:
 
 # -- E2VID text ---------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["events.zip", "seq.txt"])
-def test_e2vid_text_has_rpg_e2vids_header_and_reads_back(tmp_path, name):
+def test_e2vid_text_has_rpg_e2vids_header_and_reads_back(tmp_path, name, tiny_recording):
     # github.com/uzh-rpg/rpg_e2vid run_reconstruction.py reads "width height" from the first line; its
     # utils/event_readers.py then skips that line and splits each "t x y p" line (t seconds, p 1/0); a .zip must
     # hold exactly one text file.
-    rec = make_recording()
+    rec = tiny_recording
     dropped = export_quietly(rec, tmp_path / name, "e2vid-txt")
     assert "frames" in dropped and "event_labels" in dropped
     if name.endswith(".zip"):
@@ -74,8 +74,8 @@ def test_e2vid_text_has_rpg_e2vids_header_and_reads_back(tmp_path, name):
     np.testing.assert_array_equal(back.events, rec.events)
 
 
-def test_ecd_text_keeps_its_layout_and_bad_e2vid_text_is_a_clear_error(tmp_path):
-    rec = make_recording()
+def test_ecd_text_keeps_its_layout_and_bad_e2vid_text_is_a_clear_error(tmp_path, tiny_recording):
+    rec = tiny_recording
     export(rec, tmp_path / "ij", "ijrr")
     first = (tmp_path / "ij" / "events.txt").read_text().splitlines()[0].split()
     assert len(first) == 4  # ECD: the first line is the first event, no header
@@ -85,9 +85,9 @@ def test_ecd_text_keeps_its_layout_and_bad_e2vid_text_is_a_clear_error(tmp_path)
 
 
 # -- tonic --------------------------------------------------------------------------------------------------------
-def test_to_tonic_puts_off_events_in_tonics_off_channel():
+def test_to_tonic_puts_off_events_in_tonics_off_channel(tiny_recording):
     tonic = pytest.importorskip("tonic")
-    rec = make_recording()
+    rec = tiny_recording
     frames = tonic.transforms.ToFrame(sensor_size=(W, H, 2), n_event_bins=1)(to_tonic(rec.events))
     off, on = rec.events["p"] < 0, rec.events["p"] > 0
     assert frames.shape == (1, 2, H, W)
@@ -227,12 +227,12 @@ def test_prophesee_bad_files_are_clear_errors(tmp_path):
 
 
 # -- AEDAT4 -------------------------------------------------------------------------------------------------------
-def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path):
+def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_recording):
     # iniVation's convention (dv-processing's dv::Frame): a frame's timestamp is its exposure start and exposure
     # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t.
     dv = pytest.importorskip("dv_processing")
     aedat = pytest.importorskip("aedat")
-    rec = make_recording()
+    rec = tiny_recording
     with pytest.warns(ExportDropWarning, match="leaves out reference, threshold_maps, event_labels, crf, metadata"):
         export(rec, tmp_path / "r.aedat4", "aedat4")
     # iniVation's own reader

@@ -12,7 +12,8 @@ import generators
 from generators.formats import DatasetFormatError, NativeWriter, detect, export, load
 from generators.formats.native import iter_native_events, read_native, write_native
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, UnsortedEventsError
-from test_formats_common import H, W, assert_recordings_equal, files_in, make_recording
+
+from recordings import H, W, assert_recordings_equal, files_in, make_recording
 
 
 @pytest.mark.parametrize("bit_depth", [8, 12])
@@ -26,8 +27,8 @@ def test_round_trip_is_exact(tmp_path, bit_depth):
     assert back.frames.dtype == (np.uint8 if bit_depth == 8 else np.uint16)
 
 
-def test_layout_is_dsec_like(tmp_path):
-    rec = make_recording()
+def test_layout_is_dsec_like(tmp_path, tiny_recording):
+    rec = tiny_recording
     write_native(rec, tmp_path / "seq.h5")
     with h5py.File(tmp_path / "seq.h5") as f:
         assert {k: f["events"][k].dtype.str for k in "txyp"} == {"t": "<i8", "x": "<u2", "y": "<u2", "p": "|u1"}
@@ -123,9 +124,9 @@ def test_exception_inside_writer_leaves_no_file_and_no_temp(tmp_path):
     assert files_in(tmp_path) == []
 
 
-def test_existing_file_is_untouched_on_failure_and_replaced_on_success(tmp_path):
+def test_existing_file_is_untouched_on_failure_and_replaced_on_success(tmp_path, tiny_recording):
     path = tmp_path / "seq.h5"
-    rec = make_recording()
+    rec = tiny_recording
     write_native(rec, path)
     before = path.read_bytes()
     with pytest.raises(RuntimeError):
@@ -173,8 +174,8 @@ def test_missing_path_and_unknown_layouts_are_clear_errors(tmp_path):
         load(tmp_path / "empty_dir")
 
 
-def test_export_native_to_native_streams_and_is_exact(tmp_path):
-    rec = make_recording()
+def test_export_native_to_native_streams_and_is_exact(tmp_path, tiny_recording):
+    rec = tiny_recording
     write_native(rec, tmp_path / "a.h5")
     export(tmp_path / "a.h5", tmp_path / "b.h5", "native")
     assert_recordings_equal(rec, load(tmp_path / "b.h5"))
@@ -182,10 +183,10 @@ def test_export_native_to_native_streams_and_is_exact(tmp_path):
         export(rec, tmp_path / "c", "tiff")
 
 
-def test_polarity_is_stored_as_dsec_stores_it_and_old_files_still_load(tmp_path):
+def test_polarity_is_stored_as_dsec_stores_it_and_old_files_still_load(tmp_path, tiny_recording):
     # DSEC (github.com/uzh-rpg/DSEC, scripts/dataset/representations.py) builds its voxel grid with
     # value = 2 * pol - 1 from the stored events/p: stored 0/1, OFF must become -1 there, never -3.
-    rec = make_recording()
+    rec = tiny_recording
     write_native(rec, tmp_path / "seq.h5")
     with h5py.File(tmp_path / "seq.h5") as f:
         p = f["events/p"][()]

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from generators.formats import DatasetFormatError, export, load
 from evsim_app.info import describe
-from test_formats_common import assert_recordings_equal
+from generators.formats import DatasetFormatError, export, load
+
+from recordings import assert_recordings_equal
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 AEDAT4 = DATA / "events" / "tonic_sample_dvxplorer.aedat4"

@@ -24,6 +24,8 @@ from generators.config import build_scene, load_config, parse_config, to_ahdr_co
 from generators.scenes import Trajectory
 from sim import EvsimInputError, InvalidParameterError
 
+pytestmark = pytest.mark.slow  # hundreds of mutated configurations and API calls: left out of the fast loop
+
 N = 4 * int(os.environ.get("EVSIM_FUZZ_N", "40"))
 
 BASE = {
@@ -108,7 +110,7 @@ def test_mutated_configurations_resolve_or_raise_evsim_input_error():
             data2, desc2 = mutate_config(rng)
             data["defaults"] = data2.get("defaults", data.get("defaults"))
             desc += f"; defaults from ({desc2})"
-        out = check_config_outcome(lambda: parse_config(data))
+        out = check_config_outcome(lambda data=data: parse_config(data))
         outcomes[out if out in outcomes else "bad"] = outcomes.get(out, 0) + 1
         if out not in ("valid", "error"):
             failures.append(f"#{i} {desc}: {out}")
@@ -141,7 +143,7 @@ def test_mutated_toml_text_loads_or_raises_evsim_input_error(tmp_path):
         words[j] = TOKENS[rng.integers(len(TOKENS))] + ("\n" if words[j].endswith("\n") else "")
         path = tmp_path / f"c{i}.toml"
         path.write_text(" ".join(words))
-        out = check_config_outcome(lambda: load_config(path))
+        out = check_config_outcome(lambda path=path: load_config(path))
         if out not in ("valid", "error"):
             failures.append(f"#{i}: {out}\n{path.read_text()}")
     assert not failures, "\n".join(failures[:10])
@@ -263,9 +265,9 @@ def test_akf_contrast_is_bounded_at_its_boundary():
 
 def test_reconstruct_refuses_an_existing_output_unless_overwrite(tmp_path):
     from evsim_app.cli import main
-    from test_formats_common import make_recording
-
     from generators.formats import export
+
+    from recordings import make_recording
 
     rec = make_recording(n_events=200)
     export(rec, tmp_path / "d.h5", "native")

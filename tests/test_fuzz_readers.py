@@ -17,11 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import fuzz_mutators as fm
 from generators.formats import DatasetFormatError, export, load
 from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
-from test_formats_common import make_recording
+
+import fuzz_mutators as fm
+from recordings import make_recording
+
+pytestmark = pytest.mark.slow  # hundreds of mutated files: left out of the fast loop
 
 N_PER_LAYOUT = int(os.environ.get("EVSIM_FUZZ_N", "40"))
 SEED = int(os.environ.get("EVSIM_FUZZ_SEED", "0"))

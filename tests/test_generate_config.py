@@ -6,9 +6,9 @@ import pytest
 import sim
 from generators import load
 from generators.builtin import BUILTIN_SEQUENCES, builtin_dataset
-from generators.scenes import builtin_hdr_image
 from generators.config import build_scene, load_config, parse_config, to_ahdr_config
 from generators.dataset import generate_dataset
+from generators.scenes import builtin_hdr_image
 
 CONFIG = """
 seed = 5

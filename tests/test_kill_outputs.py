@@ -10,8 +10,8 @@ EVSIM_KILL_RUNS (default 1) repeats each scenario with further kill points.
 
 from __future__ import annotations
 
-import os
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -24,6 +24,8 @@ import pytest
 from evsim_eval.protocols import dataset_sequences
 from generators.formats import DatasetFormatError, load
 from generators.formats.exr import read_exr_sequence
+
+pytestmark = pytest.mark.slow  # signals and full disks sent to CLI subprocesses: left out of the fast loop
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = int(os.environ.get("EVSIM_KILL_RUNS", "1"))

@@ -21,8 +21,6 @@ if not isinstance(matplotlib, types.ModuleType):
 
 import akf  # noqa: E402
 from evsim_app.cli import main  # noqa: E402
-from generators.config import build_scene, parse_config, to_ahdr_config  # noqa: E402
-from generators.ahdr import generate_ahdr  # noqa: E402
 from evsim_app.plots import (  # noqa: E402
     animate,
     event_frame,
@@ -38,6 +36,8 @@ from evsim_app.plots import (  # noqa: E402
 )
 from evsim_app.plots.common import MATPLOTLIB_HINT, PlotDependencyError, ToneMap  # noqa: E402
 from evsim_app.plots.pixel import pixel_series  # noqa: E402
+from generators.ahdr import generate_ahdr  # noqa: E402
+from generators.config import build_scene, parse_config, to_ahdr_config  # noqa: E402
 from generators.sweep import generate_sweep  # noqa: E402
 from sim import EvsimInputError, make_events  # noqa: E402
 

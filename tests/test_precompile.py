@@ -7,8 +7,8 @@ import numpy as np
 
 import crf_models
 from evsim_app import precompile
-from generators.builtin import ahdr_suite_config
 from evsim_eval.evaluate import evaluate_recording
+from generators.builtin import ahdr_suite_config
 from generators.formats.recording import validate_recording
 
 

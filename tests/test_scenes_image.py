@@ -6,8 +6,7 @@ import pytest
 
 import crf_models
 import sim
-from generators.scenes import (REC709_WEIGHTS, FrameSequenceScene, ImageMotionScene, Trajectory, load_image,
-                               to_luminance)
+from generators.scenes import REC709_WEIGHTS, FrameSequenceScene, ImageMotionScene, Trajectory, load_image, to_luminance
 
 HDR_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "hdr"
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import sim
-from generators.scenes import (Checkerboard, FlickeringLight, MovingEdge, RotatingBar, RotatingDisk, SunPatch)
+from generators.scenes import Checkerboard, FlickeringLight, MovingEdge, RotatingBar, RotatingDisk, SunPatch
 from sim.source import RadianceSource
 
 

@@ -14,8 +14,8 @@ import pytest
 
 import crf_models
 import sim
-from generators.ahdr import generate_ahdr
 from evsim_app.cli import main
+from generators.ahdr import generate_ahdr
 from generators.config import build_scene, parse_config, to_ahdr_config
 from generators.convert import clips, convert, convert_config
 from generators.formats import DatasetFormatError, load

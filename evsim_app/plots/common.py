@@ -16,11 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sim import EvsimInputError
-
 from generators.formats import load
 from generators.formats.atomic import atomic_path
 from generators.formats.recording import Recording
+from sim import EvsimInputError
 
 MATPLOTLIB_HINT = "matplotlib is not installed: pip install 'evsim[plot]'"
 REINHARD_KEY = 0.18

@@ -70,7 +70,7 @@ def plot_compare(prep: Prepared, out, *, t_us: int | None = None, methods=DEFAUL
     names = list(res["images"])
     cols = len(names) + 2
     fig, axes = plt.subplots(2, cols, figsize=(2.9 * cols, 5.4), squeeze=False)
-    top = [("LDR input (frame %d)" % res["frame_index"], res["ldr"], True)]
+    top = [(f"LDR input (frame {res['frame_index']})", res["ldr"], True)]
     top += [(n, tone(res["images"][n]), True) for n in names] + [("HDR reference", tone(res["reference"]), True)]
     for ax, (title, img, _) in zip(axes[0], top):
         ax.imshow(img, cmap="gray", vmin=0, vmax=1, interpolation="nearest")

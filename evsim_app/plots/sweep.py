@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sim import EvsimInputError
-
 from generators.dataset import INDEX_FILE
 from generators.formats.atomic import write_text_atomic
+from sim import EvsimInputError
+
 from .common import load_recording, pyplot, read_json, save_figure
 
 METRICS_FILE = "sweep_metrics.json"
@@ -33,7 +33,8 @@ def read_index(results) -> dict:
     path = Path(results) / INDEX_FILE
     index = read_json(path, f"{results}: no {INDEX_FILE}; expected the folder written by `evsim generate sweep`")
     if not isinstance(index, dict) or index.get("generator") != "sweep" or "grid" not in index:
-        raise EvsimInputError(f"{path}: not a sweep index (generator {index.get('generator') if isinstance(index, dict) else None!r}); "
+        generator = index.get("generator") if isinstance(index, dict) else None
+        raise EvsimInputError(f"{path}: not a sweep index (generator {generator!r}); "
                               "use the output folder of `evsim generate sweep`")
     return index
 

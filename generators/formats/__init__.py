@@ -18,7 +18,6 @@ import h5py
 from sim import EvsimInputError
 
 from ..choices import EXPORT_FORMATS, FORMATS
-from .recording import Recording
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
 from .common import DatasetFormatError, fail, open_h5, reading, validated
@@ -28,7 +27,7 @@ from .ijrr import is_e2vid_txt, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_
 from .interop import from_tonic, to_tonic
 from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
 from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
-
+from .recording import Recording
 
 _ALL_PARTS = ("events", "frames", "reference", "threshold_maps", "event_labels", "crf", "metadata")
 # What each export format can hold, of a Recording's parts (every format also holds the sensor size).

@@ -17,10 +17,10 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .recording import Recording, validate_recording
 from .atomic import commit
 from .common import events_from_columns, fail, polarity_pm1
 from .native import recording_event_chunks
+from .recording import Recording, validate_recording
 
 
 def _grey(frame: dict) -> np.ndarray:

@@ -30,9 +30,9 @@ from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
-from .recording import MAX_TIME_US, Recording, validate_recording
 from .atomic import atomic_path
 from .common import events_from_columns, fail, open_h5, polarity_pm1, to_json
+from .recording import MAX_TIME_US, Recording, validate_recording
 
 REQUIRED = ("events", "image", "time_image", "exposure", "im_height", "im_width")
 # The authors' frame noise table is f_Q = max(w(z), 0.09) * 7e5 with the Robertson weight w: i.e.

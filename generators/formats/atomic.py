@@ -18,7 +18,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-
 _OWNER = f"{socket.gethostname()}-{os.getpid()}"
 
 

@@ -11,7 +11,8 @@ evsim extras that other readers ignore: image attrs t_start_us, t_mid_us, t_end_
 evsim_metadata and evsim_crf (JSON); group /evsim with reference/images, reference/t_us, threshold_maps and
 event_labels.
 Precision: ts are float64 seconds; times read back as rint(ts * 1e6) microseconds, exact for |t| < 2**51 us
-(about 71 years: Unix-time microseconds included). Frames are 8-bit by layout: deeper frames lose their low bits (frame >> (bit_depth - 8)).
+(about 71 years: Unix-time microseconds included). Frames are 8-bit by layout: deeper frames lose their low bits
+(frame >> (bit_depth - 8)).
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ from collections.abc import Iterator
 import h5py
 import numpy as np
 
-from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import (
     append_rows,
@@ -34,6 +34,7 @@ from .common import (
     to_json,
 )
 from .native import recording_event_chunks
+from .recording import Recording, validate_recording
 
 _CHUNK = 1 << 16
 

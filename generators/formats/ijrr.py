@@ -35,11 +35,11 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import DatasetFormatError, events_from_columns, fail, polarity_pm1, to_json
 from .exr import read_exr_sequence, write_exr_sequence
 from .native import recording_event_chunks
+from .recording import Recording, validate_recording
 
 _FORMAT_ROWS = 100_000  # events formatted per string operation
 

@@ -34,12 +34,11 @@ from isal import isal_zlib
 
 from sim import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError, validate_events
 
-from .recording import Recording, validate_recording
 from .atomic import commit, discard, temp_sibling
 from .common import (
     EVENT_CHUNK,
-    append_rows,
     add_offset,
+    append_rows,
     event_chunks,
     events_from_columns,
     fail,
@@ -51,6 +50,7 @@ from .common import (
     to_json,
     validated,
 )
+from .recording import Recording, validate_recording
 
 FORMAT_NAME = "evsim-native"
 FORMAT_VERSION = 2  # 2: events/p stored 0/1 (DSEC); 1: stored -1/+1

@@ -31,11 +31,11 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .recording import Recording, validate_recording
 from .atomic import atomic_path
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .native import recording_event_chunks
 from .prophesee_kernels import TIME_HIGH_MAX_STEP, decode_evt3, encode_evt3
+from .recording import Recording, validate_recording
 
 PROPHESEE_FORMATS = ("evt3", "evt2", "dat")
 SUFFIX = {"evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
@@ -83,7 +83,7 @@ class PropheseeWriter:
                  "% evsim_time_base us", "% evsim_polarity 1=ON 0=OFF",
                  "% evsim_holds events, sensor size (no frames, reference, labels, thresholds, CRF, metadata)"]
         if self.fmt == "dat":
-            date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+            date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M:%S")
             return "\n".join(["% Data file containing Event2D events.", "% Version 2", f"% Date {date}",
                               f"% Height {h}", f"% Width {w}", *evsim]) + "\n"
         version = "3.0" if self.fmt == "evt3" else "2.0"

@@ -10,7 +10,8 @@ from .procedural import Checkerboard, FlickeringLight, MovingEdge, RotatingBar, 
 from .video import UPSAMPLE_MODES, VideoScene, input_size, open_frames
 
 __all__ = [
-    "Scene", "BUILTIN_IMAGES", "builtin_hdr_image", "builtin_image_scene", "FrameSequenceScene", "ImageMotionScene", "Trajectory", "linearise_ldr", "load_image",
+    "Scene", "BUILTIN_IMAGES", "builtin_hdr_image", "builtin_image_scene", "FrameSequenceScene", "ImageMotionScene",
+    "Trajectory", "linearise_ldr", "load_image",
     "REC709_WEIGHTS", "to_luminance", "Checkerboard", "FlickeringLight", "MovingEdge", "RotatingBar",
     "RotatingDisk", "SunPatch", "UPSAMPLE_MODES", "VideoScene", "input_size", "open_frames",
 ]

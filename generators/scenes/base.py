@@ -87,7 +87,8 @@ def positive(name: str, value: float, owner: str, *, allow_zero: bool = False) -
 
 def _check_finite(owner: str, params, where: str = "") -> None:
     """InvalidParameterError unless every number in a (nested) parameter dict, list or tuple is finite."""
-    items = params.items() if isinstance(params, dict) else enumerate(params) if isinstance(params, (list, tuple)) else ()
+    items = (params.items() if isinstance(params, dict) else enumerate(params) if isinstance(params, (list, tuple))
+             else ())
     for k, v in items:
         name = f"{where}.{k}" if where else str(k)
         if isinstance(v, (dict, list, tuple)):

@@ -245,9 +245,11 @@ class ImageMotionScene(Scene):
         self.border_value = positive("border_value", border_value, "ImageMotionScene", allow_zero=True)
         self.gain = positive("gain", gain, "ImageMotionScene")
         self.name = name
-        scale = min(sh / self.height, sw / self.width) if scale is None else positive("scale", scale, "ImageMotionScene")
+        scale = (min(sh / self.height, sw / self.width) if scale is None
+                 else positive("scale", scale, "ImageMotionScene"))
         if isinstance(supersample, bool) or int(supersample) != supersample or supersample < 1:
-            raise InvalidParameterError(f"ImageMotionScene: supersample must be a positive integer, got {supersample!r}")
+            raise InvalidParameterError(f"ImageMotionScene: supersample must be a positive integer, "
+                                        f"got {supersample!r}")
         self.scale = scale
         self.supersample = int(supersample) if scale > 1 else 1
         self.prefilter = bool(prefilter)

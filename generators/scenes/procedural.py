@@ -174,7 +174,8 @@ class RotatingDisk(Scene):
                  high: float = 1.0, background: float = 0.2):
         self._init_size(height, width, duration_us)
         self.omega = float(angular_speed_deg_s)
-        self.radius = 0.45 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "RotatingDisk")
+        self.radius = (0.45 * min(height, width) if radius_px is None
+                       else positive("radius_px", radius_px, "RotatingDisk"))
         if int(sectors) != sectors or sectors < 1:
             raise InvalidParameterError(f"RotatingDisk: sectors must be a positive integer, got {sectors!r}")
         self.sectors = int(sectors)
@@ -226,7 +227,8 @@ class FlickeringLight(Scene):
             raise InvalidParameterError(f"FlickeringLight: depth must be in [0, 1), got {depth!r}")
         self.phase = float(phase_rad)
         self.background = positive("background", background, "FlickeringLight")
-        self.radius = 0.25 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "FlickeringLight")
+        self.radius = (0.25 * min(height, width) if radius_px is None
+                       else positive("radius_px", radius_px, "FlickeringLight"))
         centre = ((width - 1) / 2, (height - 1) / 2)
         self._coverage = _disk_coverage(height, width, centre, self.radius).astype(np.float32)
 

@@ -539,7 +539,7 @@ class VideoScene(Scene):
             "frame_rate_hz": float((self.times.size - 1) * 1e6 / self.times[-1]),
             "start_s": self.start_s, "stop_s": self.stop_s,
             "linearisation": {"method": lin, **({"crf": self.input_crf} if self._is_ldr else {})},
-            "luminance": ("Rec. 709: Y = %.4f R + %.4f G + %.4f B" % REC709_WEIGHTS if self.channel is None
+            "luminance": ("Rec. 709: Y = {:.4f} R + {:.4f} G + {:.4f} B".format(*REC709_WEIGHTS) if self.channel is None
                           else f"channel {self.channel}"),
             "crop": list(self._crop), "resize": "cv2.INTER_AREA (area integration in linear radiance)",
             "upsample": up, "log_eps": self.log_eps,
