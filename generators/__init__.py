@@ -1,17 +1,28 @@
-"""Generation: scenes and HDR sources, AHDR sequences, datasets, sweeps, video conversion, configurations and the
-runner that runs one task per sequence anywhere; file formats and the Recording in `generators.formats`."""
+"""Generation: HDR scenes and sources, AHDR sequences, datasets, sweeps and video conversion.
+
+- sequences: `AHDRConfig`, `generate_ahdr` (one AHDR sequence from a scene), `generate_ahdr_suite` (the built-in
+  suite);
+- datasets: `load_config`, `parse_config` (TOML configurations), `generate_dataset`, `generate_sweep`, run one task
+  per sequence by `run_tasks` (serially, on local workers or a cluster); `generators.convert.convert` (your own
+  video or frames);
+- files (`generators.formats`, the layer below): `load`, `export`, `detect`, `Recording`, `validate_recording`.
+Scenes are in `generators.scenes`. Every name is imported on first use.
+"""
+
+from sim.lazy import lazy_exports
 
 from . import moved
 
-__all__ = ["load"]
-
+_EXPORTS = {
+    "AHDRConfig": "ahdr", "generate_ahdr": "ahdr",
+    "generate_ahdr_suite": "builtin",
+    "load_config": "config", "parse_config": "config",
+    "generate_dataset": "dataset",
+    "generate_sweep": "sweep",
+    "run_tasks": "runner",
+    "load": "formats", "export": "formats", "detect": "formats",
+    "Recording": "formats.recording", "validate_recording": "formats.recording",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 moved.install()
-
-
-def __getattr__(name: str):
-    # generators.load is imported on first use: the formats (h5py, the readers) are not needed by `evsim --help`
-    if name == "load":
-        from .formats import load
-
-        return load
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -7,9 +7,7 @@ the CRF family; animate: events against the reconstruction as GIF/MP4. All use t
 operator (common.ToneMap) and write their files atomically.
 """
 
-from __future__ import annotations
-
-import importlib
+from sim.lazy import lazy_exports
 
 # name -> submodule; imported on first use, so that `evsim --help` does not load every plotting module
 _EXPORTS = {
@@ -23,15 +21,4 @@ _EXPORTS = {
     **dict.fromkeys(("plot_sweep", "sweep_metrics"), "sweep"),
 }
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted({*globals(), *_EXPORTS})
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
