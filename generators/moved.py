@@ -1,8 +1,8 @@
 """Import paths of modules that left generators/ in evsim 0.2, kept importable until 0.3 with a DeprecationWarning.
 
 `import generators.evaluation` (and `from generators.plots import plot_pixel`, ...) gives the module at its new
-home; the warning names it. Only names are listed here: nothing of the layers above generators/ is imported until
-an old path is used.
+home, and `python -m generators.cli` runs the new one; the warning names it. Only names are listed here: nothing
+of the layers above generators/ is imported until an old path is used.
 """
 
 from __future__ import annotations
@@ -35,6 +35,10 @@ def new_home(old: str) -> str | None:
     return None
 
 
+def _notice(old: str) -> str:
+    return f"{old} moved to {new_home(old)} in evsim 0.2; the old path goes in {REMOVED_IN}"
+
+
 class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Answers an old path with the module at its new home: the same module object, not a copy."""
 
@@ -44,15 +48,20 @@ class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         return importlib.util.spec_from_loader(fullname, self)
 
     def create_module(self, spec):
-        new = new_home(spec.name)
-        warnings.warn(f"{spec.name} moved to {new} in evsim 0.2; the old path goes in {REMOVED_IN}",
-                      DeprecationWarning, stacklevel=2)
-        module = importlib.import_module(new)
+        warnings.warn(_notice(spec.name), DeprecationWarning, stacklevel=2)
+        module = importlib.import_module(new_home(spec.name))
         self._own_spec = module.__spec__  # the import system sets __spec__ to the alias's; exec_module restores it
         return module
 
     def exec_module(self, module):
         module.__spec__ = self._own_spec
+
+    def get_code(self, fullname):
+        """What `python -m OLD` runs: the module at its new home as __main__, after the same warning."""
+        return compile(f"import runpy, warnings\n"
+                       f"warnings.warn({_notice(fullname)!r}, DeprecationWarning)\n"
+                       f"runpy.run_module({new_home(fullname)!r}, run_name='__main__', alter_sys=True)\n",
+                       fullname, "exec")
 
 
 def install() -> None:
