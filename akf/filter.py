@@ -21,6 +21,7 @@ from .params import AKFParams
 
 _OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around the last event times
 MIN_BLOCK_ROWS = 16  # pixel rows per thread block: fewer would cost more in thread hand-offs than they save
+_DEFAULT_PARAMS = AKFParams()  # the default of params= (frozen: one shared instance is safe)
 
 
 def _rows(n: int, k: int) -> np.ndarray:
@@ -149,7 +150,7 @@ class AugmentedMeasurement:
 
 
 def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf, times_us, pixels, *,
-                          contrast=0.2, leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(),
+                          contrast=0.2, leak_rate_hz: float = 0.0, params: AKFParams = _DEFAULT_PARAMS,
                           bit_depth: int = 8) -> AugmentedMeasurement:
     """The augmented frame L^A(t) of reconstruct (same inputs) at times_us for the flat pixel indices `pixels`.
 
@@ -186,17 +187,19 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
         et = mine["t"]
         cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
         leaked = np.concatenate([[0.0], np.cumsum(_leaked(et, scale[:, n] * inp.c_on[i], inp, leak_rate_hz))])
-
-        def change(a, b, c):  # change of cumulative c over the events in [a, b)
-            return c[np.searchsorted(et, b, side="left")] - c[np.searchsorted(et, a, side="left")]
-
-        cur = start[k, n] + scale[k, n] * change(s_k[k], t, cum) - change(s_k[k], t, leaked)
-        prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t, cum) - change(s_k[kp], t, leaked)
+        cur = start[k, n] + scale[k, n] * _change(et, s_k[k], t, cum) - _change(et, s_k[k], t, leaked)
+        prev = start[kp, n] + scale[kp, n] * _change(et, s_k[kp], t, cum) - _change(et, s_k[kp], t, leaked)
         out[:, n] = prev + wt * (cur - prev)
     deb = np.array([(d.start[pixels], d.end[pixels]) for d in map(fr.deblurred, range(nf))])
     intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
     clipped = np.array([fr.measurement(j).clipped.ravel()[pixels] for j in range(nf)])
     return AugmentedMeasurement(out, deb, intensity, clipped)
+
+
+def _change(et: np.ndarray, a, b, c: np.ndarray) -> np.ndarray:
+    """Change of the cumulative c (c[i]: the sum over the first i events) over the events of times et (ascending)
+    in [a, b)."""
+    return c[np.searchsorted(et, b, side="left")] - c[np.searchsorted(et, a, side="left")]
 
 
 def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
@@ -216,7 +219,7 @@ def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
 
 
 def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(), bit_depth: int = 8,
+                leak_rate_hz: float = 0.0, params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8,
                 max_intensity: float | None = 1.0, return_variance: bool = False, return_gain: bool = False):
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 

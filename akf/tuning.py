@@ -131,5 +131,6 @@ def describe_setting(setting: dict) -> str:
     for k, v in setting.items():
         parts.append(f"alpha={v:.3g} rad/s" if k == "alpha" else
                      f"bound {'none' if v is None else f'{v:.3g} x'}" if k == "max_intensity" else
-                     f"contrast x{v:.3g}" if k == "contrast_scale" else f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
+                     f"contrast x{v:.3g}" if k == "contrast_scale" else
+                     f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
     return ", ".join(parts) if parts else "no parameters"

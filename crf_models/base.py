@@ -95,7 +95,8 @@ class CRF(ABC):
         the first response bin, and certainty() is capped at 1.
         """
         u = (np.arange(_SLOPE_GRID) + 0.5) / _SLOPE_GRID
-        xs = np.concatenate([self.x_lo + u * (self.x_hi - self.x_lo), self._finv(self.y_lo + u * (self.y_hi - self.y_lo))])
+        xs = np.concatenate([self.x_lo + u * (self.x_hi - self.x_lo),
+                             self._finv(self.y_lo + u * (self.y_hi - self.y_lo))])
         d = self._df(np.clip(xs, self.x_lo, self.x_hi))
         d = d[np.isfinite(d)]
         if d.size == 0 or d.max() <= 0:

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import importlib
 
-from .dvs_params import PRESETS as DVS_PRESETS, DVSParams
+from .dvs_params import PRESETS as DVS_PRESETS
+from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
 
 # name -> (submodule, name in it), imported on first use
