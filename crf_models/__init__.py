@@ -4,6 +4,13 @@ crf_models.get(name, **params) builds a curve; crf_models.available() lists the 
 normalised scaled irradiance x >= 0 (x = 1: top of the input range, e.g. full well) to a normalised response
 y in [0, 1] (DN / (2**bits - 1)); see base.py for the shared semantics. This package imports nothing else of
 the project.
+
+Exports:
+- the registry: get, available;
+- the base class: CRF, CRFError, WEIGHTINGS (the names of the weighting rules);
+- curves: LinearCRF, GammaCRF, SigmoidCRF, FilmicCRF (closed form); SRGBCRF, BT709CRF, HLGCRF, LogC3CRF,
+  SLog3CRF (colour-science transfer curves); WindowCRF (the AKF paper's AHDR window); TabulatedCRF (a LUT);
+- measured curves: load_dorf (DoRF), load_emor (EMoR), break_ties, recover_debevec (from an exposure stack).
 """
 
 from .analytic import FilmicCRF, GammaCRF, LinearCRF, SigmoidCRF
@@ -12,6 +19,15 @@ from .colour_curves import BT709CRF, HLGCRF, SRGBCRF, LogC3CRF, SLog3CRF
 from .recovery import recover_debevec
 from .tabulated import TabulatedCRF, break_ties, load_dorf, load_emor
 from .window import WindowCRF
+
+__all__ = [
+    "available", "get",
+    "CRF", "CRFError", "WEIGHTINGS",
+    "LinearCRF", "GammaCRF", "SigmoidCRF", "FilmicCRF",
+    "SRGBCRF", "BT709CRF", "HLGCRF", "LogC3CRF", "SLog3CRF",
+    "WindowCRF", "TabulatedCRF",
+    "load_dorf", "load_emor", "break_ties", "recover_debevec",
+]
 
 _REGISTRY = {
     cls.name: cls
