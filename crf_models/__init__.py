@@ -13,6 +13,10 @@ Exports:
 - measured curves: load_dorf (DoRF), load_emor (EMoR), break_ties, recover_debevec (from an exposure stack).
 """
 
+from __future__ import annotations
+
+from typing import Any
+
 from .analytic import FilmicCRF, GammaCRF, LinearCRF, SigmoidCRF
 from .base import CRF, WEIGHTINGS, CRFError
 from .colour_curves import BT709CRF, HLGCRF, SRGBCRF, LogC3CRF, SLog3CRF
@@ -44,7 +48,7 @@ def available() -> list[str]:
     return sorted([*_REGISTRY, *_ALIASES])
 
 
-def get(name: str, **params) -> CRF:
+def get(name: str, **params: Any) -> CRF:
     """The curve `name` built with `params` (keyword arguments of its class); raises CRFError when unknown."""
     key = _ALIASES.get(name, name)
     if key not in _REGISTRY:

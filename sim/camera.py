@@ -14,6 +14,7 @@ import dataclasses
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,11 @@ from .camera_kernels import accumulate_rows, sense
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_number
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
 
 
 @dataclass(frozen=True)
@@ -62,7 +68,7 @@ class CameraParams:
     max_px_per_subframe: float = 1.0
     max_subframes: int = 64
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ("exposure_us", "frame_times_us"):
             value = getattr(self, name)
             many = isinstance(value, (list, tuple, np.ndarray))
@@ -150,7 +156,7 @@ class CameraParams:
         return np.stack([start, mids, end], axis=1)
 
     @classmethod
-    def preset(cls, name: str, **overrides) -> CameraParams:
+    def preset(cls, name: str, **overrides: Any) -> CameraParams:
         """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
@@ -203,7 +209,8 @@ class LDRCamera:
     frame k from child (1, k), so any frame can be regenerated on its own. seed_entropy records the entropy.
     """
 
-    def __init__(self, height: int, width: int, params: CameraParams, crf, seed=0):
+    def __init__(self, height: int, width: int, params: CameraParams, crf: CRF,
+                 seed: int | np.random.SeedSequence = 0) -> None:
         if not (isinstance(height, (int, np.integer)) and isinstance(width, (int, np.integer))
                 and height > 0 and width > 0):
             raise InvalidParameterError(f"height and width must be positive integers, got {height} x {width}")
@@ -254,7 +261,8 @@ class LDRCamera:
             irr = self._integrate(source, int(t_start), exposure, n_sub)
             yield self._sense(irr, k, t_start, t_mid, t_end, n_sub, keep_irradiance, keep_clean)
 
-    def expose(self, radiance, exposure_us: int, *, frame_index: int = 0, t_start_us: int = 0) -> LDRFrame:
+    def expose(self, radiance: npt.ArrayLike, exposure_us: int, *, frame_index: int = 0,
+               t_start_us: int = 0) -> LDRFrame:
         """Sensor model without a source: `radiance` is either the mean radiance over the exposure (H, W) or
         equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`."""
         if not (isinstance(exposure_us, (int, np.integer)) and exposure_us > 0):

@@ -150,8 +150,9 @@ def _ptrs_first(lam, streams, res, f, bits):
         res[j] = k if accept else (-2.0 if reject else -1.0)
 
 
-def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key, thresholds, bin_start,
-          image):
+def sense(irradiance: np.ndarray, gain: float, dark_e: float, prnu: np.ndarray, dsnu: np.ndarray, use_maps: bool,
+          noise: bool, read_noise_e: float, full_well_e: float, key: int | np.uint64, thresholds: np.ndarray,
+          bin_start: np.ndarray, image: np.ndarray) -> None:
     """Digital numbers of one frame, written into `image` (uint8 or uint16 (H, W)).
 
     mean electrons = irradiance * gain * prnu + dark_e + dsnu, with the (H, W) fixed-pattern maps prnu
