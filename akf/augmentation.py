@@ -5,6 +5,8 @@ All log images are flat float64 (H*W,) arrays in L = log(I + I0). Events are ass
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sim.parallel import in_parallel
@@ -12,10 +14,14 @@ from sim.parallel import in_parallel
 from . import kernels
 from .params import AKFParams
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
 MIN_PART_ROWS = 16  # pixel rows per thread part of the per-event kernels
 
 
-def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, width):
+def edi_deblur(log_frame: np.ndarray, exposure_events: np.ndarray, t_start_us: int, t_end_us: int, c_on: np.ndarray,
+               c_off: np.ndarray, width: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """EDI (Pan et al. 2019) of a frame to the start and end of its exposure [t_start_us, t_end_us).
 
     The frame is the mean of I + I0 over the exposure and I(t) + I0 = (I(t_start) + I0) exp(E(t)), E the event log
@@ -33,7 +39,8 @@ def edi_deblur(log_frame, exposure_events, t_start_us, t_end_us, c_on, c_off, wi
     return start, start + change
 
 
-def event_change(events, c_on, c_off, width):
+def event_change(events: np.ndarray, c_on: np.ndarray, c_off: np.ndarray,
+                 width: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """Per-pixel nominal event log change (sum of +c_on / -c_off, log units) and net signed event count."""
     change, net = np.zeros(c_on.shape[0]), np.zeros(c_on.shape[0], np.int64)
     events = np.ascontiguousarray(events)  # one layout: one compiled kernel
@@ -42,7 +49,9 @@ def event_change(events, c_on, c_off, width):
     return change, net
 
 
-def calibrate_scale(d_start, d_end, change, net, clipped, params: AKFParams, return_valid: bool = False):
+def calibrate_scale(d_start: np.ndarray, d_end: np.ndarray, change: np.ndarray, net: np.ndarray, clipped: np.ndarray,
+                    params: AKFParams, return_valid: bool = False
+                    ) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
     """Per-pixel contrast scale c_p^k / c (eq. 12): (L^D_end - L^D_start) / (nominal event change).
 
     Guards (the scale stays 1, i.e. the nominal contrast): calibration disabled; fewer than calib_min_events net
@@ -74,11 +83,11 @@ class ContrastCalibration:
     With params.calibrate False every scale is 1 (the nominal contrast).
     """
 
-    def __init__(self, n: int, params: AKFParams):
+    def __init__(self, n: int, params: AKFParams) -> None:
         self.params = params
         self.a, self.b = np.zeros(n), np.zeros(n)
 
-    def carried(self) -> np.ndarray:
+    def carried(self) -> npt.NDArray[np.float64]:
         """The carried scale of every pixel (1 when calibration is off)."""
         if not self.params.calibrate:
             return np.ones_like(self.a)
@@ -90,7 +99,8 @@ class ContrastCalibration:
             s = np.where(self.b + k > 0, (self.a + k * g) / (self.b + k), g)
         return np.clip(s, lo, hi)
 
-    def interval(self, d_start, d_end, change, net, clipped) -> np.ndarray:
+    def interval(self, d_start: np.ndarray, d_end: np.ndarray, change: np.ndarray, net: np.ndarray,
+                 clipped: np.ndarray) -> npt.NDArray[np.float64]:
         """The scale of one interval (see the class docstring); accumulates its calibrated pixels first."""
         scale, ok = calibrate_scale(d_start, d_end, change, net, clipped, self.params, return_valid=True)
         self.a[ok] += np.abs(d_end[ok] - d_start[ok])
@@ -98,7 +108,8 @@ class ContrastCalibration:
         return np.where(ok, scale, self.carried())
 
 
-def interval_start(d_start, d_end, change, scale, end_clipped):
+def interval_start(d_start: np.ndarray, d_end: np.ndarray, change: np.ndarray, scale: np.ndarray,
+                   end_clipped: np.ndarray) -> npt.NDArray[np.float64]:
     """Value at the interval start of its curve M(t) (eqs. 10-11).
 
     With a calibrated scale the forward (10) and backward (11) curves coincide and this is L^D_start. Where the

@@ -11,6 +11,7 @@ never negative). crf is a crf_models curve or its registered name.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,11 @@ from . import kernels
 from .augmentation import MIN_PART_ROWS
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .params import AKFParams
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
 
 _I0 = AKFParams().i0
 
@@ -65,9 +71,12 @@ def _crossover_alpha(crossover_hz, alpha):
     return a
 
 
-def complementary_filter(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                         crossover_hz=None, alpha=None, adaptive_gain=False, adaptive_factor=0.1,
-                         adaptive_margin=0.05, max_intensity=1.0, i0=_I0, bit_depth=8):
+def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                         frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
+                         contrast: npt.ArrayLike = 0.2, crossover_hz: float | None = None, alpha: float | None = None,
+                         adaptive_gain: bool = False, adaptive_factor: float = 0.1, adaptive_margin: float = 0.05,
+                         max_intensity: float | None = 1.0, i0: float = _I0,
+                         bit_depth: int = 8) -> npt.NDArray[np.float32]:
     """Complementary filter (Scheerlinck, Barnes, Mahony, ACCV 2018) on the log image L = log(I + I0).
 
     dL/dt = E(t) - alpha (L - L^F): events E are high-passed, the latest frame's log L^F low-passed; per event
@@ -146,7 +155,9 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
     return _run_log_filter(inp, t0, switches, lambda k: on_switch(k + 1), run_events, publish)
 
 
-def high_pass_filter(events, shape, output_times_us, *, contrast=0.2, crossover_hz=None, alpha=None, t0_us=0):
+def high_pass_filter(events: np.ndarray, shape: tuple[int, int], output_times_us: npt.ArrayLike, *,
+                     contrast: npt.ArrayLike = 0.2, crossover_hz: float | None = None, alpha: float | None = None,
+                     t0_us: int = 0) -> npt.NDArray[np.float32]:
     """Events-only high-pass filter: the complementary filter with zero frame input (L^F = 0), started at t0_us with
     a zero log image. Returns float32 (T, H, W) log intensity x (relative, log units)."""
     if crossover_hz is None and alpha is None:
@@ -159,8 +170,9 @@ def high_pass_filter(events, shape, output_times_us, *, contrast=0.2, crossover_
     return np.log(out)
 
 
-def frames_only(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                mode="nearest", bit_depth=8):
+def frames_only(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
+                contrast: npt.ArrayLike = 0.2, mode: str = "nearest", bit_depth: int = 8) -> npt.NDArray[np.float32]:
     """CRF^-1 of the frame nearest in time (mode="nearest", by mid-exposure time) or the linear blend in intensity
     of the two frames around t (mode="linear", clamped to the first / last frame). Events are ignored."""
     if mode not in ("nearest", "linear"):
@@ -193,8 +205,9 @@ def frames_only(events, frames, frame_t_start_us, frame_t_end_us, crf, output_ti
     return out
 
 
-def direct_integration(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                       i0=_I0, bit_depth=8):
+def direct_integration(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                       frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
+                       contrast: npt.ArrayLike = 0.2, i0: float = _I0, bit_depth: int = 8) -> npt.NDArray[np.float32]:
     """The log of the first frame at tau_0 plus the contrast times the signed event count since then."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)

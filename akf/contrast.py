@@ -12,6 +12,7 @@ slope is refitted on the pixels whose residual lies within 3 scaled MADs, twice.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,11 @@ from sim.errors import EvsimInputError, InvalidParameterError
 from sim.events import slice_time
 
 from .inputs import as_crf, validate_inputs
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
 
 _I0 = 1e-3
 
@@ -51,9 +57,9 @@ def _slope(dl: np.ndarray, net: np.ndarray) -> float:
     return slope
 
 
-def estimate_contrast(events, frames, frame_t_start_us, frame_t_end_us, crf, *, bit_depth: int = 8,
-                      margin: float = 0.05, min_change: float = 0.1, min_pixels: int = 50,
-                      i0: float = _I0) -> ContrastEstimate:
+def estimate_contrast(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                      frame_t_end_us: npt.ArrayLike, crf: CRF | str, *, bit_depth: int = 8, margin: float = 0.05,
+                      min_change: float = 0.1, min_pixels: int = 50, i0: float = _I0) -> ContrastEstimate:
     """Estimate (c_on, c_off) from events against the log change between consecutive unclipped frames (see the
     module docstring). Inputs as akf.reconstruct. Raises EvsimInputError when fewer than min_pixels usable pixel
     intervals exist for a polarity (static scene, clipped frames or no events)."""

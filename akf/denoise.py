@@ -32,12 +32,19 @@ from __future__ import annotations
 import datetime
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit
 
 from sim.errors import EvsimInputError, InvalidParameterError, check_number
 from sim.events import EVENT_DTYPE, validate_events
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    #: a keep-mask: one bool per event, True where the event is kept
+    KeepMask = npt.NDArray[np.bool_]
 
 DENOISE_EXTRA_HINT = 'pip install "evsim[denoise]"'
 _NEVER_US = np.iinfo(np.int64).min // 4  # "no event yet": older than any window
@@ -77,7 +84,7 @@ class CorrelationFilter:
     """The spatio-temporal correlation filter with its state (each pixel's last event time), for streams fed in
     chunks: filter(events) -> keep-mask; chunks must follow each other in time. See the module docstring."""
 
-    def __init__(self, height: int, width: int, window_us: float = 2000, support: int = 1):
+    def __init__(self, height: int, width: int, window_us: float = 2000, support: int = 1) -> None:
         check_number("window_us", window_us, positive=False)
         if not (isinstance(support, (int, np.integer)) and 1 <= support <= 8):
             raise InvalidParameterError(f"support must be an integer in 1..8 (neighbouring pixels), got {support!r}")
@@ -85,20 +92,22 @@ class CorrelationFilter:
         self.window_us, self.support = int(round(window_us)), int(support)
         self._last = np.full((int(height), int(width)), _NEVER_US, np.int64)
 
-    def __call__(self, events) -> np.ndarray:
+    def __call__(self, events: np.ndarray) -> KeepMask:
         events = _check(events, *self._last.shape)
         keep = np.empty(events.size, np.bool_)
         _correlation_kernel(events["t"], events["x"], events["y"], self._last, self.window_us, self.support, keep)
         return keep
 
 
-def correlation_filter(events, height: int, width: int, window_us: float = 2000, *, support: int = 1) -> np.ndarray:
+def correlation_filter(events: np.ndarray, height: int, width: int, window_us: float = 2000, *,
+                       support: int = 1) -> KeepMask:
     """Keep-mask of the spatio-temporal correlation filter (window_us: microseconds; support: how many of the 8
     neighbours must have fired within it)."""
     return CorrelationFilter(height, width, window_us, support)(events)
 
 
-def hot_pixel_map(events, height: int, width: int, threshold_hz: float = 20.0, *, ratio: float = 2.0) -> np.ndarray:
+def hot_pixel_map(events: np.ndarray, height: int, width: int, threshold_hz: float = 20.0, *,
+                  ratio: float = 2.0) -> npt.NDArray[np.bool_]:
     """(H, W) bool: the pixels whose event rate r exceeds the mean rate m of their neighbours (8, fewer at the
     border) by more than threshold_hz (r - m > threshold_hz) and r > ratio * m; rates (Hz) are event counts over
     the span of the events (first to last)."""
@@ -119,7 +128,8 @@ def hot_pixel_map(events, height: int, width: int, threshold_hz: float = 20.0, *
     return (rate - mean > threshold_hz) & (rate > ratio * mean)
 
 
-def hot_pixel_filter(events, height: int, width: int, threshold_hz: float = 20.0, *, ratio: float = 2.0) -> np.ndarray:
+def hot_pixel_filter(events: np.ndarray, height: int, width: int, threshold_hz: float = 20.0, *,
+                     ratio: float = 2.0) -> KeepMask:
     """Keep-mask of the hot-pixel rate filter: every event of a pixel of hot_pixel_map(...) is dropped."""
     hot = hot_pixel_map(events, height, width, threshold_hz, ratio=ratio)
     return ~hot[events["y"], events["x"]]
@@ -152,26 +162,26 @@ def _us(value) -> datetime.timedelta:
     return datetime.timedelta(microseconds=int(round(value)))
 
 
-def dv_background_activity(events, height: int, width: int, duration_us: float = 2000) -> np.ndarray:
+def dv_background_activity(events: np.ndarray, height: int, width: int, duration_us: float = 2000) -> KeepMask:
     """Keep-mask of dv-processing's noise.BackgroundActivityNoiseFilter(backgroundActivityDuration=duration_us)."""
     return _dv_mask(lambda dv, res: dv.noise.BackgroundActivityNoiseFilter(res, _us(duration_us)),
                     events, height, width)
 
 
-def dv_knoise(events, height: int, width: int, time_delta_us: float = 1000) -> np.ndarray:
+def dv_knoise(events: np.ndarray, height: int, width: int, time_delta_us: float = 1000) -> KeepMask:
     """Keep-mask of dv-processing's noise.KNoiseFilter(timeDelta=time_delta_us)."""
     return _dv_mask(lambda dv, res: dv.noise.KNoiseFilter(res, _us(time_delta_us)), events, height, width)
 
 
-def dv_fast_decay(events, height: int, width: int, half_life_us: float = 10000, *, subdivision_factor: int = 4,
-                  noise_threshold: float = 6.0) -> np.ndarray:
+def dv_fast_decay(events: np.ndarray, height: int, width: int, half_life_us: float = 10000, *,
+                  subdivision_factor: int = 4, noise_threshold: float = 6.0) -> KeepMask:
     """Keep-mask of dv-processing's noise.FastDecayNoiseFilter(halfLife=half_life_us, subdivisionFactor,
     noiseThreshold) (the library's defaults)."""
     return _dv_mask(lambda dv, res: dv.noise.FastDecayNoiseFilter(res, _us(half_life_us), int(subdivision_factor),
                                                                   float(noise_threshold)), events, height, width)
 
 
-def tonic_denoise(events, height: int, width: int, filter_time_us: float = 10000) -> np.ndarray:
+def tonic_denoise(events: np.ndarray, height: int, width: int, filter_time_us: float = 10000) -> KeepMask:
     """Keep-mask of tonic's Denoise(filter_time=filter_time_us) (tonic.functional.denoise_numpy, 4-neighbourhood;
     as in tonic, events before the first filter_time_us are kept)."""
     functional = _import("tonic.functional", "tonic")
@@ -199,11 +209,11 @@ class DenoiseFilter:
     sweeps. library: the PyPI package it runs (None: evsim's own)."""
 
     name: str
-    run: Callable
+    run: Callable[..., KeepMask]
     param: str
     unit: str
     default: float
-    grid: tuple
+    grid: tuple[float, ...]
     library: str | None
     summary: str
 
@@ -240,7 +250,8 @@ def filter_available(name: str) -> bool:
     return module is None or importlib.util.find_spec(module) is not None
 
 
-def keep_mask(events, height: int, width: int, name: str = "correlation", value=None, **options) -> np.ndarray:
+def keep_mask(events: np.ndarray, height: int, width: int, name: str = "correlation", value: float | None = None,
+              **options: Any) -> KeepMask:
     """Keep-mask of filter `name` at main-parameter value (default FILTERS[name].default) with extra options."""
     f = get_filter(name)
     return f.run(events, height, width, f.default if value is None else value, **options)

@@ -4,6 +4,7 @@ dataset protocols of evsim_eval and the tuning objective all go through Case).""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,12 +15,22 @@ from .filter import reconstruct
 from .metrics import METRICS, score
 from .tuning import setting_options
 
+if TYPE_CHECKING:
+    from collections.abc import Collection, Iterable
+
+    import numpy.typing as npt
+
+    from crf_models import CRF
+
+    #: the reconstruction scores of evaluate_sequence: {method: {metric: mean value}}
+    ScoreTable = dict[str, dict[str, float]]
+
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
 METHODS = {"akf": reconstruct, **BASELINES}
 
 
-def check_names(methods=(), metrics=()) -> None:
+def check_names(methods: Iterable[str] = (), metrics: Iterable[str] = ()) -> None:
     """InvalidParameterError naming the methods or metrics that akf does not have."""
     unknown = [m for m in methods if m not in METHODS] + [m for m in metrics if m not in METRICS]
     if unknown:
@@ -39,19 +50,20 @@ class Case:
     """
 
     events: np.ndarray
-    frames: np.ndarray
-    t_start: np.ndarray
-    t_end: np.ndarray
+    frames: npt.ArrayLike
+    t_start: npt.ArrayLike
+    t_end: npt.ArrayLike
     bit_depth: int
-    crf: object
-    contrast: object
+    crf: CRF | str
+    contrast: npt.ArrayLike
     times: np.ndarray
     truth: np.ndarray
     white: float
     clip: np.ndarray | None = None
-    options: dict = field(default_factory=dict)
+    options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
-    def run(self, method: str, sel=slice(None), setting: dict | None = None) -> np.ndarray:
+    def run(self, method: str, sel: slice | np.ndarray = slice(None),
+            setting: dict[str, float | None] | None = None) -> np.ndarray:
         """The method's reconstructions at times[sel], with a tuning setting (akf.tuning) applied on top of the
         case's contrast and options; clipped to the measurable range when the case has one."""
         contrast, options = self.contrast, self.options.get(method, {})
@@ -63,16 +75,20 @@ class Case:
             images = np.stack([np.clip(img, lo, hi) for img, (lo, hi) in zip(images, self.clip[sel])])
         return images
 
-    def scores(self, images: np.ndarray, sel, metrics) -> dict:
+    def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Iterable[str]) -> dict[str, float]:
         """{metric: mean over the frames} of images (at times[sel]) against the truth."""
         truth = self.truth[sel]
         return {m: float(np.mean([score(m, r, t, self.white) for r, t in zip(images, truth)])) for m in metrics}
 
 
-def evaluate_sequence(events, frames, frame_t_start_us, frame_t_end_us, crf, reference, reference_times_us, *,
-                      methods=("akf", "cf", "frames"), metrics=("mse", "psnr", "ssim", "pu21_psnr", "pu21_ssim"),
-                      contrast=0.2, bit_depth: int = 8, method_options: dict | None = None,
-                      return_images: bool = False, white: float | None = None):
+def evaluate_sequence(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                      frame_t_end_us: npt.ArrayLike, crf: CRF | str, reference: npt.ArrayLike,
+                      reference_times_us: npt.ArrayLike, *, methods: Collection[str] = ("akf", "cf", "frames"),
+                      metrics: Collection[str] = ("mse", "psnr", "ssim", "pu21_psnr", "pu21_ssim"),
+                      contrast: npt.ArrayLike = 0.2, bit_depth: int = 8,
+                      method_options: dict[str, dict[str, Any]] | None = None, return_images: bool = False,
+                      white: float | None = None
+                      ) -> ScoreTable | tuple[ScoreTable, dict[str, npt.NDArray[np.float32]]]:
     """Reconstruct at reference_times_us with each method and score against reference (T, H, W) linear intensity
     in the CRF's scaled-irradiance units of frame 0's exposure (for frames from sim.LDRCamera: x = radiance *
     params.electrons_per_radiance_us * exposure_us of frame 0 / params.full_well_e).

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, fields
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numba
 import numpy as np
@@ -19,8 +19,14 @@ from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
 
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
+
 _OLD = np.iinfo(np.int64).min // 4  # "never fired" time of the border around the last event times
 MIN_BLOCK_ROWS = 16  # pixel rows per thread block: fewer would cost more in thread hand-offs than they save
+_DEFAULT_PARAMS = AKFParams()  # the default of params= (frozen: one shared instance is safe)
 
 
 def _rows(n: int, k: int) -> np.ndarray:
@@ -148,9 +154,10 @@ class AugmentedMeasurement:
     clipped: np.ndarray
 
 
-def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf, times_us, pixels, *,
-                          contrast=0.2, leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(),
-                          bit_depth: int = 8) -> AugmentedMeasurement:
+def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                          frame_t_end_us: npt.ArrayLike, crf: CRF | str, times_us: npt.ArrayLike,
+                          pixels: npt.ArrayLike, *, contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0,
+                          params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8) -> AugmentedMeasurement:
     """The augmented frame L^A(t) of reconstruct (same inputs) at times_us for the flat pixel indices `pixels`.
 
     Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)) - (the leak
@@ -186,17 +193,19 @@ def augmented_measurement(events, frames, frame_t_start_us, frame_t_end_us, crf,
         et = mine["t"]
         cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
         leaked = np.concatenate([[0.0], np.cumsum(_leaked(et, scale[:, n] * inp.c_on[i], inp, leak_rate_hz))])
-
-        def change(a, b, c):  # change of cumulative c over the events in [a, b)
-            return c[np.searchsorted(et, b, side="left")] - c[np.searchsorted(et, a, side="left")]
-
-        cur = start[k, n] + scale[k, n] * change(s_k[k], t, cum) - change(s_k[k], t, leaked)
-        prev = start[kp, n] + scale[kp, n] * change(s_k[kp], t, cum) - change(s_k[kp], t, leaked)
+        cur = start[k, n] + scale[k, n] * _change(et, s_k[k], t, cum) - _change(et, s_k[k], t, leaked)
+        prev = start[kp, n] + scale[kp, n] * _change(et, s_k[kp], t, cum) - _change(et, s_k[kp], t, leaked)
         out[:, n] = prev + wt * (cur - prev)
     deb = np.array([(d.start[pixels], d.end[pixels]) for d in map(fr.deblurred, range(nf))])
     intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
     clipped = np.array([fr.measurement(j).clipped.ravel()[pixels] for j in range(nf)])
     return AugmentedMeasurement(out, deb, intensity, clipped)
+
+
+def _change(et: np.ndarray, a, b, c: np.ndarray) -> np.ndarray:
+    """Change of the cumulative c (c[i]: the sum over the first i events) over the events of times et (ascending)
+    in [a, b)."""
+    return c[np.searchsorted(et, b, side="left")] - c[np.searchsorted(et, a, side="left")]
 
 
 def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
@@ -215,9 +224,12 @@ def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
     return out
 
 
-def reconstruct(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast=0.2,
-                leak_rate_hz: float = 0.0, params: AKFParams = AKFParams(), bit_depth: int = 8,
-                max_intensity: float | None = 1.0, return_variance: bool = False, return_gain: bool = False):
+def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
+                contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0, params: AKFParams = _DEFAULT_PARAMS,
+                bit_depth: int = 8, max_intensity: float | None = 1.0, return_variance: bool = False,
+                return_gain: bool = False
+                ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], ...]:
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over

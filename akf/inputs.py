@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 import crf_models
 from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError
 from sim.events import check_times_us, validate_events
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 
 @dataclass(frozen=True)
@@ -36,12 +40,12 @@ class Inputs:
         t0, tk = self.t_end[0] - self.t_start[0], self.t_end[k] - self.t_start[k]
         return float(t0) / float(tk) if t0 > 0 and tk > 0 else 1.0
 
-    def response(self, k: int) -> np.ndarray:
+    def response(self, k: int) -> npt.NDArray[np.float64]:
         """Frame k as normalised response y = DN / (2^bit_depth - 1), float64 (H, W)."""
         return self.frames[k].astype(np.float64) / self.full_scale
 
 
-def as_crf(crf):
+def as_crf(crf: crf_models.CRF | str) -> crf_models.CRF:
     """A crf_models curve from a curve object or a registered name ("window", "linear", ...: crf_models.get(name)
     with its default parameters)."""
     if isinstance(crf, str):
@@ -54,7 +58,7 @@ def as_crf(crf):
     return crf
 
 
-def check_max_intensity(max_intensity) -> None:
+def check_max_intensity(max_intensity: float | None) -> None:
     """The output bound of the log-domain methods (x units; None: unbounded) must be a finite number > 0."""
     if max_intensity is not None and not (isinstance(max_intensity, (int, float)) and math.isfinite(max_intensity)
                                           and max_intensity > 0):
@@ -73,7 +77,8 @@ def _times(a, name: str, n: int | None = None) -> np.ndarray:
 MAX_CONTRAST = 5.0  # log units: a factor e**5 (about 150) per event; real sensors use 0.1..1
 
 
-def contrast_maps(contrast, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def contrast_maps(contrast: npt.ArrayLike,
+                  shape: tuple[int, int]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Nominal contrast thresholds as flat (c_on, c_off) maps from a scalar, an (on, off) pair or a (2, H, W) array."""
     c = np.asarray(contrast, dtype=np.float64)
     n = shape[0] * shape[1]
@@ -93,7 +98,9 @@ def contrast_maps(contrast, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndar
     return c_on, c_off
 
 
-def validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth) -> Inputs:
+def validate_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                    frame_t_end_us: npt.ArrayLike, output_times_us: npt.ArrayLike, contrast: npt.ArrayLike,
+                    bit_depth: int) -> Inputs:
     """Check everything at the boundary and return normalised arrays (raises sim.errors subclasses naming the
     problem)."""
     events = validate_events(events)

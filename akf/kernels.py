@@ -21,12 +21,16 @@ parallel=True loops cost seconds of compilation each). Events are read in place 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from llvmlite import ir
 from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 US = 1e-6  # seconds per microsecond
 # fast math without reassociation (the series branches of the closed forms keep their precision); every value is
@@ -252,14 +256,15 @@ NZ_LEAK = 5  # leak rate (1/us: ON events per us of a static pixel; 0: no leak c
 N_NOISE = 6
 
 
-def window(s, e, tau_a, tau_b, tau_c) -> np.ndarray:
+def window(s: float, e: float, tau_a: float, tau_b: float, tau_c: float) -> npt.NDArray[np.float64]:
     """The frame window array w of akf_events / akf_publish (slots W_*; times in us)."""
     w = np.empty(N_W)
     w[W_S], w[W_E], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C] = s, e, tau_a, tau_b, tau_c
     return w
 
 
-def noise_params(sigma_proc2, sigma_iso2, sigma_ref2, rho_bar_us, strong, leak_per_us) -> np.ndarray:
+def noise_params(sigma_proc2: float, sigma_iso2: float, sigma_ref2: float, rho_bar_us: float, strong: float,
+                 leak_per_us: float) -> npt.NDArray[np.float64]:
     """The event noise array `noise` of akf_events (slots NZ_*, units there)."""
     q = np.empty(N_NOISE)
     q[NZ_PROC], q[NZ_ISO], q[NZ_REF], q[NZ_RHO], q[NZ_STRONG], q[NZ_LEAK] = (sigma_proc2, sigma_iso2, sigma_ref2,

@@ -18,10 +18,15 @@ Every metric's normalisation in one line is NORMALISATION[name]; score() applies
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from skimage.metrics import structural_similarity
 
 from sim.errors import EvsimInputError
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 # PU21 'banding_glare' parameters p1..p7 (Mantiuk & Azimi 2021, pu21_encoder.m)
 PU21_PARAMS = (0.353487901, 0.3734658629, 8.277049286e-05, 0.9062562627, 0.09150303166, 0.9099517204, 596.3148142)
@@ -29,7 +34,7 @@ PU21_Y_MIN, PU21_Y_MAX = 0.005, 10000.0
 PU21_PEAK = 256.0
 
 
-def _pair(x, ref):
+def _pair(x: npt.ArrayLike, ref: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     x = np.asarray(x, np.float64)
     ref = np.asarray(ref, np.float64)
     if x.shape != ref.shape or x.ndim != 2:
@@ -39,13 +44,13 @@ def _pair(x, ref):
     return x, ref
 
 
-def mse(x, ref) -> float:
+def mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
     """Mean squared error of the raw intensities."""
     x, ref = _pair(x, ref)
     return float(np.mean((x - ref) ** 2))
 
 
-def psnr(x, ref, data_range: float | None = None) -> float:
+def psnr(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
     """PSNR (dB) = 10 log10(data_range^2 / MSE); data_range defaults to the reference's max."""
     x, ref = _pair(x, ref)
     peak = float(ref.max()) if data_range is None else float(data_range)
@@ -53,7 +58,7 @@ def psnr(x, ref, data_range: float | None = None) -> float:
     return float("inf") if err == 0 else float(10 * np.log10(peak**2 / err))
 
 
-def ssim(x, ref, data_range: float | None = None) -> float:
+def ssim(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
     """SSIM (Wang et al. 2004) with data_range defaulting to the reference's max - min."""
     x, ref = _pair(x, ref)
     rng = float(ref.max() - ref.min()) if data_range is None else float(data_range)
@@ -62,7 +67,7 @@ def ssim(x, ref, data_range: float | None = None) -> float:
     return float(structural_similarity(x, ref, data_range=rng))
 
 
-def pu21_encode(luminance) -> np.ndarray:
+def pu21_encode(luminance: npt.ArrayLike) -> npt.NDArray[np.float64] | np.float64:
     """PU21 encoding of absolute luminance (cd/m^2): V = p7 * (((p1 + p2 Y^p4) / (1 + p3 Y^p4))^p5 - p6), with Y
     clamped to [0.005, 10000] and V clipped at 0."""
     p1, p2, p3, p4, p5, p6, p7 = PU21_PARAMS
@@ -71,13 +76,13 @@ def pu21_encode(luminance) -> np.ndarray:
     return np.maximum(p7 * (((p1 + p2 * yp) / (1 + p3 * yp)) ** p5 - p6), 0.0)
 
 
-def pu21_psnr(x, ref, luminance_scale: float = 100.0) -> float:
+def pu21_psnr(x: npt.ArrayLike, ref: npt.ArrayLike, luminance_scale: float = 100.0) -> float:
     """PSNR of the PU21-encoded images (peak 256), after Y = luminance_scale * I."""
     x, ref = _pair(x, ref)
     return psnr(pu21_encode(luminance_scale * x), pu21_encode(luminance_scale * ref), data_range=PU21_PEAK)
 
 
-def pu21_ssim(x, ref, luminance_scale: float = 100.0) -> float:
+def pu21_ssim(x: npt.ArrayLike, ref: npt.ArrayLike, luminance_scale: float = 100.0) -> float:
     """SSIM of the PU21-encoded images (data_range 256), after Y = luminance_scale * I."""
     x, ref = _pair(x, ref)
     return ssim(pu21_encode(luminance_scale * x), pu21_encode(luminance_scale * ref), data_range=PU21_PEAK)
@@ -86,26 +91,26 @@ def pu21_ssim(x, ref, luminance_scale: float = 100.0) -> float:
 LOG_EPS = 1e-3
 
 
-def to_unit_range(x, white: float) -> np.ndarray:
+def to_unit_range(x: npt.ArrayLike, white: float) -> npt.NDArray[np.float64] | np.float64:
     """The paper protocol's normalisation: clip(x / white, 0, 1)."""
     if not (np.isfinite(white) and white > 0):
         raise EvsimInputError(f"the [0, 1] normalisation needs a white level > 0, got {white}")
     return np.clip(np.asarray(x, np.float64) / white, 0.0, 1.0)
 
 
-def mse01(x, ref, white: float = 1.0) -> float:
+def mse01(x: npt.ArrayLike, ref: npt.ArrayLike, white: float = 1.0) -> float:
     """MSE after clip(I / white, 0, 1) of both images."""
     x, ref = _pair(x, ref)
     return mse(to_unit_range(x, white), to_unit_range(ref, white))
 
 
-def ssim01(x, ref, white: float = 1.0) -> float:
+def ssim01(x: npt.ArrayLike, ref: npt.ArrayLike, white: float = 1.0) -> float:
     """SSIM (data_range 1) after clip(I / white, 0, 1) of both images."""
     x, ref = _pair(x, ref)
     return ssim(to_unit_range(x, white), to_unit_range(ref, white), data_range=1.0)
 
 
-def log_mse(x, ref) -> float:
+def log_mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
     """Mean squared difference of log(I + LOG_EPS) (negative intensities count as 0)."""
     x, ref = _pair(x, ref)
     return mse(np.log(np.maximum(x, 0) + LOG_EPS), np.log(np.maximum(ref, 0) + LOG_EPS))
@@ -130,7 +135,7 @@ NORMALISATION = {
 HIGHER_IS_BETTER = frozenset({"psnr", "ssim", "ssim01", "pu21_psnr", "pu21_ssim"})
 
 
-def score(metric: str, x, ref, white: float | None = None) -> float:
+def score(metric: str, x: npt.ArrayLike, ref: npt.ArrayLike, white: float | None = None) -> float:
     """metric (a METRICS name) of image x against ref; white is required by the NEEDS_WHITE metrics."""
     if metric not in METRICS:
         raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join(METRICS)}")

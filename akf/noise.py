@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .params import AKFParams
+
+if TYPE_CHECKING:
+    from crf_models import CRF
 
 
 @dataclass(frozen=True)
@@ -30,7 +34,7 @@ class FrameMeasurement:
     side: np.ndarray
 
 
-def frame_measurement(y: np.ndarray, crf, params: AKFParams, gain: float = 1.0) -> FrameMeasurement:
+def frame_measurement(y: np.ndarray, crf: CRF, params: AKFParams, gain: float = 1.0) -> FrameMeasurement:
     """Map a normalised response y = DN / (2^bits - 1) through the CRF object's inverse and variance model.
 
     gain scales the scaled irradiance (and Rbar by gain^2), e.g. T_0 / T_k to bring frames of different exposure

@@ -76,7 +76,7 @@ class AKFParams:
     calib_scale_range: tuple[float, float] = (0.5, 2.0)
     calib_prior: float = 1.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name in ("deblur", "calibrate"):

@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +34,22 @@ from sim.errors import InvalidParameterError
 
 from .metrics import HIGHER_IS_BETTER
 from .params import AKFParams
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+    from typing import Protocol
+
+    import numpy.typing as npt
+
+    #: a setting: {search parameter: value}; values are numbers, or None for an unbounded max_intensity
+    Setting = dict[str, float | None]
+
+    class _Case(Protocol):
+        """What tune_cases needs of an akf.evaluate.Case (not imported here: akf.evaluate imports this module)."""
+
+        def run(self, method: str, sel: slice | np.ndarray, setting: Setting | None) -> np.ndarray: ...
+
+        def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Sequence[str]) -> dict[str, float]: ...
 
 _CONTRAST = (0.67, 0.8, 1.0, 1.25, 1.5)
 _ALPHA = (1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0)
@@ -55,12 +72,13 @@ DEFAULTS = {"contrast_scale": 1.0, "alpha": 2 * math.pi * 0.5, "event_noise_scal
 class Tuned:
     """The chosen setting, its objective, and every (setting, objective) tried, in order."""
 
-    setting: dict
+    setting: Setting
     objective: float
-    trials: tuple
+    trials: tuple[tuple[Setting, float], ...]
 
 
-def setting_options(method: str, setting: dict, contrast, options=None) -> tuple:
+def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, options: dict[str, Any] | None = None
+                    ) -> tuple[float | tuple[float, ...] | npt.NDArray[np.float64], dict[str, Any]]:
     """(contrast, keyword options) of `method` for a setting; options are the method's other keywords (an AKF
     "params" there is the base the noise scales multiply)."""
     options = dict(options or {})
@@ -79,12 +97,13 @@ def setting_options(method: str, setting: dict, contrast, options=None) -> tuple
     return (float(c) if c.ndim == 0 else tuple(c.tolist()) if c.ndim == 1 else c), options
 
 
-def default_setting(method: str) -> dict:
+def default_setting(method: str) -> Setting:
     """The untuned setting of a method (its defaults for the searched parameters)."""
     return {k: DEFAULTS[k] for k in SEARCH_SPACES.get(method, {})}
 
 
-def tune(method: str, objective, space: dict | None = None) -> Tuned:
+def tune(method: str, objective: Callable[[Setting], float],
+         space: dict[str, Sequence[float | None]] | None = None) -> Tuned:
     """Coordinate search of `method`'s SEARCH_SPACES entry (or `space`: {parameter: grid}); objective(setting) ->
     float, lower is better. Every setting is evaluated once."""
     space = SEARCH_SPACES.get(method, {}) if space is None else space
@@ -112,7 +131,8 @@ def tune(method: str, objective, space: dict | None = None) -> Tuned:
     return Tuned(best, best_v, trials)
 
 
-def tune_cases(method: str, cases, selections, metric: str, space: dict | None = None) -> Tuned:
+def tune_cases(method: str, cases: Sequence[_Case], selections: Sequence[slice | np.ndarray], metric: str,
+               space: dict[str, Sequence[float | None]] | None = None) -> Tuned:
     """tune() of `method` on the mean of `metric` over cases[i] (akf.evaluate.Case) scored at its times
     [selections[i]]; the Tuned objective is that mean (negated where higher is better)."""
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
@@ -125,11 +145,12 @@ def tune_cases(method: str, cases, selections, metric: str, space: dict | None =
     return tune(method, objective, space)
 
 
-def describe_setting(setting: dict) -> str:
+def describe_setting(setting: Setting) -> str:
     """A setting in one line, e.g. 'alpha=50 rad/s, contrast x1.25' ('defaults' when empty)."""
     parts = []
     for k, v in setting.items():
         parts.append(f"alpha={v:.3g} rad/s" if k == "alpha" else
                      f"bound {'none' if v is None else f'{v:.3g} x'}" if k == "max_intensity" else
-                     f"contrast x{v:.3g}" if k == "contrast_scale" else f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
+                     f"contrast x{v:.3g}" if k == "contrast_scale" else
+                     f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
     return ", ".join(parts) if parts else "no parameters"

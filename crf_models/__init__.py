@@ -4,7 +4,18 @@ crf_models.get(name, **params) builds a curve; crf_models.available() lists the 
 normalised scaled irradiance x >= 0 (x = 1: top of the input range, e.g. full well) to a normalised response
 y in [0, 1] (DN / (2**bits - 1)); see base.py for the shared semantics. This package imports nothing else of
 the project.
+
+Exports:
+- the registry: get, available;
+- the base class: CRF, CRFError, WEIGHTINGS (the names of the weighting rules);
+- curves: LinearCRF, GammaCRF, SigmoidCRF, FilmicCRF (closed form); SRGBCRF, BT709CRF, HLGCRF, LogC3CRF,
+  SLog3CRF (colour-science transfer curves); WindowCRF (the AKF paper's AHDR window); TabulatedCRF (a LUT);
+- measured curves: load_dorf (DoRF), load_emor (EMoR), break_ties, recover_debevec (from an exposure stack).
 """
+
+from __future__ import annotations
+
+from typing import Any
 
 from .analytic import FilmicCRF, GammaCRF, LinearCRF, SigmoidCRF
 from .base import CRF, WEIGHTINGS, CRFError
@@ -12,6 +23,15 @@ from .colour_curves import BT709CRF, HLGCRF, SRGBCRF, LogC3CRF, SLog3CRF
 from .recovery import recover_debevec
 from .tabulated import TabulatedCRF, break_ties, load_dorf, load_emor
 from .window import WindowCRF
+
+__all__ = [
+    "available", "get",
+    "CRF", "CRFError", "WEIGHTINGS",
+    "LinearCRF", "GammaCRF", "SigmoidCRF", "FilmicCRF",
+    "SRGBCRF", "BT709CRF", "HLGCRF", "LogC3CRF", "SLog3CRF",
+    "WindowCRF", "TabulatedCRF",
+    "load_dorf", "load_emor", "break_ties", "recover_debevec",
+]
 
 _REGISTRY = {
     cls.name: cls
@@ -28,7 +48,7 @@ def available() -> list[str]:
     return sorted([*_REGISTRY, *_ALIASES])
 
 
-def get(name: str, **params) -> CRF:
+def get(name: str, **params: Any) -> CRF:
     """The curve `name` built with `params` (keyword arguments of its class); raises CRFError when unknown."""
     key = _ALIASES.get(name, name)
     if key not in _REGISTRY:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .base import CRF, CRFError
@@ -13,7 +15,7 @@ class LinearCRF(CRF):
 
     name = "linear"
 
-    def __init__(self, black_level: float = 0.0, x_clip: float = 1.0, **kw):
+    def __init__(self, black_level: float = 0.0, x_clip: float = 1.0, **kw: Any) -> None:
         super().__init__(**kw)
         if not 0.0 <= black_level < 1.0:
             raise CRFError(f"black_level must lie in [0, 1), got {black_level}")
@@ -40,7 +42,7 @@ class GammaCRF(CRF):
 
     name = "gamma"
 
-    def __init__(self, gamma: float = 2.2, **kw):
+    def __init__(self, gamma: float = 2.2, **kw: Any) -> None:
         super().__init__(**kw)
         if not (np.isfinite(gamma) and gamma > 0):
             raise CRFError(f"gamma must be a positive finite number, got {gamma}")
@@ -68,7 +70,7 @@ class SigmoidCRF(CRF):
 
     name = "sigmoid"
 
-    def __init__(self, steepness: float = 10.0, midpoint: float = 0.5, **kw):
+    def __init__(self, steepness: float = 10.0, midpoint: float = 0.5, **kw: Any) -> None:
         super().__init__(**kw)
         if not (np.isfinite(steepness) and steepness > 0):
             raise CRFError(f"steepness must be a positive finite number, got {steepness}")
@@ -104,7 +106,7 @@ class FilmicCRF(CRF):
     name = "filmic"
     _A, _B, _C, _D, _E, _F = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30
 
-    def __init__(self, white_point: float = 11.2, **kw):
+    def __init__(self, white_point: float = 11.2, **kw: Any) -> None:
         super().__init__(**kw)
         if not (np.isfinite(white_point) and white_point > 0):
             raise CRFError(f"white_point must be a positive finite number, got {white_point}")

@@ -10,8 +10,18 @@ Conventions (shared by every curve):
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy.typing as npt
+
+    #: what the curves' elementwise methods return: float64 values of the input's shape, a numpy float64 scalar
+    #: (not a 0-d array) for a scalar input
+    FloatValues = npt.NDArray[np.float64] | np.float64
 
 WEIGHTINGS = ("derivative", "robertson")
 
@@ -23,7 +33,7 @@ class CRFError(ValueError):
     """Bad input to a camera response function: parameters, tables, files or values out of the domain."""
 
 
-def as_float_array(values, name: str) -> np.ndarray:
+def as_float_array(values: npt.ArrayLike, name: str) -> npt.NDArray[np.float64]:
     """values as a float64 array; raises CRFError on NaN or infinity."""
     arr = np.asarray(values, dtype=np.float64)
     if not np.all(np.isfinite(arr)):
@@ -31,7 +41,8 @@ def as_float_array(values, name: str) -> np.ndarray:
     return arr
 
 
-def numerical_derivative(f, x: np.ndarray, lo: float, hi: float, step: float = 1e-6) -> np.ndarray:
+def numerical_derivative(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, lo: float, hi: float,
+                         step: float = 1e-6) -> np.ndarray:
     """Central difference of f at x with absolute step `step` times the range width, one-sided at the ends."""
     h = step * (hi - lo)
     a = np.clip(x - h, lo, hi)
@@ -52,7 +63,7 @@ class CRF(ABC):
 
     name: str = ""
 
-    def __init__(self, *, weighting: str = "derivative"):
+    def __init__(self, *, weighting: str = "derivative") -> None:
         if weighting not in WEIGHTINGS:
             raise CRFError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
         self.weighting = weighting
@@ -95,7 +106,8 @@ class CRF(ABC):
         the first response bin, and certainty() is capped at 1.
         """
         u = (np.arange(_SLOPE_GRID) + 0.5) / _SLOPE_GRID
-        xs = np.concatenate([self.x_lo + u * (self.x_hi - self.x_lo), self._finv(self.y_lo + u * (self.y_hi - self.y_lo))])
+        xs = np.concatenate([self.x_lo + u * (self.x_hi - self.x_lo),
+                             self._finv(self.y_lo + u * (self.y_hi - self.y_lo))])
         d = self._df(np.clip(xs, self.x_lo, self.x_hi))
         d = d[np.isfinite(d)]
         if d.size == 0 or d.max() <= 0:
@@ -103,18 +115,18 @@ class CRF(ABC):
         return float(d.max())
 
     @property
-    def params(self) -> dict:
+    def params(self) -> dict[str, Any]:
         """JSON-serialisable constructor arguments: crf_models.get(crf.name, **crf.params) rebuilds the curve."""
         return {**self._own_params(), "weighting": self.weighting}
 
-    def forward(self, x) -> np.ndarray:
+    def forward(self, x: npt.ArrayLike) -> FloatValues:
         """Response y in [0, 1] of normalised scaled irradiance x >= 0 (clipped outside [x_lo, x_hi])."""
         x = np.asarray(x, dtype=np.float64)
         if not np.all(x >= 0):
             raise CRFError("forward: x must be >= 0 and not NaN")
         return self._f(np.clip(x, self.x_lo, self.x_hi))
 
-    def inverse(self, y) -> np.ndarray:
+    def inverse(self, y: npt.ArrayLike) -> FloatValues:
         """Scaled irradiance x of response y in [0, 1]; responses in a clipped range give the range's edge
         (y <= y_lo -> x_lo, y >= y_hi -> x_hi)."""
         y = np.asarray(y, dtype=np.float64)
@@ -122,7 +134,7 @@ class CRF(ABC):
             raise CRFError("inverse: y must lie in [0, 1] and not be NaN")
         return self._finv(np.clip(y, self.y_lo, self.y_hi))
 
-    def derivative(self, x) -> np.ndarray:
+    def derivative(self, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """dCRF/dx; 0 where the curve is clipped (x < x_lo with clip_low, x > x_hi)."""
         x = np.asarray(x, dtype=np.float64)
         if not np.all(x >= 0):
@@ -130,11 +142,11 @@ class CRF(ABC):
         inside = (x <= self.x_hi) & ((x >= self.x_lo) | ~self.clip_low)
         return np.where(inside, self._df(np.clip(x, self.x_lo, self.x_hi)), 0.0)
 
-    def certainty(self, x) -> np.ndarray:
+    def certainty(self, x: npt.ArrayLike) -> FloatValues:
         """f^c (eq. 4): dCRF/dx normalised to a maximum of 1 (capped at 1, see _max_slope)."""
         return np.minimum(self.derivative(x) / self._slope_max, 1.0)
 
-    def weight(self, y) -> np.ndarray:
+    def weight(self, y: npt.ArrayLike) -> FloatValues:
         """f^w(y) (eq. 5) for normalised responses y in [0, 1].
 
         "derivative": certainty(inverse(y)), and exactly 0 at a clipped level (y <= y_lo when clip_low,
@@ -154,7 +166,7 @@ class CRF(ABC):
             clipped |= y <= self.y_lo
         return np.where(clipped, 0.0, w)
 
-    def variance(self, y, sigma_im2: float, max_variance: float) -> np.ndarray:
+    def variance(self, y: npt.ArrayLike, sigma_im2: float, max_variance: float) -> npt.NDArray[np.float64]:
         """Frame variance Rbar (eq. 6) = sigma_im2 / f^w(y), saturated at max_variance (also where f^w = 0)."""
         if not (np.isfinite(sigma_im2) and sigma_im2 > 0):
             raise CRFError(f"sigma_im2 must be a positive finite number, got {sigma_im2}")

@@ -10,6 +10,7 @@ are central differences of the exact curve (relative step 1e-6, one-sided at the
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 
@@ -61,7 +62,7 @@ class SRGBCRF(_ColourCurve):
     def _decode(self, v):
         return _models().eotf_sRGB(v)
 
-    def __init__(self, **kw):
+    def __init__(self, **kw: Any) -> None:
         super().__init__(**kw)
         self._init_curve(1.0)
 
@@ -79,7 +80,7 @@ class BT709CRF(_ColourCurve):
     def _decode(self, v):
         return _models().oetf_inverse_BT709(v)
 
-    def __init__(self, **kw):
+    def __init__(self, **kw: Any) -> None:
         super().__init__(**kw)
         self._init_curve(1.0)
 
@@ -97,7 +98,7 @@ class HLGCRF(_ColourCurve):
     def _decode(self, v):
         return _models().oetf_inverse_BT2100_HLG(v)
 
-    def __init__(self, **kw):
+    def __init__(self, **kw: Any) -> None:
         super().__init__(**kw)
         self._init_curve(1.0)
 
@@ -112,7 +113,7 @@ class LogC3CRF(_ColourCurve):
     name = "logc3"
     _EIS = (160, 200, 250, 320, 400, 500, 640, 800, 1000, 1280, 1600)
 
-    def __init__(self, EI: int = 800, in_max: float | None = None, **kw):
+    def __init__(self, EI: int = 800, in_max: float | None = None, **kw: Any) -> None:
         super().__init__(**kw)
         if EI not in self._EIS:
             raise CRFError(f"EI must be one of {self._EIS}, got {EI}")
@@ -140,7 +141,7 @@ class SLog3CRF(_ColourCurve):
     def _decode(self, v):
         return _models().log_decoding_SLog3(v)
 
-    def __init__(self, in_max: float | None = None, **kw):
+    def __init__(self, in_max: float | None = None, **kw: Any) -> None:
         super().__init__(**kw)
         self._init_curve(float(self._dec(1.0)) if in_max is None else in_max)
 

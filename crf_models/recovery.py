@@ -7,6 +7,8 @@ against x = exp(g(z) - g(levels - 1)) (so x = 1 is the irradiance x exposure tha
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
@@ -14,10 +16,15 @@ import scipy.sparse.linalg
 from .base import CRFError, as_float_array
 from .tabulated import TabulatedCRF
 
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    import numpy.typing as npt
+
 
 def recover_debevec(
-    images,
-    exposure_times,
+    images: Iterable[npt.ArrayLike],
+    exposure_times: npt.ArrayLike,
     *,
     smoothness: float = 100.0,
     n_samples: int = 1000,

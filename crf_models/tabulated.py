@@ -9,11 +9,17 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.io
 
 from .base import CRF, CRFError, as_float_array
+
+if TYPE_CHECKING:
+    import os
+
+    import numpy.typing as npt
 
 
 class TabulatedCRF(CRF):
@@ -26,7 +32,7 @@ class TabulatedCRF(CRF):
 
     name = "tabulated"
 
-    def __init__(self, y, x=None, source: str = "", **kw):
+    def __init__(self, y: npt.ArrayLike, x: npt.ArrayLike | None = None, source: str = "", **kw: Any) -> None:
         super().__init__(**kw)
         y = as_float_array(y, "y")
         x = np.linspace(0.0, 1.0, y.size) if x is None else as_float_array(x, "x")
@@ -65,7 +71,7 @@ class TabulatedCRF(CRF):
         return {"y": self.y.tolist(), "x": self.x.tolist(), "source": self.source}
 
 
-def break_ties(y) -> np.ndarray:
+def break_ties(y: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Make interior flat runs of a non-decreasing table strictly increasing by linear interpolation from the
     run's value towards the next larger value (measured tables such as DoRF have float32 ties; the change is
     smaller than that gap). Flat runs at either end (clipped ranges) are kept."""
@@ -80,7 +86,7 @@ def break_ties(y) -> np.ndarray:
     return y
 
 
-def load_dorf(path, index: int) -> TabulatedCRF:
+def load_dorf(path: str | os.PathLike[str], index: int) -> TabulatedCRF:
     """Curve `index` (0-based) of the DoRF database (Columbia CAVE, 201 measured curves, B(I) on 1024 samples).
 
     Reads the MATLAB layout (.mat with arrays I and B, one curve per row, e.g. 201_CRF_data.mat) or the
@@ -138,7 +144,7 @@ def _parse_dorf_text(path: Path):
     return names, rows_i, rows_b
 
 
-def load_emor(path, coeffs=()) -> TabulatedCRF:
+def load_emor(path: str | os.PathLike[str], coeffs: npt.ArrayLike = ()) -> TabulatedCRF:
     """The EMoR model f = f0 + sum_n coeffs[n] h_n (Grossberg and Nayar 2003) from emor.txt (blocks "E =",
     "f0 =", "h(1)=", ... of 1024 values), tabulated on E. At most as many coefficients as basis curves."""
     path = Path(path)

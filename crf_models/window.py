@@ -11,6 +11,8 @@ to the full range and everything else is clipped, so f^w vanishes at y = 0 and y
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .base import CRF, CRFError
@@ -30,9 +32,9 @@ class WindowCRF(CRF):
         high: float = 160.0,
         levels: float = 255.0,
         base: str = "gamma",
-        base_params: dict | None = None,
-        **kw,
-    ):
+        base_params: dict[str, Any] | None = None,
+        **kw: Any,
+    ) -> None:
         super().__init__(**kw)
         from . import get  # the registry imports this module
 

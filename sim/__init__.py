@@ -2,13 +2,21 @@
 
 Names are imported on first use (the kernels' modules load numba), so that importing sim for its errors or
 parameters, as `evsim --help` does, stays fast.
+
+Exports:
+- the DVS: DVSParams, DVS_PRESETS; DVSEmulator, emulate, emulate_source, EVENT_LABELS, NO_EVENT_US (sim.dvs);
+- the LDR camera: CameraParams, CAMERA_PRESETS, LDRCamera, LDRFrame (sim.camera);
+- events: EVENT_DTYPE, make_events, empty_events, concatenate, slice_time, validate_events, is_sorted,
+  first_unsorted_index (sim.events);
+- errors: EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError.
 """
 
 from __future__ import annotations
 
 import importlib
 
-from .dvs_params import PRESETS as DVS_PRESETS, DVSParams
+from .dvs_params import PRESETS as DVS_PRESETS
+from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
 
 # name -> (submodule, name in it), imported on first use
@@ -19,8 +27,8 @@ _LAZY = {
     **{n: ("events", n) for n in ("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index",
                                   "is_sorted", "make_events", "slice_time", "validate_events")},
 }
-__all__ = sorted({"DVS_PRESETS", "DVSParams", "EvsimInputError", "InvalidParameterError", "TimeOrderError",
-                  "UnsortedEventsError", *_LAZY})
+__all__ = ["DVS_PRESETS", "DVSParams", "EvsimInputError", "InvalidParameterError", "TimeOrderError",
+           "UnsortedEventsError", *_LAZY]
 
 
 def __getattr__(name: str):
@@ -32,5 +40,5 @@ def __getattr__(name: str):
     return value
 
 
-def __dir__():
+def __dir__() -> list[str]:
     return sorted({*globals(), *_LAZY})

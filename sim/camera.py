@@ -14,6 +14,7 @@ import dataclasses
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,11 @@ from .camera_kernels import accumulate_rows, sense
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_number
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
 
 
 @dataclass(frozen=True)
@@ -62,7 +68,7 @@ class CameraParams:
     max_px_per_subframe: float = 1.0
     max_subframes: int = 64
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ("exposure_us", "frame_times_us"):
             value = getattr(self, name)
             many = isinstance(value, (list, tuple, np.ndarray))
@@ -73,7 +79,8 @@ class CameraParams:
                 object.__setattr__(self, name, tuple(int(v) for v in value))
         exposures = self.exposures
         if len(exposures) == 0 or min(exposures) <= 0:
-            raise InvalidParameterError(f"exposure_us must be > 0 (one value or a non-empty sequence), got {self.exposure_us}")
+            raise InvalidParameterError(
+                f"exposure_us must be > 0 (one value or a non-empty sequence), got {self.exposure_us}")
         if self.frame_times_us is not None:
             t = np.asarray(self.frame_times_us, dtype=np.int64)
             if t.size == 0:
@@ -93,7 +100,8 @@ class CameraParams:
             check_number(name, getattr(self, name), positive=False)
         if not (isinstance(self.bit_depth, (int, np.integer)) and 8 <= self.bit_depth <= 16):
             raise InvalidParameterError(f"bit_depth must be an integer in 8..16, got {self.bit_depth}")
-        if self.n_subframes is not None and not (isinstance(self.n_subframes, (int, np.integer)) and self.n_subframes >= 1):
+        if self.n_subframes is not None and not (isinstance(self.n_subframes, (int, np.integer))
+                                                 and self.n_subframes >= 1):
             raise InvalidParameterError(f"n_subframes must be None or an integer >= 1, got {self.n_subframes}")
         if not (isinstance(self.max_subframes, (int, np.integer)) and self.max_subframes >= 1):
             raise InvalidParameterError(f"max_subframes must be an integer >= 1, got {self.max_subframes}")
@@ -148,7 +156,7 @@ class CameraParams:
         return np.stack([start, mids, end], axis=1)
 
     @classmethod
-    def preset(cls, name: str, **overrides) -> CameraParams:
+    def preset(cls, name: str, **overrides: Any) -> CameraParams:
         """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
@@ -201,8 +209,10 @@ class LDRCamera:
     frame k from child (1, k), so any frame can be regenerated on its own. seed_entropy records the entropy.
     """
 
-    def __init__(self, height: int, width: int, params: CameraParams, crf, seed=0):
-        if not (isinstance(height, (int, np.integer)) and isinstance(width, (int, np.integer)) and height > 0 and width > 0):
+    def __init__(self, height: int, width: int, params: CameraParams, crf: CRF,
+                 seed: int | np.random.SeedSequence = 0) -> None:
+        if not (isinstance(height, (int, np.integer)) and isinstance(width, (int, np.integer))
+                and height > 0 and width > 0):
             raise InvalidParameterError(f"height and width must be positive integers, got {height} x {width}")
         if not isinstance(params, CameraParams):
             raise InvalidParameterError(f"params must be a CameraParams, got {type(params).__name__}")
@@ -221,11 +231,12 @@ class LDRCamera:
         self._quant = None
 
     # --- public API ---------------------------------------------------------------------------------------
-    def capture(self, source: RadianceSource, *, irradiance: bool = True, clean_response: bool = True) -> Iterator[LDRFrame]:
+    def capture(self, source: RadianceSource, *, irradiance: bool = True,
+                clean_response: bool = True) -> Iterator[LDRFrame]:
         """A generator of the frames of `source`, one at a time (memory independent of the sequence length).
 
-        The configuration is checked here, before the first frame. Frames follow params.schedule(height, source.duration_us); with explicit frame_times_us every exposure
-        must lie within [0, duration_us].
+        The configuration is checked here, before the first frame. Frames follow params.schedule(height,
+        source.duration_us); with explicit frame_times_us every exposure must lie within [0, duration_us].
         """
         if not isinstance(source, RadianceSource):
             raise EvsimInputError(f"source must implement sim.source.RadianceSource, got {type(source).__name__}")
@@ -250,7 +261,8 @@ class LDRCamera:
             irr = self._integrate(source, int(t_start), exposure, n_sub)
             yield self._sense(irr, k, t_start, t_mid, t_end, n_sub, keep_irradiance, keep_clean)
 
-    def expose(self, radiance, exposure_us: int, *, frame_index: int = 0, t_start_us: int = 0) -> LDRFrame:
+    def expose(self, radiance: npt.ArrayLike, exposure_us: int, *, frame_index: int = 0,
+               t_start_us: int = 0) -> LDRFrame:
         """Sensor model without a source: `radiance` is either the mean radiance over the exposure (H, W) or
         equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`."""
         if not (isinstance(exposure_us, (int, np.integer)) and exposure_us > 0):
@@ -264,7 +276,8 @@ class LDRCamera:
         else:
             raise EvsimInputError(f"radiance must be (H, W) or (S, H, W), got shape {rad.shape}")
         if rad.shape != (self.height, self.width) or subframes == 0:
-            raise EvsimInputError(f"radiance frames must be {self.height} x {self.width}, got shape {np.shape(radiance)}")
+            raise EvsimInputError(
+                f"radiance frames must be {self.height} x {self.width}, got shape {np.shape(radiance)}")
         rad = rad.astype(np.float32, copy=False)
         if not np.all((rad >= 0) & (rad < np.inf)):
             raise EvsimInputError("radiance contains NaN, infinite or negative values")
@@ -297,7 +310,8 @@ class LDRCamera:
             t = int(round(t_start + (j + 0.5) * dt))
             rad = np.asarray(source.radiance(t), dtype=np.float32)
             if rad.shape != (self.height, self.width):
-                raise EvsimInputError(f"source.radiance({t}) has shape {rad.shape}, expected {(self.height, self.width)}")
+                raise EvsimInputError(
+                    f"source.radiance({t}) has shape {rad.shape}, expected {(self.height, self.width)}")
             if not accumulate_rows(acc, rad, w):
                 raise EvsimInputError(f"source.radiance({t}) contains NaN, infinite or negative values")
         return acc
@@ -326,8 +340,8 @@ class LDRCamera:
         dark = p.dark_current_e_per_s * exposure * 1e-6
         key = child_seed(self._seed, 1, k).generate_state(1, np.uint64)[0]
         image = np.empty((self.height, self.width), dtype=np.uint8 if p.bit_depth == 8 else np.uint16)
-        sense(irr, gain, dark, self._prnu_map, self._dsnu_map, self._use_maps, p.noise, float(p.read_noise_e), float(p.full_well_e), key,
-              *self._quantiser(), image)
+        sense(irr, gain, dark, self._prnu_map, self._dsnu_map, self._use_maps, p.noise, float(p.read_noise_e),
+              float(p.full_well_e), key, *self._quantiser(), image)
         clean = None
         if keep_clean:
             x_clean = np.clip(irr * (p.electrons_per_radiance_us * exposure / p.full_well_e), 0.0, 1.0)

@@ -150,15 +150,17 @@ def _ptrs_first(lam, streams, res, f, bits):
         res[j] = k if accept else (-2.0 if reject else -1.0)
 
 
-def sense(irradiance, gain, dark_e, prnu, dsnu, use_maps, noise, read_noise_e, full_well_e, key, thresholds, bin_start,
-          image):
+def sense(irradiance: np.ndarray, gain: float, dark_e: float, prnu: np.ndarray, dsnu: np.ndarray, use_maps: bool,
+          noise: bool, read_noise_e: float, full_well_e: float, key: int | np.uint64, thresholds: np.ndarray,
+          bin_start: np.ndarray, image: np.ndarray) -> None:
     """Digital numbers of one frame, written into `image` (uint8 or uint16 (H, W)).
 
     mean electrons = irradiance * gain * prnu + dark_e + dsnu, with the (H, W) fixed-pattern maps prnu
-    (relative gain) and dsnu (offset, e-) used only when use_maps; with noise: Poisson(mean) + Normal(0, read_noise_e^2); then clipped to
-    [0, full_well_e], normalised by full_well_e and quantised by the CRF's decision thresholds: DN = number of
-    thresholds <= x (see LDRCamera._quantiser), counted from bin_start[b], the count below b / n_bins for the
-    bin b of x (bin_start has n_bins + 1 entries). key: 64-bit stream key of the frame.
+    (relative gain) and dsnu (offset, e-) used only when use_maps; with noise: Poisson(mean) + Normal(0,
+    read_noise_e^2); then clipped to [0, full_well_e], normalised by full_well_e and quantised by the CRF's
+    decision thresholds: DN = number of thresholds <= x (see LDRCamera._quantiser), counted from bin_start[b],
+    the count below b / n_bins for the bin b of x (bin_start has n_bins + 1 entries). key: 64-bit stream key of
+    the frame.
 
     Blocks of rows run on sim.parallel's threads (sense_rows releases the GIL; a numba parallel loop would cost
     seconds of compilation), each row in short loops over its pixels that LLVM vectorises (see _poisson_row and

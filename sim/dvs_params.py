@@ -68,7 +68,7 @@ class DVSParams:
             raise InvalidParameterError(f"refractory_us must be a non-negative integer (microseconds), got {r!r}")
 
     @classmethod
-    def preset(cls, name: str, **overrides) -> DVSParams:
+    def preset(cls, name: str, **overrides: object) -> DVSParams:
         """The named preset (see PRESETS), with any field replaced by a keyword override."""
         try:
             base = PRESETS[name]
@@ -116,7 +116,7 @@ class DVSParams:
         dark = self.dark_fraction * self.full_illumination
         return self.shot_noise_hz + self.dark_shot_noise_hz * dark / (i + dark)
 
-    def replace(self, **changes) -> DVSParams:
+    def replace(self, **changes: object) -> DVSParams:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 

@@ -21,7 +21,7 @@ class UnsortedEventsError(TimeOrderError):
     """An event array is not sorted by time."""
 
 
-def check_number(name: str, value, *, positive: bool) -> None:
+def check_number(name: str, value: object, *, positive: bool) -> None:
     """Raise InvalidParameterError unless `value` is a finite real number (not a bool), > 0 when `positive`,
     else >= 0. `name` is the parameter's name, quoted in the message."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):

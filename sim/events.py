@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from .errors import EvsimInputError, UnsortedEventsError
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
 
 EVENT_DTYPE = np.dtype([("t", np.int64), ("x", np.uint16), ("y", np.uint16), ("p", np.int8)])
 
@@ -15,7 +19,7 @@ EVENT_DTYPE = np.dtype([("t", np.int64), ("x", np.uint16), ("y", np.uint16), ("p
 MAX_TIME_US = 1 << 62  # |t| bound of every time (about 146,000 years): differences never overflow int64
 
 
-def check_times_us(t, name: str = "t_us") -> np.ndarray:
+def check_times_us(t: npt.ArrayLike, name: str = "t_us") -> npt.NDArray[np.int64]:
     """Integer microsecond times as int64, refusing values an int64 cast would wrap (uint64 >= 2**63) and any
     |t| > 2**62 us (differences of two such times could overflow)."""
     t = np.asarray(t)
@@ -31,7 +35,7 @@ def empty_events(n: int = 0) -> np.ndarray:
     return np.zeros(n, dtype=EVENT_DTYPE)
 
 
-def make_events(t, x, y, p) -> np.ndarray:
+def make_events(t: npt.ArrayLike, x: npt.ArrayLike, y: npt.ArrayLike, p: npt.ArrayLike) -> np.ndarray:
     """Build an event array from column arrays (t in microseconds, p in {-1, +1})."""
     t = np.asarray(t)
     n = t.shape[0]

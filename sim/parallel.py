@@ -8,14 +8,18 @@ import itertools
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from typing import TYPE_CHECKING
 
 import numba
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 _POOL: ThreadPoolExecutor | None = None
 _POOL_PID = 0  # the process that made _POOL: a forked child has its object but not its threads
 
 
-def in_parallel(fn, n: int, min_part: int, per_thread: int = 1) -> None:
+def in_parallel(fn: Callable[[int, int], object], n: int, min_part: int, per_thread: int = 1) -> None:
     """fn(a, b) over contiguous parts [a, b) of range(n), of at least min_part items, on up to
     numba.get_num_threads() threads (the kernels release the GIL), this thread included.
 

@@ -8,7 +8,7 @@ import numpy as np
 from .errors import InvalidParameterError
 
 
-def as_seed_sequence(seed) -> np.random.SeedSequence:
+def as_seed_sequence(seed: int | np.random.SeedSequence) -> np.random.SeedSequence:
     """An int (>= 0) or a SeedSequence as a SeedSequence."""
     if isinstance(seed, np.random.SeedSequence):
         return seed
@@ -23,6 +23,6 @@ def child_seed(ss: np.random.SeedSequence, *path: int) -> np.random.SeedSequence
     return np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, *(int(i) for i in path)))
 
 
-def seed_record(ss: np.random.SeedSequence) -> dict:
+def seed_record(ss: np.random.SeedSequence) -> dict[str, int | list[int]]:
     """JSON form of a SeedSequence: SeedSequence(entropy, spawn_key=spawn_key) regenerates it."""
     return {"entropy": int(ss.entropy), "spawn_key": [int(k) for k in ss.spawn_key]}
