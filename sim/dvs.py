@@ -53,6 +53,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 
 import numpy as np
+import numpy.typing as npt
 
 from . import dvs_kernels as K
 from .dvs_params import DVSParams
@@ -79,8 +80,8 @@ class DVSEmulator:
     EVENT_LABELS (0 signal, 1 shot, 2 leak, 3 hot).
     """
 
-    def __init__(self, height: int, width: int, params: DVSParams | None = None, seed=0, *,
-                 return_labels: bool = False):
+    def __init__(self, height: int, width: int, params: DVSParams | None = None,
+                 seed: int | np.random.SeedSequence = 0, *, return_labels: bool = False):
         for name, n in (("height", height), ("width", width)):
             if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 65535:
                 raise InvalidParameterError(f"{name} must be an int in [1, 65535], got {n!r}")
@@ -179,7 +180,7 @@ class DVSEmulator:
         return self._state
 
     # ----- input -----
-    def feed(self, radiance, t_us):
+    def feed(self, radiance: npt.ArrayLike, t_us: int | npt.ArrayLike) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Feed one frame (H, W) at integer time t_us, or a stack (N, H, W) at times (N,); return the new events.
 
         Radiance is linear, >= 0 and finite, float (integer arrays are accepted and converted). Times are integer
@@ -421,7 +422,9 @@ def _emulate_pairs(pairs: Iterable, params, seed, return_labels: bool):
     return (events, labels) if return_labels else events
 
 
-def emulate(frames, times_us=None, params: DVSParams | None = None, seed=0, *, return_labels: bool = False):
+def emulate(frames: np.ndarray | Iterable, times_us: npt.ArrayLike | None = None, params: DVSParams | None = None,
+            seed: int | np.random.SeedSequence = 0, *,
+            return_labels: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Emulate a whole sequence; return its events (and labels with return_labels), sorted by (t, y, x).
 
     frames: an (N, H, W) array with times_us (N,) integer microseconds, or an iterable of (H, W) frames with
@@ -450,8 +453,9 @@ def _with_times(frames: Iterable, times_us) -> Iterator[tuple]:
         raise EvsimInputError(f"fewer frames than times_us ({len(times)})")
 
 
-def emulate_source(source: RadianceSource, times_us, params: DVSParams | None = None, seed=0, *,
-                   return_labels: bool = False):
+def emulate_source(source: RadianceSource, times_us: npt.ArrayLike, params: DVSParams | None = None,
+                   seed: int | np.random.SeedSequence = 0, *,
+                   return_labels: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Emulate a RadianceSource sampled at times_us (integer microseconds, within [0, source.duration_us])."""
     times = np.asarray(times_us)
     if times.ndim != 1 or times.dtype.kind not in "iu":
