@@ -16,7 +16,7 @@ from generators.formats.native import iter_native_events, recording_event_chunks
 LABEL_NAMES = ("signal", "shot", "leak", "hot")
 
 
-def describe(path) -> dict:
+def describe(path: str | Path) -> dict:
     """Summary of a dataset in any readable layout (times in microseconds, rates in Hz, durations in s):
     path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,

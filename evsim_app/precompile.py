@@ -14,8 +14,14 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from crf_models import CRF
+    from generators.formats.recording import Recording
+    from sim.camera import CameraParams
 
 
 def start_background_compile() -> subprocess.Popen | None:
@@ -61,7 +67,8 @@ def _akf_cached() -> bool:
         return False
 
 
-def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events: int = 400, seed: int = 0):
+def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events: int = 400,
+                  seed: int = 0) -> Recording:
     """A small hybrid recording with the array types of a generated one (events, 8-bit frames, HDR reference,
     threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses."""
     import sim
@@ -100,7 +107,7 @@ class _FlatSource:
         return 0.0
 
 
-def toy_capture(camera_params, crf, height: int = 16, width: int = 16) -> list:
+def toy_capture(camera_params: CameraParams, crf: CRF, height: int = 16, width: int = 16) -> list:
     """The frames of 0.1 s of a flat scene through the LDR camera (compiles its kernels for camera_params' bit
     depth)."""
     import sim

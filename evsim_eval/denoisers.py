@@ -21,6 +21,9 @@ import dataclasses
 import json
 import math
 import sys
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +36,9 @@ from sim import EVENT_LABELS, EvsimInputError
 from .evaluate import evaluate_recording
 from .protocols import dataset_sequences
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 NOISE_TYPES = EVENT_LABELS[1:]  # ("shot", "leak", "hot")
 DEFAULT_RECONSTRUCT_METRICS = ("mse", "ssim")
 LABELS_HINT = "generate it with per-event labels (`evsim generate ... --labels`, AHDRConfig(labels=True))"
@@ -40,7 +46,7 @@ LABELS_HINT = "generate it with per-event labels (`evsim generate ... --labels`,
 
 # ----- the arithmetic -------------------------------------------------------------------------------------------
 
-def rates(labels, keep) -> dict:
+def rates(labels: ArrayLike, keep: ArrayLike) -> dict:
     """Counts and rates of one keep-mask: {"signal", "kept_signal", "tpr", "noise", "kept_noise", "fpr", and per
     noise type T: T, "kept_T", "fpr_T"} (counts are event numbers; rates NaN without events of their kind)."""
     labels, keep = np.asarray(labels), np.asarray(keep, bool)
@@ -64,7 +70,7 @@ def _ratio(a, b) -> float:
     return float(a) / float(b) if b else math.nan
 
 
-def roc_auc(fpr, tpr) -> float:
+def roc_auc(fpr: ArrayLike, tpr: ArrayLike) -> float:
     """Area under the ROC curve through the points (fpr, tpr), sorted by fpr, from (0, 0) to (1, 1); NaN when a
     rate is NaN."""
     fpr, tpr = np.asarray(fpr, float), np.asarray(tpr, float)
@@ -84,7 +90,8 @@ def roc_from_points(points: list[dict]) -> dict:
     return out
 
 
-def filter_roc(events, labels, height: int, width: int, name: str, values=None, **options) -> dict:
+def filter_roc(events: np.ndarray, labels: ArrayLike, height: int, width: int, name: str,
+               values: Iterable[float] | None = None, **options: Any) -> dict:
     """ROC of filter `name` over its main parameter: {"filter", "param", "unit", "points": [{"value", **rates}],
     "auc": roc_from_points(...)}; values default to FILTERS[name].grid."""
     f = get_filter(name)
@@ -97,7 +104,7 @@ def filter_roc(events, labels, height: int, width: int, name: str, values=None, 
 
 # ----- recordings and datasets ----------------------------------------------------------------------------------
 
-def resolve_filters(filters=None) -> tuple[list[str], list[str]]:
+def resolve_filters(filters: Sequence[str] | None = None) -> tuple[list[str], list[str]]:
     """(filters to run, notes). None: every registered filter whose library is installed (the others noted);
     names given explicitly must be known and installed (DenoiseDependencyError names the extra otherwise)."""
     if filters is None:
@@ -121,7 +128,8 @@ def labelled(rec: Recording, what: str = "the recording") -> np.ndarray:
     return labels
 
 
-def score_recording(rec: Recording, filters=None, values=None, *, progress: bool = False) -> dict:
+def score_recording(rec: Recording, filters: Sequence[str] | None = None,
+                    values: dict[str, Sequence[float]] | None = None, *, progress: bool = False) -> dict:
     """{filter: filter_roc(...)} on one labelled recording; values: {filter: values} replacing the grids."""
     labels = labelled(rec)
     names, _ = resolve_filters(filters)
@@ -134,14 +142,15 @@ def score_recording(rec: Recording, filters=None, values=None, *, progress: bool
     return out
 
 
-def denoised(rec: Recording, keep) -> Recording:
+def denoised(rec: Recording, keep: np.ndarray) -> Recording:
     """The recording with only the kept events (and their labels)."""
     labels = None if rec.event_labels is None else rec.event_labels[keep]
     return dataclasses.replace(rec, events=rec.events[keep], event_labels=labels)
 
 
-def reconstruct_denoised(rec: Recording, filters=None, *, protocol: str = "reference", methods=("akf", "cf"),
-                         metrics=DEFAULT_RECONSTRUCT_METRICS, method_options=None) -> dict:
+def reconstruct_denoised(rec: Recording, filters: Sequence[str] | None = None, *, protocol: str = "reference",
+                         methods: Iterable[str] = ("akf", "cf"), metrics: Iterable[str] = DEFAULT_RECONSTRUCT_METRICS,
+                         method_options: dict[str, dict[str, Any]] | None = None) -> dict:
     """{row: {method: {metric: value}}}: row "raw" on all events, then "<filter>(<param>=<default>)" on the
     events each filter keeps at its default parameter (evsim_eval.evaluate.evaluate_recording, same protocol)."""
     names, _ = resolve_filters(filters)
@@ -154,9 +163,11 @@ def reconstruct_denoised(rec: Recording, filters=None, *, protocol: str = "refer
     return rows
 
 
-def evaluate_denoise_dataset(path, *, filters=None, values=None, reconstruct: bool = True,
-                             protocol: str = "reference", methods=("akf", "cf"),
-                             metrics=DEFAULT_RECONSTRUCT_METRICS, method_options=None,
+def evaluate_denoise_dataset(path: str | Path, *, filters: Sequence[str] | None = None,
+                             values: dict[str, Sequence[float]] | None = None, reconstruct: bool = True,
+                             protocol: str = "reference", methods: Sequence[str] = ("akf", "cf"),
+                             metrics: Sequence[str] = DEFAULT_RECONSTRUCT_METRICS,
+                             method_options: dict[str, dict[str, Any]] | None = None,
                              progress: bool = False) -> tuple[dict, list[str]]:
     """Score filters on every sequence of a dataset (and, with reconstruct, the methods on denoised events).
 
@@ -192,7 +203,7 @@ def _nanmean(values) -> float:
     return float(np.mean(v)) if v else math.nan
 
 
-def sequence_aucs(path, filters=None) -> dict:
+def sequence_aucs(path: str | Path, filters: Sequence[str] | None = None) -> dict:
     """{filter: {"auc": AUC over all noise, "auc_<type>": ...}} of one labelled sequence file (for sweeps)."""
     rec = load(path)
     return {n: {"auc" if k == "all" else f"auc_{k}": v for k, v in r["auc"].items()}
@@ -219,7 +230,7 @@ def _f(v, digits: int = 3) -> str:
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
 
-def format_denoise_table(result: dict, notes=()) -> str:
+def format_denoise_table(result: dict, notes: Iterable[str] = ()) -> str:
     """Per sequence: the ROC points of every filter (TPR, FPR overall and per noise type), its AUCs, and the
     reconstruction scores on raw and denoised events; then the mean AUC over the sequences."""
     lines = [*(f"note: {n}" for n in notes)]
@@ -264,6 +275,6 @@ def _clean(obj):
     return obj
 
 
-def write_denoise_json(result: dict, path) -> None:
+def write_denoise_json(result: dict, path: str | Path) -> None:
     """The evaluate_denoise_dataset result as JSON, atomically (NaN as null, inf as "inf")."""
     write_text_atomic(path, json.dumps(_clean(result), indent=2) + "\n")

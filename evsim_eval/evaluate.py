@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,7 +43,7 @@ class DatasetScores(NamedTuple):
     failures: list
 
 
-def check_request(protocol: str, methods, metrics, tune_metric: str = TUNE_METRIC,
+def check_request(protocol: str, methods: Iterable[str], metrics: Iterable[str], tune_metric: str = TUNE_METRIC,
                   tune_fraction: float = TUNE_FRACTION) -> None:
     """EvsimInputError naming an unknown protocol, method, metric or tuning metric, or a tuning fraction outside
     (0, 1)."""
@@ -64,8 +65,9 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
     return np.arange(k), np.arange(k, n)
 
 
-def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=DEFAULT_METHODS,
-                       metrics=DEFAULT_METRICS, method_options: dict | None = None, tuning: dict | None = None,
+def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: Sequence[str] = DEFAULT_METHODS,
+                       metrics: Sequence[str] = DEFAULT_METRICS,
+                       method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
                        tune_fraction: float = TUNE_FRACTION) -> tuple[dict, str]:
     """Score methods on one recording: ({method: {metric: value}}, notes joined by "; ").
 
@@ -79,12 +81,12 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods=D
     return table, "; ".join(notes)
 
 
-def evaluate_sequence_file(file, **options) -> tuple[dict, str]:
+def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]:
     """One sequence as a task: evaluate_recording(load(file), **options)."""
     return evaluate_recording(load(file), **options)
 
 
-def add_means(result: dict, metrics) -> dict:
+def add_means(result: dict, metrics: Sequence[str]) -> dict:
     """Add {"mean": {metric: mean over the sequences}} to every method of {method: {sequence: {metric: value}}}
     that scored any sequence; returns result."""
     for rows in result.values():
@@ -93,8 +95,9 @@ def add_means(result: dict, metrics) -> dict:
     return result
 
 
-def tune_dataset(sequences, *, protocol: str, methods, method_options: dict | None, tune_fraction: float,
-                 tune_metric: str, progress=None) -> tuple[dict, list[str]]:
+def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, methods: Iterable[str],
+                 method_options: dict[str, dict[str, Any]] | None, tune_fraction: float, tune_metric: str,
+                 progress: Callable[..., object] | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
     ((name, file) pairs), in this process."""
     cases = [recording_case(load(file), protocol, method_options)[0] for _, file in sequences]
@@ -110,10 +113,11 @@ def tune_dataset(sequences, *, protocol: str, methods, method_options: dict | No
     return settings, notes + [f"tuned {m}: {describe_setting(s)}" for m, s in settings.items()]
 
 
-def evaluate_dataset(path, *, protocol: str = "reference", methods=DEFAULT_METHODS, metrics=DEFAULT_METRICS,
-                     method_options: dict | None = None, tune: bool = False, tune_fraction: float = TUNE_FRACTION,
-                     tune_metric: str = TUNE_METRIC, workers: int | None = None, scheduler: str | None = None,
-                     progress: bool | None = None, strict: bool = True) -> DatasetScores:
+def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: Iterable[str] = DEFAULT_METHODS,
+                     metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
+                     tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
+                     workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
+                     strict: bool = True) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).

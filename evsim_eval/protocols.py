@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ UNITS = {"reference": "x = CRF scaled irradiance of frame 0's exposure (referenc
 
 # ----- what a dataset holds ------------------------------------------------------------------------------------
 
-def dataset_sequences(path) -> list[tuple[str, Path]]:
+def dataset_sequences(path: str | Path) -> list[tuple[str, Path]]:
     """(name, file) of every sequence of DATASET: a readable file or IJRR folder (one sequence), a generated dataset
     folder (its index.json), or a folder of native .h5 files."""
     path = Path(path)
@@ -71,7 +72,7 @@ def dataset_sequences(path) -> list[tuple[str, Path]]:
     return [(path.stem if path.is_file() else path.name, path)]
 
 
-def recording_crf(rec: Recording):
+def recording_crf(rec: Recording) -> tuple[crf_models.CRF, str]:
     """(crf object, note): the recorded CRF, or a linear one (note says so) when the layout carries none."""
     if rec.crf:
         try:
@@ -92,7 +93,7 @@ def _recorded_contrast(rec: Recording):
     return None
 
 
-def recording_contrast(rec: Recording):
+def recording_contrast(rec: Recording) -> tuple[float, float]:
     """Nominal (ON, OFF) contrast thresholds (log units) from the recorded DVS configuration, else the AKF .mat's
     ct, else estimated from the events and all frames (akf.estimate_contrast), else DEFAULT_CONTRAST. The per-pixel
     threshold maps are ground truth, not used (a real camera does not know them)."""
@@ -107,7 +108,7 @@ def recording_leak_rate(rec: Recording) -> float:
     return float(leak) if isinstance(leak, (int, float)) and math.isfinite(leak) and leak > 0 else 0.0
 
 
-def method_options_for(rec: Recording, method_options=None) -> dict:
+def method_options_for(rec: Recording, method_options: dict[str, dict[str, Any]] | None = None) -> dict:
     """{method: {keyword: value}}: what the recording tells a method beyond the shared inputs (the AKF's
     leak_rate_hz), overridden by method_options."""
     merged = {"akf": {"leak_rate_hz": recording_leak_rate(rec)}}
@@ -140,7 +141,8 @@ def check_frames(rec: Recording, need: int, what: str) -> None:
 
 # ----- the two protocols -----------------------------------------------------------------------------------------
 
-def recording_case(rec: Recording, protocol: str = "reference", method_options=None) -> tuple[Case, list[str]]:
+def recording_case(rec: Recording, protocol: str = "reference",
+                   method_options: dict[str, dict[str, Any]] | None = None) -> tuple[Case, list[str]]:
     """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made."""
     crf, note = recording_crf(rec)
     notes = [note] if note else []
@@ -188,7 +190,7 @@ def recording_case(rec: Recording, protocol: str = "reference", method_options=N
     return case, notes
 
 
-def recording_contrast_or_estimate(rec: Recording, crf, fed) -> tuple[tuple, str]:
+def recording_contrast_or_estimate(rec: Recording, crf: crf_models.CRF, fed: np.ndarray) -> tuple[tuple, str]:
     """(ON, OFF) contrast: the recorded one (see recording_contrast), else estimated from the events and the fed
     frames (akf.estimate_contrast; held-out frames are never used), else DEFAULT_CONTRAST; and a note saying
     which ("" when recorded)."""

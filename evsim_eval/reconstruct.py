@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -40,8 +41,8 @@ def output_times(rec: Recording, times: str) -> np.ndarray:
     raise EvsimInputError(f"--times {times!r}: one of reference, frames, fps:N")
 
 
-def reconstruct_dataset(path, out_dir, *, method: str = "akf", times: str = "reference",
-                        method_options=None) -> list[tuple[str, Path, int]]:
+def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = "akf", times: str = "reference",
+                        method_options: dict[str, Any] | None = None) -> list[tuple[str, Path, int]]:
     """Reconstruct every sequence of a dataset with `method` and write float32 EXR folders (frame_NNNNNN.exr and
     timestamps.txt, see generators.formats.exr; values in x units, see evsim_eval.protocols), atomically.
     One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
+from pathlib import Path
 
 import akf
 from generators.formats.atomic import write_text_atomic
@@ -12,7 +14,7 @@ from generators.formats.atomic import write_text_atomic
 from .protocols import UNITS, WHITE
 
 
-def format_table(result: dict, protocol: str = "reference", notes=()) -> str:
+def format_table(result: dict, protocol: str = "reference", notes: Iterable[str] = ()) -> str:
     """The paper's Table 1 layout: one block per metric, a row per sequence and the mean, a column per method."""
     methods = list(result)
     sequences = list(result[methods[0]])
@@ -41,7 +43,7 @@ def _fmt(v: float) -> str:
     return "inf" if math.isinf(v) else f"{v:.4g}"
 
 
-def write_json(result: dict, path, tuning: dict | None = None) -> None:
+def write_json(result: dict, path: str | Path, tuning: dict | None = None) -> None:
     """{method: {sequence: {metric: value}, "mean": {...}}} as JSON, atomically (inf as the string "inf"); with
     tuning ({method: setting}, DatasetScores.tuning of evsim_eval.evaluate) also a top-level "tuning" entry."""
     clean = {m: {s: {k: (str(v) if math.isinf(v) else v) for k, v in row.items()} for s, row in seqs.items()}

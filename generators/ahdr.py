@@ -21,6 +21,7 @@ import platform
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -32,6 +33,9 @@ from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .formats.native import NativeWriter, check_compression
 from .sampling import make_sampler
+
+if TYPE_CHECKING:
+    from sim.source import RadianceSource
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
              "scikit-image", "tqdm", "isal")
@@ -162,7 +166,8 @@ def package_versions() -> dict:
     return dict(_versions())
 
 
-def resolve_sensors(scene, config: AHDRConfig):
+def resolve_sensors(scene: RadianceSource,
+                    config: AHDRConfig) -> tuple[sim.DVSParams, sim.CameraParams, crf_models.CRF]:
     """The DVS and camera parameters after auto exposure / illumination, and the CRF object."""
     try:
         crf = crf_models.get(config.crf, **config.crf_params)
@@ -221,7 +226,8 @@ def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     return sorted(times)
 
 
-def generate_ahdr(scene, path, config: AHDRConfig | None = None, seed=0, *, progress: bool = True,
+def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | None = None,
+                  seed: int | np.random.SeedSequence = 0, *, progress: bool = True,
                   metadata: dict | None = None) -> GenerationResult:
     """Simulate `scene` (a sim.source.RadianceSource) into a native HDF5 file at `path` (written atomically).
 

@@ -72,7 +72,7 @@ def ahdr_reference_image(radiance: np.ndarray) -> np.ndarray:
     return np.clip(y / white, AHDR_BLACK, 1.0)
 
 
-def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, hdr_dir=None,
+def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, hdr_dir: str | Path | None = None,
                include_hdr: bool = True) -> list[tuple[str, ImageMotionScene]]:
     """The AHDR benchmark scenes as (name, scene): four scikit-image photos, plus the real HDR photos Desk.exr
     and MtTamWest.exr from hdr_dir (default hdr_data_dir()) when they are there and include_hdr."""
@@ -93,7 +93,7 @@ def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, 
     return out
 
 
-def ahdr_suite_config(sensor: str = "davis346"):
+def ahdr_suite_config(sensor: str = "davis346") -> AHDRConfig:
     """generators.ahdr.AHDRConfig of the suite: the sensor preset, the window CRF, x = reference radiance
     (reference_fill = reference_radiance = 1, no auto exposure), one reference per frame."""
     return AHDRConfig(dvs=sim.DVSParams.preset(sensor), camera=sim.CameraParams(reference_radiance=1.0,
@@ -101,8 +101,8 @@ def ahdr_suite_config(sensor: str = "davis346"):
                       crf="window", auto_exposure=False)
 
 
-def generate_ahdr_suite(out_dir, *, height: int = 180, width: int = 240, duration_s: float = 1.0, seed: int = 0,
-                        sensor: str = "davis346", overwrite: bool = False, progress: bool = False,
+def generate_ahdr_suite(out_dir: str | Path, *, height: int = 180, width: int = 240, duration_s: float = 1.0,
+                        seed: int = 0, sensor: str = "davis346", overwrite: bool = False, progress: bool = False,
                         include_hdr: bool = True, workers: int | None = None, scheduler: str | None = None,
                         resume: bool = False) -> Path:
     """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset, with the

@@ -186,7 +186,7 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
 MAX_NAME_LEN = 200
 
 
-def check_sequence_name(where: str, name) -> str:
+def check_sequence_name(where: str, name: object) -> str:
     """A sequence name is a plain file-name stem: not empty, no path separator, no leading dot (hidden files,
     "..") and at most MAX_NAME_LEN characters, so that <out>/<name>.h5 stays inside the output folder."""
     name = _check_type(where, name, str)
@@ -325,7 +325,7 @@ def _as_tuples(v):
     return v
 
 
-def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where: str = "scene"):
+def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where: str = "scene") -> scenes.Scene:
     """Construct the radiance source described by a scene table (see SCENE_TYPES) at the given size/duration."""
     params = {k: _as_tuples(v) for k, v in scene.items() if k != "type"}
     kind = scene["type"]
@@ -351,7 +351,7 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
         raise _fail(where, f"bad parameter for scene type {kind!r}: {e}") from None
 
 
-def to_ahdr_config(settings: dict, *, where: str = "settings"):
+def to_ahdr_config(settings: dict, *, where: str = "settings") -> AHDRConfig:
     """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS)."""
     dvs_over = dict(settings["dvs"])
     cam_over = dict(settings["camera"])

@@ -9,11 +9,13 @@ the crop and resize and the upsampling.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 from sim import EvsimInputError
 
-from .config import parse_config
+from .config import DatasetConfig, parse_config
 from .dataset import generate_dataset
 from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
 
@@ -22,7 +24,7 @@ SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "
                  "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")
 
 
-def clips(inputs) -> list[Path]:
+def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
     """The clips of `inputs` (a path or a list of paths): each video file, image folder or .npy stack is one
     clip; a folder that holds video files and no images stands for its videos, in name order."""
     paths = [Path(inputs)] if isinstance(inputs, (str, Path)) else [Path(p) for p in inputs]
@@ -55,8 +57,9 @@ def _sensor_size(path: Path, height: int | None, width: int | None) -> tuple[int
     return (max(1, round(width * h0 / w0)), width) if height is None else (height, max(1, round(height * w0 / h0)))
 
 
-def convert_config(inputs, *, settings: dict | None = None, height: int | None = None, width: int | None = None,
-                   seed: int = 0, **scene_options):
+def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict | None = None,
+                   height: int | None = None, width: int | None = None, seed: int = 0,
+                   **scene_options: Any) -> DatasetConfig:
     """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
 
     settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output); height,
@@ -84,10 +87,10 @@ def convert_config(inputs, *, settings: dict | None = None, height: int | None =
                         source="<convert>")
 
 
-def convert(inputs, out_dir, *, settings: dict | None = None, height: int | None = None, width: int | None = None,
-            seed: int = 0, fmt: str = "native", overwrite: bool = False, progress: bool = True,
-            workers: int | None = None, scheduler: str | None = None, resume: bool = False,
-            **scene_options) -> Path:
+def convert(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, *, settings: dict | None = None,
+            height: int | None = None, width: int | None = None, seed: int = 0, fmt: str = "native",
+            overwrite: bool = False, progress: bool = True, workers: int | None = None, scheduler: str | None = None,
+            resume: bool = False, **scene_options: Any) -> Path:
     """Convert video(s) into a dataset folder (one native HDF5 file per clip, an optional export, index.json);
     return the index path. Arguments as for convert_config; fmt, workers, scheduler, resume: as for
     generate_dataset (one task per clip)."""

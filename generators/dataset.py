@@ -27,6 +27,7 @@ import importlib.metadata
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,6 +41,11 @@ from .formats.atomic import discard, write_text_atomic
 from .formats.common import json_attr, open_h5
 from .formats.native import FORMAT_VERSION
 from .runner import check_run_options, raise_failures, run_tasks
+
+if TYPE_CHECKING:
+    from sim.source import RadianceSource
+
+    from .scenes import Scene
 
 INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
@@ -57,7 +63,7 @@ class SceneRecipe:
     duration_us: int
     where: str = "scene"
 
-    def build(self):
+    def build(self) -> Scene:
         return build_scene(self.table, self.height, self.width, self.duration_us, where=self.where)
 
     def describe(self) -> dict:
@@ -76,7 +82,7 @@ class SequenceTask:
     metadata: dict = field(default_factory=dict)
 
 
-def spec_hash(task: SequenceTask, scene) -> str:
+def spec_hash(task: SequenceTask, scene: Scene | SceneRecipe) -> str:
     """SHA-256 (hex) of everything that determines the sequence's files (see the module docstring)."""
     try:
         version = importlib.metadata.version("evsim")
@@ -97,7 +103,7 @@ def _json_default(o):
     raise TypeError(f"cannot hash a {type(o).__name__}")
 
 
-def prepare_output_dir(out_dir, overwrite: bool) -> Path:
+def prepare_output_dir(out_dir: str | Path, overwrite: bool) -> Path:
     """Create out_dir; refuse (EvsimInputError) when it already holds files and overwrite is False."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -110,7 +116,8 @@ def prepare_output_dir(out_dir, overwrite: bool) -> Path:
     return out
 
 
-def write_sequence(out: Path, name: str, scene, ahdr_config, seed, fmt: str, *, progress: bool,
+def write_sequence(out: Path, name: str, scene: RadianceSource, ahdr_config: AHDRConfig | None,
+                   seed: int | np.random.SeedSequence, fmt: str, *, progress: bool,
                    metadata: dict | None = None) -> dict:
     """Generate one sequence into out/<name>.h5 (and its export); return its index entry."""
     path = out / f"{check_sequence_name('sequence name', name)}.h5"
@@ -135,7 +142,8 @@ def index_entry(out: Path, name: str, fmt: str, extra_keys: tuple[str, ...] = ()
     return entry
 
 
-def make_sequence(task: SequenceTask, scene, out: Path, digest: str, progress: bool = False) -> dict:
+def make_sequence(task: SequenceTask, scene: RadianceSource | SceneRecipe, out: Path, digest: str,
+                  progress: bool = False) -> dict:
     """One sequence as a task: build the scene (a SceneRecipe) if needed, write its file(s); return its index
     entry. digest is spec_hash(task, scene), recorded in the file's metadata."""
     if isinstance(scene, SceneRecipe):
@@ -183,9 +191,9 @@ def _names(names: list[str], limit: int = 8) -> str:
     return ", ".join(names[:limit]) + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")
 
 
-def run_sequences(out_dir, jobs: list[tuple[SequenceTask, object]], header: dict, *, overwrite: bool = False,
-                  resume: bool = False, workers: int | None = None, scheduler: str | None = None,
-                  progress: bool = True) -> Path:
+def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], header: dict, *,
+                  overwrite: bool = False, resume: bool = False, workers: int | None = None,
+                  scheduler: str | None = None, progress: bool = True) -> Path:
     """Generate (task, scene) jobs into out_dir and write index.json = header + {"sequences": entries} last;
     return its path. When sequences fail, raises generators.runner.TasksFailed once the others are written
     (EvsimInputError when all failed on bad input), and index.json is not written. See the module docstring for
@@ -243,7 +251,7 @@ def dataset_jobs(config: DatasetConfig, *, fmt: str | None = None,
     return jobs, header
 
 
-def generate_dataset(config: DatasetConfig, out_dir, *, overwrite: bool = False, progress: bool = True,
+def generate_dataset(config: DatasetConfig, out_dir: str | Path, *, overwrite: bool = False, progress: bool = True,
                      fmt: str | None = None, seed: int | None = None, workers: int | None = None,
                      scheduler: str | None = None, resume: bool = False) -> Path:
     """Generate every sequence of a dataset configuration into out_dir; return the index path.

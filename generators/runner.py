@@ -26,13 +26,17 @@ import sys
 import time
 import traceback
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from tqdm.auto import tqdm
 
 from sim import EvsimInputError
+
+if TYPE_CHECKING:
+    from distributed import LocalCluster
 
 _THREAD_ENV = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _SIMPLE = (str, bytes, int, float, bool, type(None), os.PathLike)
@@ -168,7 +172,7 @@ def _rss_mb() -> float | None:
 
 
 @contextmanager
-def local_cluster(workers: int):
+def local_cluster(workers: int) -> Iterator[LocalCluster]:
     """A dask.distributed LocalCluster of `workers` processes of one thread each, whose numba/OpenCV/BLAS pools
     share the cores (cores // workers threads each); yields the cluster."""
 

@@ -26,10 +26,16 @@ time of `breakpoints_us` in that range (e.g. the reference-frame times, so that 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sim import InvalidParameterError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from sim.source import RadianceSource
 
 # Fraction of the predicted step actually taken, so that a constant rate of change lands below the bound.
 _SAFETY = 0.9
@@ -65,9 +71,9 @@ class AdaptiveSampler:
     calls, including rejected trials) and n_at_min_step (steps accepted at min_step_us although above the bound).
     """
 
-    def __init__(self, source, *, threshold: float, fraction: float = 0.5, min_step_us: int = 10,
+    def __init__(self, source: RadianceSource, *, threshold: float, fraction: float = 0.5, min_step_us: int = 10,
                  max_step_us: int = 10_000, log_eps: float = 1e-4, t_start_us: int = 0, t_end_us: int | None = None,
-                 breakpoints_us=(), quantile: float = 1.0):
+                 breakpoints_us: ArrayLike = (), quantile: float = 1.0):
         if not threshold > 0 or not 0 < fraction <= 1:
             raise InvalidParameterError(f"need threshold > 0 and 0 < fraction <= 1, got threshold={threshold!r}, "
                                         f"fraction={fraction!r}")
@@ -144,8 +150,8 @@ class FixedRateSampler:
     """Samples of `source` every round(1e6 / rate_hz) microseconds from t_start_us, at the breakpoints, and at
     t_end_us."""
 
-    def __init__(self, source, *, rate_hz: float, t_start_us: int = 0, t_end_us: int | None = None,
-                 breakpoints_us=()):
+    def __init__(self, source: RadianceSource, *, rate_hz: float, t_start_us: int = 0, t_end_us: int | None = None,
+                 breakpoints_us: ArrayLike = ()):
         if not rate_hz > 0 or not np.isfinite(rate_hz):
             raise InvalidParameterError(f"rate_hz must be a finite positive number, got {rate_hz!r}")
         self.source = source
@@ -166,7 +172,7 @@ class FixedRateSampler:
             yield int(t), self.source.radiance(int(t))
 
 
-def make_sampler(source, mode: str = "adaptive", **kwargs):
+def make_sampler(source: RadianceSource, mode: str = "adaptive", **kwargs: Any) -> AdaptiveSampler | FixedRateSampler:
     """AdaptiveSampler (mode "adaptive") or FixedRateSampler (mode "fixed") with the given keyword arguments."""
     samplers = {"adaptive": AdaptiveSampler, "fixed": FixedRateSampler}
     if mode not in samplers:

@@ -11,13 +11,19 @@ from __future__ import annotations
 import dataclasses
 import itertools
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .ahdr import AHDRConfig
 from .config import SWEEP_KEYS
-from .dataset import EXPORT_SUFFIX, SequenceTask, run_sequences
+from .dataset import EXPORT_SUFFIX, SceneRecipe, SequenceTask, run_sequences
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from .scenes import Scene
 
 GRID_KEYS = SWEEP_KEYS
 DEFAULT_GRID = {"threshold_sigma": [0.0, 0.05], "shot_noise_hz": [0.0, 2.0]}
@@ -34,9 +40,10 @@ def grid_points(grid: dict) -> list[dict]:
     return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
 
 
-def generate_sweep(scene, out_dir, grid: dict | None = None, config: AHDRConfig | None = None, seed=0, *,
-                   overwrite: bool = False, progress: bool = True, fmt: str = "native", workers: int | None = None,
-                   scheduler: str | None = None, resume: bool = False) -> Path:
+def generate_sweep(scene: Scene | SceneRecipe, out_dir: str | Path, grid: dict | None = None,
+                   config: AHDRConfig | None = None, seed: int | np.random.SeedSequence = 0, *, overwrite: bool = False,
+                   progress: bool = True, fmt: str = "native", workers: int | None = None, scheduler: str | None = None,
+                   resume: bool = False) -> Path:
     """Write one sequence per grid point of `grid` (default DEFAULT_GRID) for `scene`; return the index path.
     workers, scheduler and resume as for generators.dataset.generate_dataset (the scene is sent to a cluster once)."""
     grid = DEFAULT_GRID if grid is None else grid

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,10 +21,13 @@ from sim import EvsimInputError
 from .common import PlotDependencyError, Prepared, ToneMap, pyplot
 from .events import event_frame, event_frame_rgb
 
+if TYPE_CHECKING:
+    from akf.params import AKFParams
+
 FORMATS = (".gif", ".mp4")
 
 
-def check_output(out) -> None:
+def check_output(out: str | Path) -> None:
     """EvsimInputError unless `out` ends in .gif or .mp4; PlotDependencyError for .mp4 without ffmpeg."""
     _writer(Path(out).suffix.lower(), 10.0)
 
@@ -41,7 +45,8 @@ def _writer(suffix: str, fps: float):
     return animation.FFMpegWriter(fps=fps)
 
 
-def animate(prep: Prepared, out, *, n_frames: int = 40, fps: float = 10.0, params=None) -> dict:
+def animate(prep: Prepared, out: str | Path, *, n_frames: int = 40, fps: float = 10.0,
+            params: AKFParams | None = None) -> dict:
     """Write the animation to `out` (.gif or .mp4) over the span of the LDR frames; return {"times_us", "path"}."""
     import akf
 

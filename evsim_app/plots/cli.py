@@ -97,7 +97,7 @@ def _cmd_roc(args) -> int:
     return 0
 
 
-def add_plot_parser(subparsers) -> argparse.ArgumentParser:
+def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
     plot = subparsers.add_parser("plot", help="figures: one pixel over time, events, method comparison, sweeps",
                                  epilog=PLOT_EPILOG)

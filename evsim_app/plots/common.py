@@ -13,6 +13,7 @@ import json
 import types
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,13 +22,19 @@ from generators.formats.atomic import atomic_path
 from generators.formats.recording import Recording
 from sim import EvsimInputError
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+    from numpy.typing import ArrayLike
+
+    from crf_models import CRF
+
 MATPLOTLIB_HINT = "matplotlib is not installed: pip install 'evsim[plot]'"
 REINHARD_KEY = 0.18
 DISPLAY_GAMMA = 2.2
 ON_COLOUR, OFF_COLOUR = (0.84, 0.15, 0.16), (0.12, 0.47, 0.71)  # RGB: red ON, blue OFF in every figure
 
 
-def read_json(path: Path, missing: str):
+def read_json(path: Path, missing: str) -> Any:
     """The JSON content of the file `path`; EvsimInputError(missing) when there is no such file, one naming the
     file when it is not valid JSON text."""
     if not path.is_file():
@@ -42,7 +49,7 @@ class PlotDependencyError(EvsimInputError):
     """An optional plotting dependency (matplotlib, ffmpeg) is missing; the message says how to get it."""
 
 
-def pyplot():
+def pyplot() -> types.ModuleType:
     """matplotlib.pyplot on the non-interactive Agg backend; PlotDependencyError when matplotlib is missing."""
     try:
         import matplotlib
@@ -56,7 +63,7 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path) -> Path:
+def save_figure(fig: Figure, path: str | Path) -> Path:
     """Save fig to path (format from the suffix, e.g. .png, .pdf, .svg) atomically, close it, return the path."""
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
@@ -76,7 +83,7 @@ class ToneMap:
     log_average: float
 
     @classmethod
-    def from_reference(cls, image, eps: float = 1e-6) -> ToneMap:
+    def from_reference(cls, image: ArrayLike, eps: float = 1e-6) -> ToneMap:
         """Iw = exp(mean(log(eps + I))) of the HDR reference image (linear, >= 0)."""
         img = np.asarray(image, np.float64)
         return cls(float(np.exp(np.mean(np.log(eps + np.clip(img, 0, None))))))
@@ -104,7 +111,7 @@ class Prepared:
     """
 
     rec: Recording
-    crf: object
+    crf: CRF
     contrast: tuple[float, float]
     thresholds: np.ndarray
     to_x: float | None
@@ -117,13 +124,13 @@ class Prepared:
             return None
         return self.rec.reference.astype(np.float64) * self.to_x
 
-    def reconstruct_args(self):
+    def reconstruct_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, CRF]:
         """The positional arguments (events, frames, t_start, t_end, crf) shared by akf methods."""
         r = self.rec
         return r.events, r.frames, r.frame_t_start_us, r.frame_t_end_us, self.crf
 
 
-def load_recording(path) -> Recording:
+def load_recording(path: str | Path) -> Recording:
     """generators.load(path), with a missing path reported as EvsimInputError naming it."""
     path = Path(path)
     if not path.exists():

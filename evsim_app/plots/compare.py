@@ -8,21 +8,31 @@ log error |log(I + I0) - log(I_ref + I0)| (log units, one colour scale for all m
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sim import EvsimInputError
 
 from .common import Prepared, ToneMap, default_time_us, pyplot, save_figure
 
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from akf.params import AKFParams
+    from generators.formats.recording import Recording
+
 DEFAULT_METHODS = ("akf", "cf", "frames")
 
 
-def nearest_reference(rec, t_us: int) -> int:
+def nearest_reference(rec: Recording, t_us: int) -> int:
     """Index of the reference frame nearest to t_us."""
     return int(np.argmin(np.abs(rec.reference_t_us - t_us)))
 
 
-def compare_images(prep: Prepared, t_us: int | None = None, methods=DEFAULT_METHODS, params=None) -> dict:
+def compare_images(prep: Prepared, t_us: int | None = None, methods: Sequence[str] = DEFAULT_METHODS,
+                   params: AKFParams | None = None) -> dict:
     """Reconstruct the reference time nearest t_us (default: the one nearest the middle of the frames) with each
     method. Returns {"t_us", "ldr" (normalised response), "reference", "images" {method: image}, "gain" (AKF K, 1/s),
     "log_error" {method: image}, "pu21_psnr" {method: dB}}; images in the CRF's scaled-irradiance units."""
@@ -60,7 +70,8 @@ def compare_images(prep: Prepared, t_us: int | None = None, methods=DEFAULT_METH
             "log_error": log_error, "pu21_psnr": psnr}
 
 
-def plot_compare(prep: Prepared, out, *, t_us: int | None = None, methods=DEFAULT_METHODS, params=None) -> dict:
+def plot_compare(prep: Prepared, out: str | Path, *, t_us: int | None = None, methods: Sequence[str] = DEFAULT_METHODS,
+                 params: AKFParams | None = None) -> dict:
     """Draw compare_images(...) into the image file `out`; return its result and the tone map used."""
     import matplotlib.colors as mcolors
 

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .common import pyplot, save_figure
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def default_curves() -> dict:
@@ -20,7 +25,7 @@ def default_curves() -> dict:
     return curves
 
 
-def plot_crfs(out, curves: dict | None = None, n: int = 512) -> dict:
+def plot_crfs(out: str | Path, curves: dict | None = None, n: int = 512) -> dict:
     """Left: y against x on a log x axis (1e-4..1); right: the weighting f^w(y). Returns {name: (x, y, w)}."""
     curves = default_curves() if curves is None else curves
     x = np.logspace(-4, 0, n)

@@ -9,14 +9,22 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sim import EvsimInputError, slice_time
 
 from .common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
 
+if TYPE_CHECKING:
+    from pathlib import Path
 
-def event_frame(events, height: int, width: int, t_start_us: int, t_end_us: int) -> np.ndarray:
+    from generators.formats.recording import Recording
+
+
+def event_frame(events: np.ndarray, height: int, width: int, t_start_us: int, t_end_us: int) -> np.ndarray:
     """(2, H, W) int64 counts of ON (index 0) and OFF (index 1) events with t_start_us <= t < t_end_us."""
     ev = slice_time(events, t_start_us, t_end_us)
     counts = np.zeros((2, height * width), np.int64)
@@ -27,7 +35,7 @@ def event_frame(events, height: int, width: int, t_start_us: int, t_end_us: int)
     return counts.reshape(2, height, width)
 
 
-def time_surface(events, height: int, width: int, t_us: int, tau_us: float) -> np.ndarray:
+def time_surface(events: np.ndarray, height: int, width: int, t_us: int, tau_us: float) -> np.ndarray:
     """(H, W) float64 signed exponential time surface at t_us (see the module docstring)."""
     if not tau_us > 0:
         raise EvsimInputError(f"time-surface decay must be > 0 us, got {tau_us}")
@@ -41,7 +49,8 @@ def time_surface(events, height: int, width: int, t_us: int, tau_us: float) -> n
     return out.reshape(height, width)
 
 
-def event_rate(events, bin_us: int, t_start_us: int | None = None, t_end_us: int | None = None):
+def event_rate(events: np.ndarray, bin_us: int, t_start_us: int | None = None,
+               t_end_us: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds."""
     if bin_us < 1:
         raise EvsimInputError(f"rate bin must be >= 1 us, got {bin_us}")
@@ -67,7 +76,7 @@ def event_frame_rgb(counts: np.ndarray) -> np.ndarray:
     return np.clip(rgb, 0, 1)
 
 
-def default_times_us(events, n: int = 3) -> list[int]:
+def default_times_us(events: np.ndarray, n: int = 3) -> list[int]:
     """n window end times spread evenly over the events' span, on whole milliseconds (us)."""
     if events.size == 0:
         raise EvsimInputError("the dataset has no events")
@@ -75,7 +84,8 @@ def default_times_us(events, n: int = 3) -> list[int]:
     return [int(round((t0 + (t1 - t0) * (k + 1) / n) / 1e3)) * 1000 for k in range(n)]
 
 
-def plot_events(rec, out, *, at_ms=None, window_ms: float = 10.0, bin_ms: float | None = None) -> dict:
+def plot_events(rec: Recording, out: str | Path, *, at_ms: Sequence[float] | None = None, window_ms: float = 10.0,
+                bin_ms: float | None = None) -> dict:
     """Event frames and time surfaces at each time of at_ms (window [t - window_ms, t)), and the event rate over
     time, into the image file `out`. Returns {"times_us", "frames", "surfaces", "rate"} (what was drawn)."""
     events = rec.events

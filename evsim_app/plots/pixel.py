@@ -17,12 +17,19 @@ filter depends on its own events and frames and on its 8 neighbours' event times
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sim import EvsimInputError, make_events
 
 from .common import OFF_COLOUR, ON_COLOUR, Prepared, pyplot, save_figure
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from akf.params import AKFParams
+    from generators.formats.recording import Recording
 
 
 @dataclass
@@ -57,7 +64,7 @@ class PixelSeries:
     cf: np.ndarray
 
 
-def check_pixel(rec, x: int, y: int) -> None:
+def check_pixel(rec: Recording, x: int, y: int) -> None:
     """EvsimInputError unless (x, y) lies on the sensor."""
     if not (0 <= x < rec.width and 0 <= y < rec.height):
         raise EvsimInputError(f"pixel (x={x}, y={y}) is outside the {rec.width}x{rec.height} sensor "
@@ -78,7 +85,8 @@ def _neighbourhood(prep: Prepared, x: int, y: int):
     return local, frames, (x - x0, y - y0)
 
 
-def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=None) -> PixelSeries:
+def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
+                 params: AKFParams | None = None) -> PixelSeries:
     """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring); n_times dense samples
     from the first exposure start to the end of the data."""
     import akf
@@ -126,7 +134,8 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500, params=
     )
 
 
-def plot_pixel(prep: Prepared, x: int, y: int, out, *, n_times: int = 1500, params=None) -> PixelSeries:
+def plot_pixel(prep: Prepared, x: int, y: int, out: str | Path, *, n_times: int = 1500,
+               params: AKFParams | None = None) -> PixelSeries:
     """Draw pixel (x, y) over time into the image file `out` (see the module docstring); return the series."""
     s = pixel_series(prep, x, y, n_times=n_times, params=params)
     plt = pyplot()

@@ -9,6 +9,7 @@ legend. With several sequences the event counts are pooled before the rates are 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from sim import EVENT_LABELS, EvsimInputError
@@ -16,7 +17,7 @@ from sim import EVENT_LABELS, EvsimInputError
 from .common import pyplot, read_json, save_figure
 
 
-def load_roc_result(source, filters=None) -> dict:
+def load_roc_result(source: str | Path, filters: Sequence[str] | None = None) -> dict:
     """The denoising result of a JSON file written by `evsim evaluate --task denoise --json`, or computed from a
     dataset (filters only, no reconstruction)."""
     source = Path(source)
@@ -44,7 +45,7 @@ def _nan_from_null(obj):
     return float("nan") if obj is None else obj
 
 
-def plot_roc(result: dict, out, *, title: str | None = None) -> dict:
+def plot_roc(result: dict, out: str | Path, *, title: str | None = None) -> dict:
     """Draw the ROC panels of an evaluate_denoise_dataset result into `out`; returns {filter: {kind: AUC}} of the
     pooled points."""
     from evsim_eval.denoisers import pooled_points, roc_auc

@@ -12,6 +12,7 @@ parameters, each panel shows the mean over the other parameters' values at each 
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,7 @@ AUC_METRICS = ("auc", "auc_shot", "auc_leak", "auc_hot")  # denoisers' ROC AUC (
 DEFAULT_FILTERS = ("correlation", "hot_pixel")  # the methods of an AUC sweep by default (evsim's own filters)
 
 
-def read_index(results) -> dict:
+def read_index(results: str | Path) -> dict:
     """The sweep's index.json; EvsimInputError when the folder is not a sweep's output."""
     path = Path(results) / INDEX_FILE
     index = read_json(path, f"{results}: no {INDEX_FILE}; expected the folder written by `evsim generate sweep`")
@@ -39,7 +40,8 @@ def read_index(results) -> dict:
     return index
 
 
-def score_sequence(path, methods=DEFAULT_METHODS, metrics=("mse",)) -> dict:
+def score_sequence(path: str | Path, methods: Iterable[str] = DEFAULT_METHODS,
+                   metrics: Sequence[str] = ("mse",)) -> dict:
     """{method: {metric: value}} of one sequence file (evsim_eval.evaluate, protocol "reference"), or, for
     AUC_METRICS, {filter: {auc metric: value}} of the denoising filters named by methods (evsim_eval.denoisers)."""
     if any(m in AUC_METRICS for m in metrics):
@@ -51,8 +53,8 @@ def score_sequence(path, methods=DEFAULT_METHODS, metrics=("mse",)) -> dict:
     return evaluate_recording(load_recording(path), methods=tuple(methods), metrics=tuple(metrics))[0]
 
 
-def sweep_metrics(results, methods=DEFAULT_METHODS, metric: str = "mse", *, recompute: bool = False,
-                  progress: bool = False) -> list[dict]:
+def sweep_metrics(results: str | Path, methods: Sequence[str] = DEFAULT_METHODS, metric: str = "mse", *,
+                  recompute: bool = False, progress: bool = False) -> list[dict]:
     """Per grid point {"name", "stamp", "point", "scores": {method: {metric: value}}}; scores come from the cache
     when it has them for the same file (name, size, modification time), the missing ones are computed and added."""
     results = Path(results)
@@ -81,7 +83,8 @@ def sweep_metrics(results, methods=DEFAULT_METHODS, metric: str = "mse", *, reco
     return rows
 
 
-def aggregate(rows: list[dict], key: str, method: str, metric: str):
+def aggregate(rows: list[dict], key: str, method: str,
+              metric: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(values, mean, min, max) of metric over the grid points, grouped by the value of parameter `key`."""
     values = sorted({r["point"][key] for r in rows})
     groups = [[r["scores"][method][metric] for r in rows if r["point"][key] == v] for v in values]
@@ -89,8 +92,8 @@ def aggregate(rows: list[dict], key: str, method: str, metric: str):
             np.array([max(g) for g in groups]))
 
 
-def plot_sweep(results, out, *, methods=DEFAULT_METHODS, metric: str = "mse", recompute: bool = False,
-               progress: bool = False) -> list[dict]:
+def plot_sweep(results: str | Path, out: str | Path, *, methods: Sequence[str] = DEFAULT_METHODS, metric: str = "mse",
+               recompute: bool = False, progress: bool = False) -> list[dict]:
     """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows."""
     import akf
 

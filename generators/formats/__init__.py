@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import Any
 
 import h5py
 
@@ -47,7 +48,7 @@ class ExportDropWarning(UserWarning):
     """An export format cannot hold part of the recording (labels, reference, thresholds, ...): it is left out."""
 
 
-def detect(path) -> str:
+def detect(path: str | Path) -> str:
     """The layout of `path`: "native", "e2vid", "ijrr", "e2vid-txt", "akf-mat", "aedat4", "evt3", "evt2" or
     "dat"; DatasetFormatError when unknown."""
     path = Path(path)
@@ -79,7 +80,7 @@ def detect(path) -> str:
                      "(or truncated?)")
 
 
-def load(path) -> Recording:
+def load(path: str | Path) -> Recording:
     """Read a dataset in any readable layout into a Recording (events, frames with exposure times, reference
     frames with times, threshold maps, labels, CRF and metadata, where the layout holds them).
 
@@ -94,7 +95,8 @@ def load(path) -> Recording:
     return validated(path, rec)
 
 
-def export(recording_or_native_path, out_path, fmt: str, **options) -> list[str]:
+def export(recording_or_native_path: Recording | str | Path, out_path: str | Path, fmt: str,
+           **options: Any) -> list[str]:
     """Write a Recording (or a native HDF5 file, streamed) to out_path in format `fmt` (one of FORMATS).
 
     options: akf-mat takes ct= and f_q= (see akfmat.write_akf_mat); exr takes half=True for float16 files.

@@ -33,7 +33,7 @@ def _grey(frame: dict) -> np.ndarray:
     return px
 
 
-def read_aedat4(path) -> Recording:
+def read_aedat4(path: str | Path) -> Recording:
     """Read an AEDAT4 file; DatasetFormatError when aedat is missing or the file is unreadable/truncated."""
     path = Path(path)
     if not path.is_file():
@@ -77,7 +77,7 @@ def read_aedat4(path) -> Recording:
 
 
 # -- writing ----------------------------------------------------------------------------------------------------
-def write_aedat4(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
+def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
     """Write events (and frames with their exposure windows, when the recording has them) as AEDAT4 through
     dv-processing (`pip install dv-processing`), streamed chunk by chunk and atomically.
 

@@ -78,7 +78,7 @@ def resolve_ct(rec: Recording) -> float:
     return ct
 
 
-def write_akf_mat(rec: Recording, path, *, ct: float | None = None, f_q: np.ndarray | None = None) -> None:
+def write_akf_mat(rec: Recording, path: str | Path, *, ct: float | None = None, f_q: np.ndarray | None = None) -> None:
     """Write a Recording as the AKF authors' .mat (atomically). ct defaults to resolve_ct(rec); f_q to the CRF's
     1/Rbar (f_q_from_crf) when the recording has a CRF, else the authors' table."""
     validate_recording(rec)
@@ -145,7 +145,7 @@ def _text(v) -> str:
     return str(np.asarray(v).ravel()[0]) if np.asarray(v).size else ""
 
 
-def read_akf_mat(path) -> Recording:
+def read_akf_mat(path: str | Path) -> Recording:
     """Read an AKF .mat (the authors' example datasets or ours) into a Recording.
 
     ct, f_Q and post_process go to metadata["akf_mat"]. Polarity > 0 is ON, anything else (-1 or 0) OFF.

@@ -95,7 +95,7 @@ def discard(p: Path) -> None:
 
 
 @contextmanager
-def atomic_path(path, *, directory: bool = False) -> Iterator[Path]:
+def atomic_path(path: str | Path, *, directory: bool = False) -> Iterator[Path]:
     """Yield a temporary path to write; on normal exit it replaces `path`, on exception it is deleted."""
     tmp = temp_sibling(Path(path), directory=directory)
     try:
@@ -110,7 +110,7 @@ def atomic_path(path, *, directory: bool = False) -> Iterator[Path]:
         raise
 
 
-def write_text_atomic(path, text: str) -> None:
+def write_text_atomic(path: str | Path, text: str) -> None:
     """Write a text file (UTF-8) atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")

@@ -7,13 +7,17 @@ import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
 
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
 
-from .recording import MAX_SENSOR_PX, MAX_TIME_US, validate_recording
+from .recording import MAX_SENSOR_PX, MAX_TIME_US, Recording, validate_recording
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 EVENT_CHUNK = 1 << 20  # events per chunk when streaming between files (about 13 MB as EVENT_DTYPE)
 
@@ -22,13 +26,13 @@ class DatasetFormatError(EvsimInputError):
     """A dataset file or folder cannot be read: missing, truncated, malformed or of an unknown layout."""
 
 
-def fail(path, problem: str) -> DatasetFormatError:
+def fail(path: str | Path, problem: str) -> DatasetFormatError:
     """The error to raise for `path`, naming the file and the problem."""
     return DatasetFormatError(f"{path}: {problem}")
 
 
 @contextmanager
-def open_h5(path) -> Iterator[h5py.File]:
+def open_h5(path: str | Path) -> Iterator[h5py.File]:
     """Open an HDF5 file for reading; missing/truncated/corrupt files and missing objects become DatasetFormatError."""
     path = Path(path)
     if not path.is_file():
@@ -52,7 +56,7 @@ LIBRARY_ERRORS = (OSError, ValueError, KeyError, IndexError, TypeError, Attribut
 
 
 @contextmanager
-def reading(path) -> Iterator[None]:
+def reading(path: str | Path) -> Iterator[None]:
     """Turn every error raised while decoding `path` into DatasetFormatError naming the file.
 
     Wrap only the reading itself, never code that runs on what was read (a caller's with-body)."""
@@ -68,20 +72,20 @@ def reading(path) -> Iterator[None]:
         raise fail(path, f"malformed content ({type(e).__name__}: {e})") from e
 
 
-def validated(path, rec):
+def validated(path: str | Path, rec: Recording) -> Recording:
     """validate_recording(rec), its errors as DatasetFormatError naming `path`; returns rec."""
     with reading(path):
         return validate_recording(rec)
 
 
-def require(f: h5py.File, path, names: list[str]) -> None:
+def require(f: h5py.File, path: str | Path, names: list[str]) -> None:
     """Raise DatasetFormatError listing the datasets of `names` that `f` lacks."""
     missing = [n for n in names if n not in f]
     if missing:
         raise fail(path, f"missing dataset(s) {', '.join(missing)}")
 
 
-def json_attr(obj, name: str, default=None):
+def json_attr(obj: h5py.Group | h5py.Dataset, name: str, default: Any = None) -> Any:
     """Decode a JSON string attribute, or `default` when it is absent."""
     if name not in obj.attrs:
         return default
@@ -92,7 +96,7 @@ def json_attr(obj, name: str, default=None):
         raise fail(getattr(getattr(obj, "file", None), "filename", "?"), f"attribute {name!r} is not JSON: {e}") from e
 
 
-def to_json(value) -> str:
+def to_json(value: object) -> str:
     """JSON text of a metadata value (numpy scalars and arrays become plain numbers and lists)."""
 
     def default(o):
@@ -138,7 +142,7 @@ def _checked_column(path, name: str, col, lo: int, hi: int) -> np.ndarray:
     return col
 
 
-def add_offset(path, t, offset) -> np.ndarray:
+def add_offset(path: str | Path, t: ArrayLike, offset: int) -> np.ndarray:
     """int64 times t + offset (microseconds), DatasetFormatError instead of a silent int64 wrap-around."""
     t = _checked_column(path, "t", t, -MAX_TIME_US, MAX_TIME_US)
     offset = int(offset)
@@ -147,7 +151,7 @@ def add_offset(path, t, offset) -> np.ndarray:
     return t.astype(np.int64) + np.int64(offset)
 
 
-def events_from_columns(path, t, x, y, p) -> np.ndarray:
+def events_from_columns(path: str | Path, t: ArrayLike, x: ArrayLike, y: ArrayLike, p: ArrayLike) -> np.ndarray:
     """Build a sorted-checked EVENT_DTYPE array from decoded columns; bad content becomes DatasetFormatError."""
     t = np.asarray(t)
     if any(np.shape(c) != t.shape for c in (x, y, p)) or t.ndim != 1:
@@ -162,7 +166,7 @@ def events_from_columns(path, t, x, y, p) -> np.ndarray:
         raise fail(path, str(e)) from e
 
 
-def polarity_pm1(p) -> np.ndarray:
+def polarity_pm1(p: ArrayLike) -> np.ndarray:
     """Polarity as int8 -1/+1 from any of the field's encodings (bool, 0/1, -1/+1); NaN is an error."""
     p = np.asarray(p)
     if p.dtype.kind == "f" and not np.isfinite(p).all():
@@ -172,7 +176,7 @@ def polarity_pm1(p) -> np.ndarray:
     return np.where(p > 0, 1, -1).astype(np.int8)
 
 
-def frame_times_check(t_start, t_mid, t_end) -> None:
+def frame_times_check(t_start: int, t_mid: int, t_end: int) -> None:
     """Raise TimeOrderError unless t_start <= t_mid <= t_end (microseconds)."""
     if not (t_start <= t_mid <= t_end):
         raise TimeOrderError(f"frame times must satisfy t_start <= t_mid <= t_end, got {t_start}, {t_mid}, {t_end} us")

@@ -18,6 +18,7 @@ Precision: ts are float64 seconds; times read back as rint(ts * 1e6) microsecond
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -39,7 +40,7 @@ from .recording import Recording, validate_recording
 _CHUNK = 1 << 16
 
 
-def write_e2vid(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
+def write_e2vid(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
     """Write a Recording in the E2VID layout (atomically). event_source optionally yields (events, labels)."""
     validate_recording(rec)
     nf = 0 if rec.frames is None else rec.frames.shape[0]
@@ -97,7 +98,7 @@ def is_e2vid(f: h5py.File) -> bool:
     return "events/ts" in f
 
 
-def read_e2vid(path) -> Recording:
+def read_e2vid(path: str | Path) -> Recording:
     """Read an E2VID-layout HDF5 file (ours or event_cnn_minimal's) into a Recording."""
     with open_h5(path) as f:
         require(f, path, ["events/xs", "events/ys", "events/ts", "events/ps"])

@@ -32,14 +32,14 @@ def _exr_file(image: np.ndarray, half: bool) -> OpenEXR.File:
     return OpenEXR.File(header, {"Y": pixels})
 
 
-def write_exr(path, image: np.ndarray, *, half: bool = False) -> None:
+def write_exr(path: str | Path, image: np.ndarray, *, half: bool = False) -> None:
     """Write one (H, W) float image as a single-channel EXR, atomically."""
     f = _exr_file(image, half)
     with atomic_path(path) as tmp:
         f.write(str(tmp))
 
 
-def read_exr(path) -> np.ndarray:
+def read_exr(path: str | Path) -> np.ndarray:
     """Read a single-channel (or "Y") EXR image as float32 (H, W)."""
     path = Path(path)
     if not path.is_file():
@@ -54,7 +54,7 @@ def read_exr(path) -> np.ndarray:
     return np.asarray(channels[name].pixels, dtype=np.float32)
 
 
-def write_exr_sequence(directory, images: np.ndarray, t_us: np.ndarray, *, half: bool = False) -> None:
+def write_exr_sequence(directory: str | Path, images: np.ndarray, t_us: np.ndarray, *, half: bool = False) -> None:
     """Write (R, H, W) images with their int64 microsecond times as an EXR folder, atomically (whole folder)."""
     t_us = np.asarray(t_us, dtype=np.int64)
     if len(images) != t_us.shape[0]:
@@ -68,7 +68,7 @@ def write_exr_sequence(directory, images: np.ndarray, t_us: np.ndarray, *, half:
         (tmp / TIMES_FILE).write_text("".join(lines))
 
 
-def read_exr_sequence(directory) -> tuple[np.ndarray, np.ndarray]:
+def read_exr_sequence(directory: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read an EXR folder written by write_exr_sequence: (R, H, W) float32 images and (R,) int64 times (us)."""
     directory = Path(directory)
     times = directory / TIMES_FILE

@@ -59,7 +59,7 @@ def _events_text(ev: np.ndarray) -> str:
     return ("%d.%06d %d %d %d\n" * ev.size) % tuple(cols.ravel().tolist())
 
 
-def write_ijrr(rec: Recording, directory, *, event_source: Iterator | None = None) -> None:
+def write_ijrr(rec: Recording, directory: str | Path, *, event_source: Iterator | None = None) -> None:
     """Write a Recording as an IJRR text folder, atomically (the whole folder appears at the end)."""
     validate_recording(rec)
     with atomic_path(directory, directory=True) as tmp:
@@ -116,7 +116,7 @@ def _load_table(path: Path, ncols: int, dtype=np.float64, usecols=None) -> np.nd
     return a.reshape(-1, ncols)
 
 
-def read_ijrr(directory) -> Recording:
+def read_ijrr(directory: str | Path) -> Recording:
     """Read an IJRR text folder (ours or the original dataset's) into a Recording."""
     d = Path(directory)
     if d.is_file() and d.name == "events.txt":
@@ -199,7 +199,7 @@ def _read_frames(d: Path):
 
 
 # -- the E2VID text flavour -------------------------------------------------------------------------------------
-def write_e2vid_txt(rec: Recording, path, *, event_source: Iterator | None = None) -> None:
+def write_e2vid_txt(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
     """Write the events as rpg_e2vid's text input (header "width height"), zipped when path ends in .zip;
     streamed chunk by chunk and atomic."""
     validate_recording(rec)
@@ -223,7 +223,7 @@ def _write_e2vid_lines(fe, rec: Recording, chunks) -> None:
             fe.write(_events_text(chunk[i : i + _FORMAT_ROWS]))
 
 
-def is_e2vid_txt(path) -> bool:
+def is_e2vid_txt(path: str | Path) -> bool:
     """True for a .txt or .zip file whose first line is two integers ("width height")."""
     path = Path(path)
     if not path.is_file() or path.suffix.lower() not in (".txt", ".zip"):
@@ -247,7 +247,7 @@ def _open_e2vid_text(path: Path):
     return io.TextIOWrapper(z.open(names[0]), encoding="ascii")
 
 
-def read_e2vid_txt(path) -> Recording:
+def read_e2vid_txt(path: str | Path) -> Recording:
     """Read rpg_e2vid's text input (plain or zipped): header "width height", then "t x y p" lines."""
     path = Path(path)
     if not path.is_file():

@@ -124,7 +124,7 @@ class NativeWriter:
     frame_bit_depth: 8..16 bits per LDR sample. compression: "gzip" (default), "lzf" or None.
     """
 
-    def __init__(self, path, height: int, width: int, *, metadata: dict, frame_bit_depth: int = 8,
+    def __init__(self, path: str | Path, height: int, width: int, *, metadata: dict, frame_bit_depth: int = 8,
                  compression: str | None = "gzip"):
         if int(height) <= 0 or int(width) <= 0:
             raise InvalidParameterError(f"sensor size must be positive, got {height}x{width}")
@@ -334,7 +334,8 @@ class NativeWriter:
             self.abort()
 
 
-def write_native(rec: Recording, path, *, event_source: Iterator[tuple[np.ndarray, np.ndarray | None]] | None = None,
+def write_native(rec: Recording, path: str | Path, *,
+                 event_source: Iterator[tuple[np.ndarray, np.ndarray | None]] | None = None,
                  compression: str | None = "gzip") -> None:
     """Write a Recording as a native file. event_source, when given, yields (events, labels) chunks instead of
     rec.events / rec.event_labels."""
@@ -354,7 +355,7 @@ def write_native(rec: Recording, path, *, event_source: Iterator[tuple[np.ndarra
         w.set_crf(rec.crf)
 
 
-def recording_event_chunks(rec: Recording, size: int = EVENT_CHUNK):
+def recording_event_chunks(rec: Recording, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
     """(events, labels) chunks of a Recording's events."""
     for i, ev in enumerate(event_chunks(rec.events, size)):
         yield ev, None if rec.event_labels is None else rec.event_labels[i * size : i * size + ev.size]
@@ -367,7 +368,7 @@ def is_native(f: h5py.File) -> bool:
     return (fmt.decode() if isinstance(fmt, bytes) else fmt) == FORMAT_NAME or "events/t" in f
 
 
-def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
+def iter_native_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
     """Stream (events, labels) chunks from a native file without loading the whole stream. Each chunk is checked
     as load() checks a whole recording (coordinates inside the sensor, sorted across chunks, labels in range)."""
     with open_h5(path) as f:
@@ -392,14 +393,14 @@ def iter_native_events(path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarr
             yield chunk, labels
 
 
-def read_native(path, *, events: bool = True) -> Recording:
+def read_native(path: str | Path, *, events: bool = True) -> Recording:
     """Read a native file into a Recording (events=False skips the event stream and labels)."""
     with open_h5(path) as f, reading(path):
         return validated(path, _native_recording(f, path, events=events, lazy_images=False))
 
 
 @contextmanager
-def open_native_images(path) -> Iterator[Recording]:
+def open_native_images(path: str | Path) -> Iterator[Recording]:
     """A Recording of a native file without its events, whose frames and reference are the file's HDF5 datasets
     (read one image at a time when indexed or iterated, so memory does not grow with the sequence length); valid
     inside the with block. Exporters stream the events alongside with iter_native_events."""

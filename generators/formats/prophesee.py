@@ -53,7 +53,7 @@ class PropheseeWriter:
     The time offset is fixed by the first event (see the module docstring); later chunks must stay in the
     format's time range (EvsimInputError otherwise, naming the limit)."""
 
-    def __init__(self, path, fmt: str, height: int, width: int):
+    def __init__(self, path: str | Path, fmt: str, height: int, width: int):
         if fmt not in PROPHESEE_FORMATS:
             raise EvsimInputError(f"unknown Prophesee format {fmt!r}; one of {', '.join(PROPHESEE_FORMATS)}")
         if not (0 < height <= _MAX_COORD[fmt] and 0 < width <= _MAX_COORD[fmt]):
@@ -171,7 +171,7 @@ class PropheseeWriter:
             self.abort(exc)
 
 
-def write_prophesee(rec: Recording, path, fmt: str, *, event_source: Iterator | None = None) -> None:
+def write_prophesee(rec: Recording, path: str | Path, fmt: str, *, event_source: Iterator | None = None) -> None:
     """Write a Recording's events as `fmt` (evt3, evt2 or dat), streamed chunk by chunk and atomically."""
     validate_recording(rec)
     with PropheseeWriter(path, fmt, rec.height, rec.width) as w:
@@ -199,7 +199,7 @@ def _read_header(path: Path, f) -> tuple[dict, int]:
     return keys, pos
 
 
-def prophesee_kind(path) -> str | None:
+def prophesee_kind(path: str | Path) -> str | None:
     """"evt3", "evt2" or "dat" for a Prophesee file (by suffix and header), else None."""
     path = Path(path)
     suffix = path.suffix.lower()
@@ -234,7 +234,7 @@ def _geometry(path: Path, keys: dict) -> tuple[int | None, int | None]:
     return None, None
 
 
-def iter_prophesee_events(path, size: int = EVENT_CHUNK) -> Iterator[np.ndarray]:
+def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[np.ndarray]:
     """Stream the CD events of an EVT 3.0 / EVT 2.0 .raw or .dat file in chunks (times with the header's offset
     added back). Bad files raise DatasetFormatError naming the file."""
     path = Path(path)
@@ -314,7 +314,7 @@ def _evt3_chunks(path, f, offset, size):
         yield events_from_columns(path, t[:n] + offset, x[:n], y[:n], p[:n])
 
 
-def read_prophesee(path) -> Recording:
+def read_prophesee(path: str | Path) -> Recording:
     """Read an EVT 3.0 / EVT 2.0 .raw or .dat file into a Recording (events and sensor size). Without a size
     in the header, the sensor is max(x) + 1 by max(y) + 1."""
     path = Path(path)

@@ -9,6 +9,8 @@ more than 1e4:1, of which the AHDR window CRF keeps only a narrow band.
 
 from __future__ import annotations
 
+from typing import Any
+
 import cv2
 import numpy as np
 
@@ -47,7 +49,7 @@ def builtin_hdr_image(name: str = "astronaut") -> np.ndarray:
 
 
 def builtin_image_scene(height: int, width: int, duration_us: int, trajectory: Trajectory | None = None, *,
-                        image: str = "astronaut", **kwargs) -> ImageMotionScene:
+                        image: str = "astronaut", **kwargs: Any) -> ImageMotionScene:
     """An ImageMotionScene of builtin_hdr_image(image) at the requested output size."""
     return ImageMotionScene(builtin_hdr_image(image), duration_us, trajectory, height=height, width=width,
                             name=f"skimage.data.{image} (HDR boosted)", **kwargs)

@@ -25,6 +25,8 @@ The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames t
 
 from __future__ import annotations
 
+from typing import Any
+
 import cv2
 import numpy as np
 from numba import njit
@@ -87,7 +89,7 @@ class FlowEstimator:
             return self._dis.calc(u8_from, u8_to, None)
         return cv2.calcOpticalFlowFarneback(u8_from, u8_to, None, *_FARNEBACK)
 
-    def pair(self, log0: np.ndarray, log1: np.ndarray, **kwargs) -> FlowPair:
+    def pair(self, log0: np.ndarray, log1: np.ndarray, **kwargs: Any) -> FlowPair:
         """The FlowPair of two log-radiance frames (kwargs: key_step_px, max_keys)."""
         u8_0, u8_1 = self.to_u8(log0), self.to_u8(log1)
         f01, f10 = self.flow(u8_0, u8_1), self.flow(u8_1, u8_0)

@@ -10,7 +10,9 @@ eps (log_eps, same units as the radiance) keeps black pixels finite. Times are s
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +21,9 @@ from sim import EvsimInputError, InvalidParameterError, TimeOrderError
 from .base import Scene, positive
 from .image_motion import load_image
 from .luminance import to_luminance
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 TIMESTAMPS_FILE = "timestamps.txt"
 
@@ -31,8 +36,9 @@ class FrameSequenceScene(Scene):
     one pixel of motion samples at least once per input frame (the interpolation holds no finer information).
     """
 
-    def __init__(self, frames, times_us, *, interpolation: str = "log", log_eps: float = 1e-6,
-                 channel: str | int | None = None, max_speed_px_per_s: float | None = None, name: str | None = None):
+    def __init__(self, frames: np.ndarray | Sequence[np.ndarray | str | Path], times_us: ArrayLike, *,
+                 interpolation: str = "log", log_eps: float = 1e-6, channel: str | int | None = None,
+                 max_speed_px_per_s: float | None = None, name: str | None = None):
         times = np.asarray(times_us)
         if times.ndim != 1 or times.size < 2 or not np.issubdtype(times.dtype, np.integer):
             raise EvsimInputError(f"times_us must be a 1-D integer array of at least 2 microsecond times, "
@@ -57,7 +63,7 @@ class FrameSequenceScene(Scene):
                        else positive("max_speed_px_per_s", max_speed_px_per_s, "FrameSequenceScene", allow_zero=True))
 
     @classmethod
-    def from_folder(cls, folder: str | Path, *, fps: float | None = None, **kwargs) -> FrameSequenceScene:
+    def from_folder(cls, folder: str | Path, *, fps: float | None = None, **kwargs: Any) -> FrameSequenceScene:
         """All *.exr files of a folder in name order. Times: from timestamps.txt in the folder (one integer
         microsecond time per line, in the same order) or, when it is absent, from fps (frames per second)."""
         folder = Path(folder)
@@ -100,7 +106,7 @@ class FrameSequenceScene(Scene):
         out = np.exp((1 - a) * np.log(i0 + eps) + a * np.log(i1 + eps)) - eps
         return np.maximum(out, 0.0, out=out)
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return self._speed
 
     def _params(self):

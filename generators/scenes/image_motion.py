@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -280,7 +281,7 @@ class ImageMotionScene(Scene):
     @classmethod
     def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
                   channel: str | int | None = None, crf: str | object = "srgb", crf_params: dict | None = None,
-                  **kwargs) -> ImageMotionScene:
+                  **kwargs: Any) -> ImageMotionScene:
         """Build from an image file (see load_image); kwargs as for the constructor."""
         img = load_image(path, channel=channel, crf=crf, crf_params=crf_params)
         return cls(img, duration_us, trajectory, name=kwargs.pop("name", str(path)), **kwargs)
@@ -333,7 +334,7 @@ class ImageMotionScene(Scene):
         return cv2.warpAffine(src, m, (self.width, self.height), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                               borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return self.trajectory.max_speed_px_per_s((self.height, self.width), self.duration_us)
 
     def _params(self):

@@ -67,7 +67,7 @@ class MovingEdge(Scene):
         row = self.low + (self.high - self.low) * cov
         return np.broadcast_to(row.astype(np.float32), (self.height, self.width))
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return abs(self.speed)
 
     def _params(self):
@@ -115,7 +115,7 @@ class Checkerboard(Scene):
         frac = 0.5 * (1.0 + ay[:, None] * ax[None, :])
         return self.low + (self.high - self.low) * frac
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return math.hypot(self.vx, self.vy)
 
     def _params(self):
@@ -153,7 +153,7 @@ class RotatingBar(Scene):
         cov = _ramp(self.length / 2 - np.abs(along)) * _ramp(self.thickness / 2 - np.abs(across))
         return self.low + (self.high - self.low) * cov
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return math.radians(abs(self.omega)) * self.length / 2
 
     def _params(self):
@@ -201,7 +201,7 @@ class RotatingDisk(Scene):
         disk = _ramp(self.radius - r)
         return self.background + disk * (self.low + (self.high - self.low) * bright - self.background)
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return math.radians(abs(self.omega)) * self.radius
 
     def _params(self):
@@ -276,7 +276,7 @@ class SunPatch(Scene):
         cov = _disk_coverage(self.height, self.width, self.centre(t_us), self.radius)
         return self._background + self.sun * cov
 
-    def max_speed_px_per_s(self):
+    def max_speed_px_per_s(self) -> float:
         return math.hypot(self.vx, self.vy)
 
     def _params(self):

@@ -275,7 +275,8 @@ class _NpyStack(_Frames):
             yield np.asarray(self._stack[k])
 
 
-def open_frames(path: str | Path, *, fps: float | None = None, timestamps=None, stop_us: int | None = None) -> _Frames:
+def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str | Path | None = None,
+                stop_us: int | None = None) -> _Frames:
     """The frame source for a video file, an image folder or a .npy stack (module docstring). stop_us lets a
     video be counted only up to where it is used."""
     path = Path(path)
@@ -329,9 +330,9 @@ class VideoScene(Scene):
     """
 
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
-                 fps: float | None = None, timestamps=None, start_s: float = 0.0, stop_s: float | None = None,
-                 upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium", flow_scale: float = FLOW_SCALE,
-                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
+                 fps: float | None = None, timestamps: str | Path | None = None, start_s: float = 0.0,
+                 stop_s: float | None = None, upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium",
+                 flow_scale: float = FLOW_SCALE, key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
                  input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
                  log_eps: float | None = None):
         if upsample not in UPSAMPLE_MODES:
