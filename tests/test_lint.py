@@ -1,6 +1,7 @@
 """The code passes the project's ruff configuration (pyproject.toml: line length 120; pyflakes, pycodestyle,
 bugbear, import order, pyupgrade), so CI, which runs this suite, runs the linter too."""
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -15,3 +16,33 @@ def test_ruff_finds_nothing():
     r = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", "."], cwd=ROOT, capture_output=True,
                        text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+PACKAGES = ("crf_models", "sim", "akf", "generators", "evsim_eval", "evsim_app")
+
+
+def _unannotated(path: Path) -> list[str]:
+    """Public functions and methods of public classes in path with a parameter or the return unannotated (numba
+    kernels excepted: their types come from the call)."""
+    out = []
+
+    def visit(body, owner=""):
+        for node in body:
+            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                visit(node.body, f"{node.name}.")
+            elif isinstance(node, ast.FunctionDef) and (not node.name.startswith("_") or node.name == "__init__"):
+                if any("jit" in ast.unparse(d) for d in node.decorator_list):
+                    continue
+                a = node.args
+                params = [p for p in [*a.posonlyargs, *a.args, *a.kwonlyargs, a.vararg, a.kwarg]
+                          if p is not None and p.arg not in ("self", "cls")]
+                if any(p.annotation is None for p in params) or (node.returns is None and node.name != "__init__"):
+                    out.append(f"{path.relative_to(ROOT)}:{node.lineno} {owner}{node.name}")
+
+    visit(ast.parse(path.read_text()).body)
+    return out
+
+
+def test_public_functions_have_type_hints():
+    missing = [m for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py")) for m in _unannotated(p)]
+    assert not missing, "public functions without type hints:\n" + "\n".join(missing)
