@@ -1,23 +1,30 @@
-"""Writing a dataset folder: one native HDF5 file per sequence (plus an optional export), and index.json.
+"""Writing a dataset folder: one native HDF5 file per sequence (plus an optional export), a manifest per sequence
+and index.json.
 
 Layout of an output folder:
     <name>.h5            the native file of each sequence (always written: it holds the ground truth)
     <name>_e2vid.h5 | <name>_ijrr/ | <name>.mat    the export, when a format other than native is chosen
+    <name>.manifest.json the sequence's spec_hash and the size and SHA-256 of every file it owns (the native file and
+                         each file of its export), written last, atomically, once those files are complete
     index.json           what the folder holds: generator, root seed, format, and per sequence its file, export,
                          seed record, scene, parameters, counts and spec_hash
 
 Every sequence is one task, make_sequence(task, scene, out, spec_hash) -> its index entry, a pure function of
 its arguments run by generators.runner (serially, on local worker processes or on an existing Dask cluster), so
-the files are bit-identical whatever the worker count or order. Each file is written atomically.
+the files are bit-identical whatever the worker count or order. Each file is written atomically; the task deletes
+the sequence's manifest before it writes anything, so a manifest never vouches for files in the middle of a change.
 
 index.json is removed before a run into an existing folder (--overwrite, --resume) and written last, atomically,
 only when every sequence succeeded: a folder that has index.json is complete and consistent.
 
-Resuming (resume=True, `--resume`): a sequence whose native file (and export) is there, readable and records the
-same spec_hash is kept; the others are generated again. spec_hash is the SHA-256 of the sequence's name, scene
-description (the scene table, or scene.describe(): input files by path, not by content), generation configuration
-(AHDRConfig.to_dict()), seed record, export format, extra metadata, the evsim version and the native layout
-version; it is recorded in each file's metadata and in its index.json entry.
+Resuming (resume=True, `--resume`): a sequence is kept only when verify_sequence finds its manifest intact (its own
+SHA-256 matches), recording the same spec_hash, and the files it owns exactly those the manifest lists, each with
+the recorded size and SHA-256; every other sequence is generated again, and a line per sequence names the file and
+the reason (a sequence without a manifest, from an interrupted run or an older evsim, is generated again too).
+spec_hash is the SHA-256 of the sequence's name, scene description (the scene table, or scene.describe(): input
+files by path, not by content), generation configuration (AHDRConfig.to_dict()), seed record, export format, extra
+metadata, the evsim version and the native layout version; it is recorded in the native file's metadata, in the
+manifest and in the index.json entry.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import importlib.metadata
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -50,6 +58,9 @@ if TYPE_CHECKING:
 INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
                  "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
+MANIFEST_SUFFIX = ".manifest.json"
+MANIFEST_VERSION = 1
+_MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one
 
 
 @dataclass(frozen=True)
@@ -144,12 +155,119 @@ def index_entry(out: Path, name: str, fmt: str, extra_keys: tuple[str, ...] = ()
 
 def make_sequence(task: SequenceTask, scene: RadianceSource | SceneRecipe, out: Path, digest: str,
                   progress: bool = False) -> dict:
-    """One sequence as a task: build the scene (a SceneRecipe) if needed, write its file(s); return its index
-    entry. digest is spec_hash(task, scene), recorded in the file's metadata."""
+    """One sequence as a task: delete its manifest, build the scene (a SceneRecipe) if needed, write its file(s),
+    then its manifest (write_manifest); return its index entry. digest is spec_hash(task, scene), recorded in the
+    native file's metadata and in the manifest."""
+    name = check_sequence_name("sequence name", task.name)
+    (out / f"{name}{MANIFEST_SUFFIX}").unlink(missing_ok=True)  # nothing vouches for the files while they change
     if isinstance(scene, SceneRecipe):
         scene = scene.build()
-    return write_sequence(out, task.name, scene, task.ahdr, task.seed, task.fmt, progress=progress,
-                          metadata={**task.metadata, "spec_hash": digest})
+    entry = write_sequence(out, name, scene, task.ahdr, task.seed, task.fmt, progress=progress,
+                           metadata={**task.metadata, "spec_hash": digest})
+    write_manifest(out, name, task.fmt, digest)
+    return entry
+
+
+def owned_files(out: Path, name: str, fmt: str) -> list[str]:
+    """The files (paths relative to out, with /) that sequence `name` owns besides its manifest, as they are on
+    disk: <name>.h5 and the export (every entry of an export folder such as <name>_ijrr/, sorted)."""
+    found = []
+    for root in [f"{name}.h5"] + ([f"{name}{EXPORT_SUFFIX[fmt]}"] if fmt != "native" else []):
+        top = out / root
+        if top.is_dir() and not top.is_symlink():
+            for folder, dirs, files in os.walk(top):
+                here = Path(folder)
+                # a link to a folder is listed as an entry (not followed): it is nothing a writer makes
+                found += [(here / f).relative_to(out).as_posix()
+                          for f in files + [d for d in dirs if (here / d).is_symlink()]]
+        elif top.exists() or top.is_symlink():
+            found.append(root)
+    return sorted(found)
+
+
+def _sha256(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def write_manifest(out: Path, name: str, fmt: str, digest: str) -> dict[str, dict]:
+    """Write out/<name>.manifest.json atomically: spec_hash `digest`, the size and SHA-256 of every file
+    owned_files lists, and the SHA-256 of the manifest's own content; return the files' {"bytes", "sha256"}."""
+    files = {rel: {"bytes": (out / rel).stat().st_size, "sha256": _sha256(out / rel)}
+             for rel in owned_files(out, name, fmt)}
+    body = {"evsim_manifest": MANIFEST_VERSION, "sequence": name, "spec_hash": digest, "files": files}
+    write_text_atomic(out / f"{name}{MANIFEST_SUFFIX}", json.dumps({**body, "sha256": _body_hash(body)}, indent=1))
+    return files
+
+
+def _body_hash(body: dict) -> str:
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def read_manifest(path: Path) -> dict | None:
+    """The manifest at path ({"evsim_manifest", "sequence", "spec_hash", "files"}), or None when it cannot be read,
+    is not one, or its content does not match its own SHA-256."""
+    try:
+        if path.stat().st_size > _MANIFEST_MAX_BYTES:
+            return None
+        data = json.loads(path.read_bytes())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict) or set(data) != {"evsim_manifest", "sequence", "spec_hash", "files", "sha256"}:
+        return None
+    body = {k: v for k, v in data.items() if k != "sha256"}
+    if data["sha256"] != _body_hash(body) or data["evsim_manifest"] != MANIFEST_VERSION:
+        return None
+    files = data["files"]
+    if not isinstance(files, dict) or not all(
+            isinstance(v, dict) and set(v) == {"bytes", "sha256"} and type(v["bytes"]) is int
+            and isinstance(v["sha256"], str) for v in files.values()):
+        return None
+    return body
+
+
+def verify_sequence(out: Path, name: str, fmt: str, digest: str) -> str:
+    """"" when sequence `name` can be trusted as written: its manifest is intact and records spec_hash `digest`,
+    and the files it owns (owned_files) are exactly those the manifest lists, each of the recorded size and
+    SHA-256. Otherwise why not, naming the file."""
+    manifest_path = out / f"{name}{MANIFEST_SUFFIX}"
+    if not manifest_path.exists():
+        if not owned_files(out, name, fmt):
+            return f"not written yet (no {name}.h5)"
+        return (f"no {manifest_path.name} (an interrupted run, or written by an evsim that recorded no content "
+                "hashes): nothing vouches for its files")
+    manifest = read_manifest(manifest_path)
+    if manifest is None:
+        return f"{manifest_path.name} is corrupt (unreadable, or its content does not match its own SHA-256)"
+    if manifest["sequence"] != name:
+        return f"{manifest_path.name} describes sequence {manifest['sequence']!r}"
+    if manifest["spec_hash"] != digest:
+        return f"configuration or seed changed ({manifest_path.name} records another spec_hash)"
+    recorded, present = manifest["files"], owned_files(out, name, fmt)
+    roots = [f"{name}.h5"] + ([f"{name}{EXPORT_SUFFIX[fmt]}"] if fmt != "native" else [])
+    for root in roots:
+        if not any(rel == root or rel.startswith(f"{root}/") for rel in recorded):
+            return f"{manifest_path.name} lists no {root}"
+    missing = [rel for rel in recorded if rel not in present]
+    if missing:
+        return f"{missing[0]} is missing"
+    extra = [rel for rel in present if rel not in recorded]
+    if extra:
+        return f"{extra[0]} is not in {manifest_path.name}"
+    for rel, rec in recorded.items():  # sizes first: a truncated file is found without reading the others
+        path = out / rel
+        if not path.is_file():
+            return f"{rel} is not a file"
+        size = path.stat().st_size
+        if size != rec["bytes"]:
+            return f"{rel} has {size} bytes, {rec['bytes']} recorded (truncated or replaced)"
+    for rel, rec in recorded.items():
+        try:
+            if _sha256(out / rel) != rec["sha256"]:
+                return f"{rel} differs from its recorded SHA-256 (changed since it was written)"
+        except OSError as e:
+            return f"{rel} cannot be read ({e.strerror or e})"
+    return ""
 
 
 def write_index(out: Path, index: dict) -> Path:
@@ -160,31 +278,38 @@ def write_index(out: Path, index: dict) -> Path:
 
 
 def _resume_state(out: Path, task: SequenceTask, digest: str) -> tuple[dict | None, str]:
-    """(the index entry of a complete matching sequence, "") or (None, why it must be generated)."""
-    path = out / f"{task.name}.h5"
-    if not path.is_file():
-        return None, "no file"
+    """(the index entry of a verified sequence, "") or (None, why it must be generated, naming the file)."""
+    why = verify_sequence(out, task.name, task.fmt, digest)
+    if why:
+        return None, why
     try:
-        with open_h5(path) as f:
-            meta = json_attr(f, "metadata", {})
-    except (EvsimInputError, ValueError):
-        return None, "unreadable file"
-    if meta.get("spec_hash") != digest:
-        return None, "configuration or seed changed" if "spec_hash" in meta else "no recorded hash"
-    if task.fmt != "native" and not (out / f"{task.name}{EXPORT_SUFFIX[task.fmt]}").exists():
-        return None, f"no {task.fmt} export"
-    try:
-        return index_entry(out, task.name, task.fmt, (*task.metadata, "spec_hash")), ""
+        entry = index_entry(out, task.name, task.fmt, (*task.metadata, "spec_hash"))
     except (EvsimInputError, ValueError, KeyError):
-        return None, "incomplete metadata"
+        return None, f"{task.name}.h5 has incomplete metadata"
+    if entry["spec_hash"] != digest:
+        return None, f"{task.name}.h5 records another spec_hash than its manifest"
+    return entry, ""
 
 
 def _discard_stale_temporaries(out: Path, tasks: list[SequenceTask]) -> None:
     """Delete the temporary files (generators.formats.atomic names) that a killed run left for these sequences."""
-    prefixes = tuple(f".{t.name}{suffix}." for t in tasks for suffix in (".h5", EXPORT_SUFFIX.get(t.fmt, ".h5")))
+    prefixes = tuple(f".{t.name}{suffix}." for t in tasks
+                     for suffix in (".h5", MANIFEST_SUFFIX, EXPORT_SUFFIX.get(t.fmt, ".h5")))
     for p in out.iterdir():
         if p.name.startswith(prefixes) and p.name.endswith(".tmp"):
             discard(p)
+
+
+def _check_file_names(tasks: list[SequenceTask]) -> None:
+    """EvsimInputError when two sequences would write the same file (the e2vid export of "a", a_e2vid.h5, is the
+    native file of a sequence named "a_e2vid")."""
+    owner: dict[str, str] = {}
+    for t in tasks:
+        name = check_sequence_name("sequence name", t.name)
+        exports = [f"{name}{EXPORT_SUFFIX[t.fmt]}"] if t.fmt != "native" else []
+        for file in [f"{name}.h5", f"{name}{MANIFEST_SUFFIX}", *exports]:
+            if owner.setdefault(file, name) != name:
+                raise EvsimInputError(f"sequences {owner[file]!r} and {name!r} would both write {file}: rename one")
 
 
 def _names(names: list[str], limit: int = 8) -> str:
@@ -202,6 +327,7 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
     if overwrite and resume:
         raise EvsimInputError("--resume and --overwrite exclude each other: --resume keeps the complete, "
                               "matching files, --overwrite generates everything again")
+    _check_file_names([task for task, _ in jobs])
     out = prepare_output_dir(out_dir, overwrite or resume).resolve()
     (out / INDEX_FILE).unlink(missing_ok=True)  # from here on the folder does not claim to be complete
     digests = [spec_hash(task, scene) for task, scene in jobs]
@@ -212,10 +338,12 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
         entries = [entry for entry, _ in states]
         todo = [i for i, (entry, _) in enumerate(states) if entry is None]
         kept = [jobs[i][0].name for i in range(len(jobs)) if entries[i] is not None]
-        redo = [f"{jobs[i][0].name} ({states[i][1]})" for i in todo]
-        print(f"resume: {len(kept)} of {len(jobs)} sequence(s) complete and unchanged, kept"
-              f"{': ' + _names(kept) if kept else ''}; {len(todo)} to generate{': ' + _names(redo) if redo else ''}",
-              flush=True)
+        redo = [jobs[i][0].name for i in todo]
+        print(f"resume: {len(kept)} of {len(jobs)} sequence(s) verified (every file matches its manifest)"
+              f"{', kept: ' + _names(kept) if kept else ''}; {len(todo)} to generate"
+              f"{': ' + _names(redo) if redo else ''}", flush=True)
+        for i in todo:
+            print(f"resume: generating {jobs[i][0].name} again: {states[i][1]}", flush=True)
     _discard_stale_temporaries(out, [jobs[i][0] for i in todo])
     serial = workers is None and scheduler is None
     tasks = [(jobs[i][0].name, (jobs[i][0], jobs[i][1], out, digests[i]), {"progress": progress and serial})
@@ -259,7 +387,8 @@ def generate_dataset(config: DatasetConfig, out_dir: str | Path, *, overwrite: b
     fmt and seed override the configuration's format and root seed. Sequence i is seeded with child i of the root
     SeedSequence (recorded in index.json and in each file's metadata). workers=N runs the sequences on a local
     Dask cluster of N processes, scheduler=ADDRESS on an existing one (see generators.runner); resume=True keeps
-    the complete sequences of an earlier run with the same configuration and seed. Failed sequences raise
+    the sequences of an earlier run with the same configuration and seed whose files match their manifests
+    (verify_sequence) and generates the others again. Failed sequences raise
     generators.runner.TasksFailed once the others are written.
     """
     jobs, header = dataset_jobs(config, fmt=fmt, seed=seed)

@@ -157,7 +157,8 @@ def test_a_killed_worker_costs_only_its_task_and_resume_completes(serial, cluste
     capsys.readouterr()
     generate_dataset(load_config(config_file), out, scheduler=cluster, progress=False, resume=True)
     said = capsys.readouterr().out
-    assert "3 of 4 sequence(s) complete and unchanged" in said and "sun (no file)" in said
+    assert "3 of 4 sequence(s) verified (every file matches its manifest), kept: edge, board, flicker" in said
+    assert "resume: generating sun again: not written yet (no sun.h5)" in said
     assert {n: (out / f"{n}.h5").stat().st_mtime_ns for n in kept} == kept  # not rewritten
     assert_same_dataset(serial, out)
 
@@ -169,20 +170,20 @@ def test_an_interrupted_run_resumes_to_the_same_dataset(serial, cluster, config_
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
-        while not list(out.glob("*.h5")) and proc.poll() is None and time.monotonic() < deadline:
+        while not list(out.glob("*.manifest.json")) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
         assert proc.poll() is None, "the run ended before it could be interrupted"
         proc.send_signal(signal.SIGKILL)  # mid-way: one file written at least, the others not
     finally:
         proc.wait(timeout=30)
-    done = {p.name for p in out.glob("*.h5")}
+    done = {p.name for p in out.glob("*.manifest.json")}  # a sequence is done when its manifest is written
     assert 1 <= len(done) < len(NAMES) and not (out / "index.json").exists()
     capsys.readouterr()
     args = ["generate", "ahdr", "--config", str(config_file), "--out", str(out), "--no-progress"]
     assert main(args + ["--resume", "--overwrite"]) == 2  # they exclude each other
     assert main(args + ["--resume", "--scheduler", cluster]) == 0
     said = capsys.readouterr().out
-    assert f"{len(done)} of 4 sequence(s) complete and unchanged" in said
+    assert f"{len(done)} of 4 sequence(s) verified" in said
     assert_same_dataset(serial, out)  # also: the killed run's temporary file is gone
 
 
@@ -198,7 +199,8 @@ def test_a_failing_sequence_is_reported_and_the_others_complete(cluster, config_
     err = capsys.readouterr().err
     assert "1 of 5 sequences failed" in err and "lost: EvsimInputError: image file not found" in err
     assert "Traceback" not in err  # bad input, not a bug
-    assert {p.name for p in out.iterdir()} == {f"{n}.h5" for n in NAMES}  # no index.json: not complete
+    assert {p.name for p in out.iterdir()} == {f"{n}{s}" for n in NAMES for s in (".h5", ".manifest.json")}
+    # no index.json: not complete
 
 
 @pytest.mark.parametrize("tune", [[], ["--tune", "--no-progress"]], ids=["untuned", "tuned"])
@@ -226,8 +228,9 @@ def test_resume_redoes_what_changed_or_is_unreadable(tmp_path, capsys):
     capsys.readouterr()
     generate_dataset(load_config(tmp_path / "c.toml"), out, progress=False, resume=True)
     said = capsys.readouterr().out
-    assert "2 of 4 sequence(s) complete and unchanged, kept: sun, flicker" in said
-    assert "edge (configuration or seed changed)" in said and "board (unreadable file)" in said
+    assert "2 of 4 sequence(s) verified (every file matches its manifest), kept: sun, flicker" in said
+    assert "generating edge again: configuration or seed changed (edge.manifest.json records another spec_hash)" in said
+    assert "generating board again: board.h5 has 8 bytes" in said
     assert {n: (out / f"{n}.h5").stat().st_mtime_ns for n in before} == before
     second = json.loads((out / "index.json").read_text())
     assert second["sequences"][2] == first["sequences"][2]  # board: regenerated identically

@@ -38,6 +38,7 @@ REQUIRED = ("events", "image", "time_image", "exposure", "im_height", "im_width"
 # The authors' frame noise table is f_Q = max(w(z), 0.09) * 7e5 with the Robertson weight w: i.e.
 # Rbar = sigma_im2 / w with sigma_im2 = 1 / 7e5, saturated at sigma_im2 / 0.09. The same scale is used with a CRF.
 SIGMA_IM2 = 1.0 / 7e5
+_MAT_DESCRIPTION = b"MATLAB 5.0 MAT-file, written by evsim".ljust(116)  # the v5 header's 116-byte text field
 MAX_VARIANCE = SIGMA_IM2 / 0.09
 
 
@@ -112,6 +113,8 @@ def write_akf_mat(rec: Recording, path: str | Path, *, ct: float | None = None, 
         data["evsim_event_labels"] = _column(np.asarray(rec.event_labels, np.uint8))
     with atomic_path(path) as tmp:
         scipy.io.savemat(tmp, data, do_compression=True, oned_as="column")
+        with open(tmp, "r+b") as f:  # a fixed header text (scipy's holds the time of writing): the same file
+            f.write(_MAT_DESCRIPTION)  # for the same recording, so that its SHA-256 can be checked against a rerun
 
 
 def _column(v: np.ndarray) -> np.ndarray:

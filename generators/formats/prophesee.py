@@ -23,7 +23,6 @@ Layouts (little-endian):
 
 from __future__ import annotations
 
-import datetime
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -44,6 +43,7 @@ _MAX_COORD = {"evt3": 2048, "evt2": 2048, "dat": 1 << 14}
 _WORD = {"evt3": np.dtype("<u2"), "evt2": np.dtype("<u4")}
 _DAT_EVENT = np.dtype([("t", "<u4"), ("xyp", "<u4")])
 LAYOUT_VERSION = 1
+_DAT_DATE = "1970-01-01 00:00:00"
 _POPCOUNT = np.array([bin(i).count("1") for i in range(4096)], np.int64)  # set bits of 12-bit vector masks
 
 
@@ -83,8 +83,8 @@ class PropheseeWriter:
                  "% evsim_time_base us", "% evsim_polarity 1=ON 0=OFF",
                  "% evsim_holds events, sensor size (no frames, reference, labels, thresholds, CRF, metadata)"]
         if self.fmt == "dat":
-            date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M:%S")
-            return "\n".join(["% Data file containing Event2D events.", "% Version 2", f"% Date {date}",
+            # a fixed Date (not the time of writing): the same file for the same recording, checkable by SHA-256
+            return "\n".join(["% Data file containing Event2D events.", "% Version 2", f"% Date {_DAT_DATE}",
                               f"% Height {h}", f"% Width {w}", *evsim]) + "\n"
         version = "3.0" if self.fmt == "evt3" else "2.0"
         fmt = "EVT3" if self.fmt == "evt3" else "EVT2"
