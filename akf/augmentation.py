@@ -1,6 +1,18 @@
 """Frame augmentation (section 4.1): EDI deblurring, per-pixel contrast calibration and the interval curves.
 
 All log images are flat float64 (H*W,) arrays in L = log(I + I0). Events are assumed to report changes of this L.
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
+- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
+  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
+  arXiv:1811.10180
+- Pan L, Hartley R, Scheerlinck C, Liu M, Yu X, Dai Y (2022). High frame rate video reconstruction based on an
+  event camera. IEEE Transactions on Pattern Analysis and Machine Intelligence 44(5):2519-2533 (online 2020).
+  doi:10.1109/TPAMI.2020.3036667
 """
 
 from __future__ import annotations
@@ -22,7 +34,9 @@ MIN_PART_ROWS = 16  # pixel rows per thread part of the per-event kernels
 
 def edi_deblur(log_frame: np.ndarray, exposure_events: np.ndarray, t_start_us: int, t_end_us: int, c_on: np.ndarray,
                c_off: np.ndarray, width: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """EDI (Pan et al. 2019) of a frame to the start and end of its exposure [t_start_us, t_end_us).
+    """EDI, the event double integral (Pan, Scheerlinck, Yu, Hartley, Liu and Dai, Bringing a Blurry Frame Alive
+    at High Frame-Rate with an Event Camera, CVPR 2019), of a frame to the start and end of its exposure
+    [t_start_us, t_end_us).
 
     The frame is the mean of I + I0 over the exposure and I(t) + I0 = (I(t_start) + I0) exp(E(t)), E the event log
     change since t_start (nominal contrasts), so L(t_start) = L^F - log((1/T) integral exp(E(t)) dt), computed
@@ -52,7 +66,8 @@ def event_change(events: np.ndarray, c_on: np.ndarray, c_off: np.ndarray,
 def calibrate_scale(d_start: np.ndarray, d_end: np.ndarray, change: np.ndarray, net: np.ndarray, clipped: np.ndarray,
                     params: AKFParams, return_valid: bool = False
                     ) -> npt.NDArray[np.float64] | tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-    """Per-pixel contrast scale c_p^k / c (eq. 12): (L^D_end - L^D_start) / (nominal event change).
+    """Per-pixel contrast scale c_p^k / c (eq. 12 of Wang et al., ICCV 2021): (L^D_end - L^D_start) / (nominal
+    event change).
 
     Guards (the scale stays 1, i.e. the nominal contrast): calibration disabled; fewer than calib_min_events net
     events; either deblurred frame clipped; ratio outside calib_scale_range (this also rejects opposite signs).

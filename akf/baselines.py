@@ -6,6 +6,14 @@ then on (zero-order hold, causal). Intensities are CRF^-1 scaled to frame 0's ex
 Output images at t include the events with timestamps < t; output is float32
 (T, H, W) linear intensity in the CRF's scaled-irradiance units (max(exp(log) - I0, 0) for the log-domain filters:
 never negative). crf is a crf_models curve or its registered name.
+
+References (full citations also in docs/models/references.md):
+
+- Scheerlinck C, Barnes N, Mahony R (2018). Continuous-time intensity estimation using event cameras. Asian
+  Conference on Computer Vision (ACCV), Lecture Notes in Computer Science 11365, 308-324. arXiv:1811.00386
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
 """
 
 from __future__ import annotations
@@ -77,7 +85,8 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
                          adaptive_gain: bool = False, adaptive_factor: float = 0.1, adaptive_margin: float = 0.05,
                          max_intensity: float | None = 1.0, i0: float = _I0,
                          bit_depth: int = 8) -> npt.NDArray[np.float32]:
-    """Complementary filter (Scheerlinck, Barnes, Mahony, ACCV 2018) on the log image L = log(I + I0).
+    """Complementary filter (Scheerlinck, Barnes and Mahony, Continuous-time Intensity Estimation Using Event
+    Cameras, ACCV 2018) on the log image L = log(I + I0).
 
     dL/dt = E(t) - alpha (L - L^F): events E are high-passed, the latest frame's log L^F low-passed; per event
     L <- L^F + (L - L^F) exp(-alpha dt) + sigma c, with crossover alpha (rad/s) = 2 pi crossover_hz (default
@@ -158,8 +167,9 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
 def high_pass_filter(events: np.ndarray, shape: tuple[int, int], output_times_us: npt.ArrayLike, *,
                      contrast: npt.ArrayLike = 0.2, crossover_hz: float | None = None, alpha: float | None = None,
                      t0_us: int = 0) -> npt.NDArray[np.float32]:
-    """Events-only high-pass filter: the complementary filter with zero frame input (L^F = 0), started at t0_us with
-    a zero log image. Returns float32 (T, H, W) log intensity x (relative, log units)."""
+    """Events-only high-pass filter (Scheerlinck, Barnes and Mahony, ACCV 2018): the complementary filter with zero
+    frame input (L^F = 0), started at t0_us with a zero log image. Returns float32 (T, H, W) log intensity x
+    (relative, log units)."""
     if crossover_hz is None and alpha is None:
         crossover_hz = 0.5
     a = _crossover_alpha(crossover_hz, alpha)

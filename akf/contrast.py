@@ -7,6 +7,11 @@ dL is measured as the change of log(CRF^-1(response) * T_0 / T_k + I0) between t
 responses inside [margin, 1 - margin] (unclipped) and |dL| >= min_change (frame noise in the regressor would bias
 the slope toward 0). ON and OFF are estimated separately (pixels with dL > 0 give c_on, dL < 0 c_off). Robust: the
 slope is refitted on the pixels whose residual lies within 3 scaled MADs, twice.
+
+References (full citations also in docs/models/references.md):
+
+- Brandli C, Muller L, Delbruck T (2014). Real-time, high-speed video decompression using a frame- and
+  event-based DAVIS sensor. IEEE International Symposium on Circuits and Systems (ISCAS), 686-689.
 """
 
 from __future__ import annotations

@@ -25,6 +25,18 @@ raises DenoiseDependencyError naming `pip install "evsim[denoise]"`):
 Every filter's main parameter (FILTERS[name].param) makes it more permissive as it grows (a longer correlation
 window, a higher hot-pixel rate threshold): sweeping it from FILTERS[name].grid traces an ROC curve.
 Times are int64 microseconds; rates in Hz.
+
+References (full citations also in docs/models/references.md):
+
+- Delbruck T (2008). Frame-free dynamic digital vision. Proceedings of the International Symposium on
+  Secure-Life Electronics, Advanced Electronics for Quality Life and Society, University of Tokyo, 21-26.
+  (The background-activity filter.)
+- Guo S, Delbruck T (2022). Low cost and latency event camera background activity denoising (STCF). IEEE
+  Transactions on Pattern Analysis and Machine Intelligence 45(1):785-795 (2023 issue).
+  doi:10.1109/TPAMI.2022.3152999
+- iniVation. dv-processing: generic algorithms for event cameras. https://gitlab.com/inivation/dv/dv-processing
+- Lenz G, Chaney K, Shrestha SB, Oubari O, Picaud S, Zarrella G (2021). Tonic: event-based datasets and
+  transformations. Zenodo. doi:10.5281/zenodo.5079802
 """
 
 from __future__ import annotations
@@ -102,7 +114,9 @@ class CorrelationFilter:
 def correlation_filter(events: np.ndarray, height: int, width: int, window_us: float = 2000, *,
                        support: int = 1) -> KeepMask:
     """Keep-mask of the spatio-temporal correlation filter (window_us: microseconds; support: how many of the 8
-    neighbours must have fired within it)."""
+    neighbours must have fired within it). support = 1 is the background-activity filter (Delbruck, Frame-free
+    Dynamic Digital Vision, 2008), support >= 2 the STCF (Guo and Delbruck, Low Cost and Latency Event Camera
+    Background Activity Denoising, TPAMI 2022)."""
     return CorrelationFilter(height, width, window_us, support)(events)
 
 

@@ -1,4 +1,16 @@
-"""akf.reconstruct: HDR video from LDR frames and events with the Asynchronous Kalman Filter (Wang et al. 2021)."""
+"""akf.reconstruct: HDR video from LDR frames and events with the Asynchronous Kalman Filter (Wang et al. 2021).
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
+- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
+  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
+  arXiv:1811.10180
+- Kalman RE, Bucy RS (1961). New results in linear filtering and prediction theory. Journal of Basic
+  Engineering 83(1):95-108.
+"""
 
 from __future__ import annotations
 
@@ -230,7 +242,9 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
                 bit_depth: int = 8, max_intensity: float | None = 1.0, return_variance: bool = False,
                 return_gain: bool = False
                 ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], ...]:
-    """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter.
+    """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter (Wang, Ng,
+    Scheerlinck and Mahony, An Asynchronous Kalman Filter for Hybrid Event Cameras, ICCV 2021; the model,
+    equation by equation, is docs/models/akf.md).
 
     events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
     [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models curve or its name

@@ -14,6 +14,21 @@
 - log_mse: mean squared difference of log(I + LOG_EPS) (natural log, LOG_EPS = 1e-3 x units, the AKF's I0) on
   absolute values: errors of highlights and shadows count by ratio, not by absolute size.
 Every metric's normalisation in one line is NORMALISATION[name]; score() applies any metric by name.
+
+References (full citations also in docs/models/references.md):
+
+- Mantiuk RK, Azimi M (2021). PU21: a novel perceptually uniform encoding for adapting existing quality
+  metrics for HDR. Picture Coding Symposium (PCS).
+- Wang Z, Bovik AC, Sheikh HR, Simoncelli EP (2004). Image quality assessment: from error visibility to
+  structural similarity. IEEE Transactions on Image Processing 13(4):600-612. doi:10.1109/TIP.2003.819861
+- van der Walt S, Schoenberger JL, Nunez-Iglesias J, Boulogne F, Warner JD, Yager N, Gouillart E, Yu T, and
+  the scikit-image contributors (2014). scikit-image: image processing in Python. PeerJ 2:e453.
+  doi:10.7717/peerj.453
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
+- Narwaria M, Mantiuk RK, Da Silva MP, Le Callet P (2015). HDR-VDP-2.2: a calibrated method for objective
+  quality prediction of high-dynamic range and standard images. Journal of Electronic Imaging 24(1):010501.
 """
 
 from __future__ import annotations

@@ -11,6 +11,20 @@ Exports:
 - curves: LinearCRF, GammaCRF, SigmoidCRF, FilmicCRF (closed form); SRGBCRF, BT709CRF, HLGCRF, LogC3CRF,
   SLog3CRF (colour-science transfer curves); WindowCRF (the AKF paper's AHDR window); TabulatedCRF (a LUT);
 - measured curves: load_dorf (DoRF), load_emor (EMoR), break_ties, recover_debevec (from an exposure stack).
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
+- Robertson MA, Borman S, Stevenson RL (2003). Estimation-theoretic approach to dynamic range enhancement
+  using multiple exposures. Journal of Electronic Imaging 12(2):219-228. doi:10.1117/1.1557695
+- Debevec PE, Malik J (1997). Recovering high dynamic range radiance maps from photographs. Proceedings of
+  ACM SIGGRAPH 97, 369-378. doi:10.1145/258734.258884
+- Grossberg MD, Nayar SK (2003). What is the space of camera response functions? IEEE Computer Society
+  Conference on Computer Vision and Pattern Recognition (CVPR), vol. 2. (DoRF, EMoR.)
+- Grossberg MD, Nayar SK (2004). Modeling the space of camera response functions. IEEE Transactions on
+  Pattern Analysis and Machine Intelligence 26(10):1272-1282.
 """
 
 from __future__ import annotations

@@ -1,4 +1,11 @@
-"""Closed-form curves with analytic inverse and derivative: linear (black level, clipping), gamma, sigmoid."""
+"""Closed-form curves with analytic inverse and derivative: linear (black level, clipping), gamma, sigmoid and
+Hable's filmic curve.
+
+References (full citations also in docs/models/references.md):
+
+- Hable J (2010). Uncharted 2: HDR lighting. Game Developers Conference (GDC); the curve and its constants
+  also in "Filmic tonemapping operators", filmicworlds.com, 2010.
+"""
 
 from __future__ import annotations
 

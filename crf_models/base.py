@@ -5,6 +5,16 @@ Conventions (shared by every curve):
   camera); curves are constant (clipped) above their invertible range and, where stated, below it.
 - y: normalised response in [0, 1]; a camera's digital number is DN = round(y * (2**bits - 1)).
 - The invertible range is [x_lo, x_hi] with responses [y_lo, y_hi]; forward() is strictly increasing on it.
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
+- Robertson MA, Borman S, Stevenson RL (1999). Dynamic range improvement through multiple exposures. IEEE
+  International Conference on Image Processing (ICIP), vol. 3, 159-163.
+- Robertson MA, Borman S, Stevenson RL (2003). Estimation-theoretic approach to dynamic range enhancement
+  using multiple exposures. Journal of Electronic Imaging 12(2):219-228. doi:10.1117/1.1557695
 """
 
 from __future__ import annotations
@@ -57,8 +67,9 @@ class CRF(ABC):
     end of __init__, and return their constructor arguments from _own_params() (JSON-serialisable) so that
     crf_models.get(crf.name, **crf.params) rebuilds the same curve.
 
-    weighting: "derivative" (default, f^w = certainty o inverse, eq. 5) or "robertson"
-    (w = exp(-4 (z - 127.5)^2 / 127.5^2) with z = 255 y, the classic weight used by the AKF authors' code).
+    weighting: "derivative" (default, f^w = certainty o inverse, eq. 5 of Wang et al., ICCV 2021) or "robertson"
+    (w = exp(-4 (z - 127.5)^2 / 127.5^2) with z = 255 y, the Gaussian-shaped weight of Robertson, Borman and
+    Stevenson 1999/2003, the classic weight used by the AKF authors' code).
     """
 
     name: str = ""

@@ -5,6 +5,18 @@ encoding and in_max the scene-linear value (in that curve's own units) that x = 
 and HLG in_max = 1 and the normalisation is the identity; for the camera log curves in_max defaults to the value
 encoded as code value 1.0, so the whole code range is used. Inverses are colour-science's decodings; derivatives
 are central differences of the exact curve (relative step 1e-6, one-sided at the ends).
+
+References (full citations also in docs/models/references.md):
+
+- Mansencal T, Mauderer M, Parsons M, et al. Colour (colour-science), colour science for Python. Zenodo;
+  https://www.colour-science.org
+- International Electrotechnical Commission (1999). IEC 61966-2-1:1999, default RGB colour space, sRGB.
+- International Telecommunication Union (2015). Recommendation ITU-R BT.709-6, parameter values for the HDTV
+  standards for production and international programme exchange.
+- International Telecommunication Union (2018). Recommendation ITU-R BT.2100-2, image parameter values for
+  high dynamic range television (hybrid log-gamma).
+- ARRI (2012). ALEXA Log C curve: usage in VFX. Technical note, Arnold and Richter Cine Technik.
+- Sony Corporation. Technical summary for S-Gamut3.Cine/S-Log3 and S-Gamut3/S-Log3.
 """
 
 from __future__ import annotations

@@ -3,6 +3,11 @@
 Solves for g(z) = ln(scaled irradiance x exposure) at every level z by weighted least squares on sampled pixels
 with a second-difference smoothness penalty and g(mid) = 0, then tabulates the response y = z / (levels - 1)
 against x = exp(g(z) - g(levels - 1)) (so x = 1 is the irradiance x exposure that just saturates).
+
+References (full citations also in docs/models/references.md):
+
+- Debevec PE, Malik J (1997). Recovering high dynamic range radiance maps from photographs. Proceedings of
+  ACM SIGGRAPH 97, 369-378. doi:10.1145/258734.258884
 """
 
 from __future__ import annotations
@@ -31,7 +36,8 @@ def recover_debevec(
     levels: int = 256,
     channel: int | None = None,
 ) -> TabulatedCRF:
-    """Recover a tabulated CRF from images of a static scene taken with different exposure times.
+    """Recover a tabulated CRF from images of a static scene taken with different exposure times (Debevec and
+    Malik, Recovering High Dynamic Range Radiance Maps from Photographs, SIGGRAPH 1997).
 
     images: sequence of P >= 2 integer arrays (H, W) or (H, W, C) with values in [0, levels).
     channel: for colour images, the channel to use; None averages the channels (fine when all channels share

@@ -3,6 +3,13 @@
 A TabulatedCRF is piecewise linear between its knots (as colour.LUT1D's default linear interpolation), so its
 inverse is exact and its derivative is the slope of the knot interval (right-hand slope at a knot). Its params
 hold the table itself, so a curve loaded from a file is rebuilt without the file; `source` is a free label.
+
+References (full citations also in docs/models/references.md):
+
+- Grossberg MD, Nayar SK (2003). What is the space of camera response functions? IEEE Computer Society
+  Conference on Computer Vision and Pattern Recognition (CVPR), vol. 2. (DoRF, EMoR.)
+- Grossberg MD, Nayar SK (2004). Modeling the space of camera response functions. IEEE Transactions on
+  Pattern Analysis and Machine Intelligence 26(10):1272-1282.
 """
 
 from __future__ import annotations
@@ -87,7 +94,8 @@ def break_ties(y: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 
 def load_dorf(path: str | os.PathLike[str], index: int) -> TabulatedCRF:
-    """Curve `index` (0-based) of the DoRF database (Columbia CAVE, 201 measured curves, B(I) on 1024 samples).
+    """Curve `index` (0-based) of the DoRF database (Columbia CAVE, 201 measured curves, B(I) on 1024 samples;
+    Grossberg and Nayar, What is the Space of Camera Response Functions?, CVPR 2003).
 
     Reads the MATLAB layout (.mat with arrays I and B, one curve per row, e.g. 201_CRF_data.mat) or the
     original text layout (dorfCurves.txt: per curve a name line, a channel line, "I =" then 1024 numbers,
@@ -145,7 +153,8 @@ def _parse_dorf_text(path: Path):
 
 
 def load_emor(path: str | os.PathLike[str], coeffs: npt.ArrayLike = ()) -> TabulatedCRF:
-    """The EMoR model f = f0 + sum_n coeffs[n] h_n (Grossberg and Nayar 2003) from emor.txt (blocks "E =",
+    """The EMoR model f = f0 + sum_n coeffs[n] h_n (Grossberg and Nayar, What is the Space of Camera Response
+    Functions?, CVPR 2003; Modeling the Space of Camera Response Functions, TPAMI 2004) from emor.txt (blocks "E =",
     "f0 =", "h(1)=", ... of 1024 values), tabulated on E. At most as many coefficients as basis curves."""
     path = Path(path)
     if not path.is_file():

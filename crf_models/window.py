@@ -7,6 +7,12 @@ standing in for the camera's display encoding (use base="linear" to window raw l
 
 y = clip((levels * base(x) - low) / (high - low), 0, 1): the band [low, high] of the base response is stretched
 to the full range and everything else is clipped, so f^w vanishes at y = 0 and y = 1 and Rbar saturates there.
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
 """
 
 from __future__ import annotations

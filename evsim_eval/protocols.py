@@ -21,6 +21,12 @@ Every method gets the recording's nominal contrast thresholds, or, when it carri
 thresholds estimated from its events and the fed frames (akf.estimate_contrast; never the held-out frames); the
 AKF also gets its DVS leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see
 akf.reconstruct), unless method_options say otherwise.
+
+References (full citations also in docs/models/references.md):
+
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
+  arXiv:2012.05590
 """
 
 from __future__ import annotations

@@ -6,6 +6,16 @@ Image formation per frame (units in brackets):
 2. mean electrons = E * electrons_per_radiance_us * exposure_us * PRNU + dark_current * exposure + DSNU [e-];
 3. with noise: electrons = Poisson(mean) + Normal(0, read_noise_e^2), clipped to [0, full_well_e];
 4. x = electrons / full_well_e (so x = 1 is full well), y = crf.forward(x), DN = round(y * (2**bit_depth - 1)).
+
+References (full citations also in docs/models/references.md):
+
+- European Machine Vision Association (2021). EMVA Standard 1288: Standard for Characterization of Image
+  Sensors and Cameras, Release 4.0.
+- Foi A, Trimeche M, Katkovnik V, Egiazarian K (2008). Practical Poissonian-Gaussian noise modeling and fitting
+  for single-image raw-data. IEEE Transactions on Image Processing 17(10):1737-1754. doi:10.1109/TIP.2008.2001399
+- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
+  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
+  arXiv:1811.10180
 """
 
 from __future__ import annotations

@@ -46,6 +46,25 @@ bit-identical for the same seed, whatever the chunking of the frames into calls 
 
 Speed: blocks of rows run in parallel on numba.get_num_threads() threads (serial kernels that release the GIL, run
 from a thread pool); feed stacks of frames where possible, since every call has a fixed cost.
+
+References (full citations also in docs/models/references.md):
+
+- Lichtsteiner P, Posch C, Delbruck T (2008). A 128x128 120 dB 15 us latency asynchronous temporal contrast
+  vision sensor. IEEE Journal of Solid-State Circuits 43(2):566-576. doi:10.1109/JSSC.2007.914337
+- Rebecq H, Gehrig D, Scaramuzza D (2018). ESIM: an open event camera simulator. Conference on Robot Learning
+  (CoRL), Proceedings of Machine Learning Research 87:969-982.
+- Gehrig D, Gehrig M, Hidalgo-Carrio J, Scaramuzza D (2020). Video to events: recycling video datasets for event
+  cameras. IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR). arXiv:1912.03095
+- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. IEEE/CVF Conference on
+  Computer Vision and Pattern Recognition Workshops (CVPRW), 1312-1321. arXiv:2006.07722
+- Joubert D, Marcireau A, Ralph N, Jolley A, van Schaik A, Cohen G (2021). Event camera simulator improvements
+  via characterized parameters (IEBCS). Frontiers in Neuroscience 15:702765. doi:10.3389/fnins.2021.702765
+- Nozaki Y, Delbruck T (2017). Temperature and parasitic photocurrent effects in dynamic vision sensors. IEEE
+  Transactions on Electron Devices 64(8):3239-3245. (Leak events.)
+- Steele GL, Lea D, Flood CH (2014). Fast splittable pseudorandom number generators (SplitMix64). ACM OOPSLA,
+  453-472. doi:10.1145/2660193.2660195
+- Salmon JK, Moraes MA, Dror RO, Shaw DE (2011). Parallel random numbers: as easy as 1, 2, 3 (counter-based
+  generators). International Conference for High Performance Computing, Networking, Storage and Analysis (SC11).
 """
 
 from __future__ import annotations
@@ -73,7 +92,8 @@ _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buf
 
 
 class DVSEmulator:
-    """A streaming DVS emulator of height x width pixels (see the module docstring for the model).
+    """A streaming DVS emulator of height x width pixels (see the module docstring for the model and its
+    references, and docs/models/dvs.md).
 
     params: DVSParams (default: the "davis346" preset). seed: int or numpy SeedSequence; its entropy is in
     seed_entropy. return_labels: feed() then returns (events, labels) with labels a uint8 array of indices into

@@ -1,6 +1,14 @@
 """DVS pixel parameters (`DVSParams`) and named sensor presets.
 
 Log units are natural logarithms of radiance; rates are per pixel; times are microseconds unless the name says Hz.
+
+References (full citations also in docs/models/references.md):
+
+- Brandli C, Berner R, Yang M, Liu S-C, Delbruck T (2014). A 240x180 130 dB 3 us latency global shutter
+  spatiotemporal vision sensor (DAVIS). IEEE Journal of Solid-State Circuits 49(10):2333-2341.
+  doi:10.1109/JSSC.2014.2342715
+- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. IEEE/CVF Conference on
+  Computer Vision and Pattern Recognition Workshops (CVPRW), 1312-1321. arXiv:2006.07722
 """
 
 from __future__ import annotations

@@ -5,6 +5,11 @@ Tone mapping (the only operator used in every figure): global Reinhard on lumina
     Ls = KEY * I / Iw,   D = (Ls / (1 + Ls)) ** (1 / 2.2),
 with KEY = 0.18 and Iw the log-average (geometric mean) of the HDR reference image, and the same Iw applied to
 every panel of a figure, so equal radiance gives equal grey across panels.
+
+References (full citations also in docs/models/references.md):
+
+- Reinhard E, Stark M, Shirley P, Ferwerda J (2002). Photographic tone reproduction for digital images. ACM
+  Transactions on Graphics 21(3):267-276 (SIGGRAPH 2002).
 """
 
 from __future__ import annotations

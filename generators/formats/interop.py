@@ -3,6 +3,11 @@
 tonic (tonic.io.events_struct) takes events as a structured array x, y (int16), t (int64), p (bool, True = ON).
 Its transforms index channels by p: ToFrame(sensor_size=(W, H, 2)) with evsim's p = -1 would put every OFF
 event into the ON channel (index -1 is the last one). to_tonic gives p = 0 (OFF) / 1 (ON) as tonic's own datasets.
+
+References (full citations also in docs/models/references.md):
+
+- Lenz G, Chaney K, Shrestha SB, Oubari O, Picaud S, Zarrella G (2021). Tonic: event-based datasets and
+  transformations. Zenodo. doi:10.5281/zenodo.5079802
 """
 
 from __future__ import annotations

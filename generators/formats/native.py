@@ -20,6 +20,11 @@ Datasets are chunked, resizable, byte-shuffled and gzip-compressed (HDF5's stand
 which every HDF5 reader has); each add_* call appends, so memory stays flat. The writer compresses the events and
 images itself, chunk by chunk, with ISA-L's deflate (the isal package, about 8x faster than the zlib inside HDF5
 for a few % larger files) and stores the chunks as they are (h5py write_direct_chunk).
+
+References (full citations also in docs/models/references.md):
+
+- Gehrig M, Aarents W, Gehrig D, Scaramuzza D (2021). DSEC: a stereo event camera dataset for driving
+  scenarios. IEEE Robotics and Automation Letters 6(3):4947-4954. doi:10.1109/LRA.2021.3068942
 """
 
 from __future__ import annotations
