@@ -103,10 +103,13 @@ def test_config_that_is_a_fifo_does_not_block(tmp_path, capsys):
         with open(fifo, "w") as f:
             f.write(CONFIG)
 
-    threading.Thread(target=feed, daemon=True).start()
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
     _run_config(tmp_path, capsys, str(fifo), str(fifo), "not a regular file")
-    with open(os.open(fifo, os.O_RDONLY | os.O_NONBLOCK), "rb"):  # let the writer go
-        pass
+    reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)  # let the writer finish (its text fits the pipe's buffer)
+    writer.join(timeout=10)
+    os.close(reader)
+    assert not writer.is_alive()
 
 
 @pytest.mark.skipif(not Path("/dev/null").is_char_device(), reason="no /dev/null")
