@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.errors import InvalidParameterError
+from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
 from sim.parallel import in_parallel
 
@@ -73,10 +73,9 @@ def _run_log_filter(inp: Inputs, t0, switch_times, on_switch, run_events, publis
 def _crossover_alpha(crossover_hz, alpha):
     if (crossover_hz is None) == (alpha is None):
         raise InvalidParameterError("give exactly one of crossover_hz (Hz) or alpha (rad/s)")
-    a = 2 * math.pi * crossover_hz if alpha is None else float(alpha)
-    if not (math.isfinite(a) and a >= 0):
-        raise InvalidParameterError(f"crossover gain must be finite and >= 0 rad/s, got {a}")
-    return a
+    if alpha is None:
+        return 2 * math.pi * check_number("crossover_hz", crossover_hz, positive=False)
+    return check_number("alpha", alpha, positive=False)
 
 
 def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
@@ -108,9 +107,10 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     a = _crossover_alpha(crossover_hz, alpha)
     for name, v, lo, hi in (("adaptive_factor", adaptive_factor, 0.0, 1.0), ("adaptive_margin", adaptive_margin,
                                                                              0.0, 0.5)):
-        if not (isinstance(v, (int, float)) and lo <= v <= hi):
+        if not lo <= check_number(name, v, positive=False) <= hi:
             raise InvalidParameterError(f"{name} must be in [{lo}, {hi}], got {v!r}")
     check_max_intensity(max_intensity)
+    check_number("i0", i0, positive=True)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)
     bounds = (math.log(i0), math.log(max_intensity + i0)) if max_intensity is not None else _UNBOUNDED
@@ -219,6 +219,7 @@ def direct_integration(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_
                        frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                        contrast: npt.ArrayLike = 0.2, i0: float = _I0, bit_depth: int = 8) -> npt.NDArray[np.float32]:
     """The log of the first frame at tau_0 plus the contrast times the signed event count since then."""
+    check_number("i0", i0, positive=True)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)
     x = _log_frame(inp, crf, 0, i0)

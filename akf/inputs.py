@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 import crf_models
-from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError
+from sim.errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_int, check_number, check_real_array
 from sim.events import check_times_us, validate_events
 
 if TYPE_CHECKING:
@@ -60,10 +59,8 @@ def as_crf(crf: crf_models.CRF | str) -> crf_models.CRF:
 
 def check_max_intensity(max_intensity: float | None) -> None:
     """The output bound of the log-domain methods (x units; None: unbounded) must be a finite number > 0."""
-    if max_intensity is not None and not (isinstance(max_intensity, (int, float)) and math.isfinite(max_intensity)
-                                          and max_intensity > 0):
-        raise InvalidParameterError(f"max_intensity must be a finite number > 0 (x units) or None, "
-                                    f"got {max_intensity!r}")
+    if max_intensity is not None:
+        check_number("max_intensity (x units, or None: unbounded)", max_intensity, positive=True)
 
 
 def _times(a, name: str, n: int | None = None) -> np.ndarray:
@@ -80,7 +77,7 @@ MAX_CONTRAST = 5.0  # log units: a factor e**5 (about 150) per event; real senso
 def contrast_maps(contrast: npt.ArrayLike,
                   shape: tuple[int, int]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Nominal contrast thresholds as flat (c_on, c_off) maps from a scalar, an (on, off) pair or a (2, H, W) array."""
-    c = np.asarray(contrast, dtype=np.float64)
+    c = check_real_array("contrast", contrast, error=InvalidParameterError)
     n = shape[0] * shape[1]
     if c.ndim == 0:
         c_on = c_off = np.full(n, float(c))
@@ -109,8 +106,7 @@ def validate_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us:
         raise EvsimInputError(f"frames must be an (N, H, W) array with N >= 1, got shape {frames.shape}")
     if not np.issubdtype(frames.dtype, np.unsignedinteger):
         raise EvsimInputError(f"frames must be unsigned integer raw responses, got dtype {frames.dtype}")
-    if not (isinstance(bit_depth, (int, np.integer)) and 1 <= bit_depth <= 16):
-        raise InvalidParameterError(f"bit_depth must be an integer in 1..16, got {bit_depth!r}")
+    check_int("bit_depth", bit_depth, minimum=1, maximum=16)
     full_scale = (1 << int(bit_depth)) - 1
     if frames.size and int(frames.max()) > full_scale:
         raise EvsimInputError(f"frames contain {int(frames.max())} > {full_scale}, the maximum of "

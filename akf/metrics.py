@@ -13,7 +13,9 @@
   radiance the generator recorded as white, for held-out frames CRF^-1(1)); SSIM with data_range 1.
 - log_mse: mean squared difference of log(I + LOG_EPS) (natural log, LOG_EPS = 1e-3 x units, the AKF's I0) on
   absolute values: errors of highlights and shadows count by ratio, not by absolute size.
-Every metric's normalisation in one line is NORMALISATION[name]; score() applies any metric by name.
+Every metric's normalisation in one line is NORMALISATION[name]; score() applies any metric by name. Every metric
+takes two real-valued (H, W) images of one shape, finite and >= 0 (linear intensities; anything else raises
+EvsimInputError naming the image), and its parameters (data_range, white, luminance_scale) finite and > 0.
 
 References (full citations also in docs/models/references.md):
 
@@ -38,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from skimage.metrics import structural_similarity
 
-from sim.errors import EvsimInputError
+from sim.errors import EvsimInputError, check_number, check_real_array
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -50,12 +52,18 @@ PU21_PEAK = 256.0
 
 
 def _pair(x: npt.ArrayLike, ref: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    x = np.asarray(x, np.float64)
-    ref = np.asarray(ref, np.float64)
+    """Both images as float64, checked: real-valued (H, W) of one shape, finite and >= 0 (linear intensities)."""
+    x = check_real_array("the image", x)
+    ref = check_real_array("the reference", ref)
     if x.shape != ref.shape or x.ndim != 2:
         raise EvsimInputError(f"metrics need two (H, W) images of the same shape, got {x.shape} and {ref.shape}")
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(ref))):
-        raise EvsimInputError("metrics need finite images")
+    for name, img in (("the image", x), ("the reference", ref)):
+        if not np.all(np.isfinite(img)):
+            raise EvsimInputError(f"metrics need finite images: {name} holds NaN or infinite values")
+        if img.size and img.min() < 0:
+            row, col = (int(i) for i in np.unravel_index(int(np.argmin(img)), img.shape))
+            raise EvsimInputError(f"metrics need linear intensities >= 0: {name} has {img.min():.4g} at row {row}, "
+                                  f"column {col}")
     return x, ref
 
 
@@ -68,15 +76,16 @@ def mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
 def psnr(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
     """PSNR (dB) = 10 log10(data_range^2 / MSE); data_range defaults to the reference's max."""
     x, ref = _pair(x, ref)
-    peak = float(ref.max()) if data_range is None else float(data_range)
+    peak = float(ref.max()) if data_range is None else check_number("data_range", data_range, positive=True)
     err = mse(x, ref)
-    return float("inf") if err == 0 else float(10 * np.log10(peak**2 / err))
+    return float("inf") if err == 0 else float(20 * np.log10(peak) - 10 * np.log10(err))  # no overflow of peak**2
 
 
 def ssim(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
     """SSIM (Wang et al. 2004) with data_range defaulting to the reference's max - min."""
     x, ref = _pair(x, ref)
-    rng = float(ref.max() - ref.min()) if data_range is None else float(data_range)
+    rng = (float(ref.max() - ref.min()) if data_range is None
+           else check_number("data_range", data_range, positive=True))
     if rng <= 0:
         raise EvsimInputError("ssim needs a positive data_range (the reference is constant)")
     return float(structural_similarity(x, ref, data_range=rng))
@@ -93,12 +102,14 @@ def pu21_encode(luminance: npt.ArrayLike) -> npt.NDArray[np.float64] | np.float6
 
 def pu21_psnr(x: npt.ArrayLike, ref: npt.ArrayLike, luminance_scale: float = 100.0) -> float:
     """PSNR of the PU21-encoded images (peak 256), after Y = luminance_scale * I."""
+    check_number("luminance_scale", luminance_scale, positive=True)
     x, ref = _pair(x, ref)
     return psnr(pu21_encode(luminance_scale * x), pu21_encode(luminance_scale * ref), data_range=PU21_PEAK)
 
 
 def pu21_ssim(x: npt.ArrayLike, ref: npt.ArrayLike, luminance_scale: float = 100.0) -> float:
     """SSIM of the PU21-encoded images (data_range 256), after Y = luminance_scale * I."""
+    check_number("luminance_scale", luminance_scale, positive=True)
     x, ref = _pair(x, ref)
     return ssim(pu21_encode(luminance_scale * x), pu21_encode(luminance_scale * ref), data_range=PU21_PEAK)
 
@@ -108,8 +119,7 @@ LOG_EPS = 1e-3
 
 def to_unit_range(x: npt.ArrayLike, white: float) -> npt.NDArray[np.float64] | np.float64:
     """The paper protocol's normalisation: clip(x / white, 0, 1)."""
-    if not (np.isfinite(white) and white > 0):
-        raise EvsimInputError(f"the [0, 1] normalisation needs a white level > 0, got {white}")
+    check_number("white (the [0, 1] normalisation's white level)", white, positive=True)
     return np.clip(np.asarray(x, np.float64) / white, 0.0, 1.0)
 
 
@@ -126,9 +136,9 @@ def ssim01(x: npt.ArrayLike, ref: npt.ArrayLike, white: float = 1.0) -> float:
 
 
 def log_mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
-    """Mean squared difference of log(I + LOG_EPS) (negative intensities count as 0)."""
+    """Mean squared difference of log(I + LOG_EPS)."""
     x, ref = _pair(x, ref)
-    return mse(np.log(np.maximum(x, 0) + LOG_EPS), np.log(np.maximum(ref, 0) + LOG_EPS))
+    return float(np.mean((np.log(x + LOG_EPS) - np.log(ref + LOG_EPS)) ** 2))
 
 
 METRICS = {"mse01": mse01, "ssim01": ssim01, "mse": mse, "psnr": psnr, "ssim": ssim, "log_mse": log_mse,

@@ -13,16 +13,16 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from sim.errors import InvalidParameterError
+from sim.errors import InvalidParameterError, check_int, check_number
 
 
 @dataclass(frozen=True)
 class AKFParams:
     """Parameters of the frame augmentation and the Asynchronous Kalman Filter (Wang et al., ICCV 2021).
 
+    Every variance, i0 and p0 must be > 0 (POSITIVE_FIELDS); rho_bar_us and calib_min_events are integers >= 0.
     Event noise (eq. 2), realised at each event, in log^2 units:
         sigma_proc2: process noise density (log^2 / s); Q_proc = sigma_proc2 * (time since the pixel's last event).
         sigma_iso2: isolated-pixel noise density (log^2 / s); Q_iso = sigma_iso2 * (time since the latest event of
@@ -83,22 +83,30 @@ class AKFParams:
     calib_prior: float = 1.0
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.name in ("deblur", "calibrate"):
-                if not isinstance(v, bool):
-                    raise InvalidParameterError(f"AKFParams.{f.name} must be a bool, got {v!r}")
-            elif f.name == "calib_scale_range":
-                lo, hi = v
-                if not (0 < lo <= 1 <= hi < math.inf):
-                    raise InvalidParameterError(
-                        f"AKFParams.calib_scale_range must satisfy 0 < min <= 1 <= max, got {v}")
-            elif not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise InvalidParameterError(f"AKFParams.{f.name} must be a finite number >= 0, got {v!r}")
-        for name in ("sigma_im2", "max_variance", "i0", "p0"):
-            if getattr(self, name) <= 0:
-                raise InvalidParameterError(f"AKFParams.{name} must be > 0, got {getattr(self, name)}")
+        """Check every field once, here (the boundary): each error names the field."""
+        for name in ("deblur", "calibrate"):
+            if not isinstance(getattr(self, name), bool):
+                raise InvalidParameterError(f"AKFParams.{name} must be a bool, got {getattr(self, name)!r}")
+        for name in ("rho_bar_us", "calib_min_events"):
+            check_int(f"AKFParams.{name}", getattr(self, name), minimum=0,
+                      unit="microseconds" if name == "rho_bar_us" else "")
+        for name in POSITIVE_FIELDS:
+            check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
+        for name in ("bias_max_variance", "calib_prior"):
+            check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
+        pair = self.calib_scale_range
+        if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+            raise InvalidParameterError(f"AKFParams.calib_scale_range must be a (min, max) pair, got {pair!r}")
+        lo, hi = (check_number(f"AKFParams.calib_scale_range[{i}]", v, positive=True) for i, v in enumerate(pair))
+        if not lo <= 1 <= hi:
+            raise InvalidParameterError(f"AKFParams.calib_scale_range must satisfy 0 < min <= 1 <= max, got {pair}")
+        object.__setattr__(self, "calib_scale_range", (lo, hi))
         if self.max_variance < self.sigma_im2:
             raise InvalidParameterError(
                 f"AKFParams.max_variance={self.max_variance} must be >= sigma_im2={self.sigma_im2}"
             )
+
+
+#: the AKFParams fields that must be > 0: every noise variance (a zero variance claims noise-free events or frames:
+#: the state variance then never grows between frames, or a frame is taken as exact), i0 (log(I + i0) at I = 0)
+POSITIVE_FIELDS = ("sigma_proc2", "sigma_iso2", "sigma_ref2", "sigma_im2", "max_variance", "i0", "p0")

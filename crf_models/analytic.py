@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import CRF, CRFError
+from .base import CRF, CRFError, real_param
 
 
 class LinearCRF(CRF):
@@ -24,6 +24,7 @@ class LinearCRF(CRF):
 
     def __init__(self, black_level: float = 0.0, x_clip: float = 1.0, **kw: Any) -> None:
         super().__init__(**kw)
+        black_level, x_clip = real_param("black_level", black_level), real_param("x_clip", x_clip)
         if not 0.0 <= black_level < 1.0:
             raise CRFError(f"black_level must lie in [0, 1), got {black_level}")
         if not 0.0 < x_clip <= 1.0:
@@ -51,7 +52,7 @@ class GammaCRF(CRF):
 
     def __init__(self, gamma: float = 2.2, **kw: Any) -> None:
         super().__init__(**kw)
-        if not (np.isfinite(gamma) and gamma > 0):
+        if not real_param("gamma", gamma) > 0:
             raise CRFError(f"gamma must be a positive finite number, got {gamma}")
         self.gamma = float(gamma)
         self._set_range(0.0, 1.0, clip_low=False)
@@ -79,7 +80,8 @@ class SigmoidCRF(CRF):
 
     def __init__(self, steepness: float = 10.0, midpoint: float = 0.5, **kw: Any) -> None:
         super().__init__(**kw)
-        if not (np.isfinite(steepness) and steepness > 0):
+        steepness, midpoint = real_param("steepness", steepness), real_param("midpoint", midpoint)
+        if not steepness > 0:
             raise CRFError(f"steepness must be a positive finite number, got {steepness}")
         if not 0.0 < midpoint < 1.0:
             raise CRFError(f"midpoint must lie in (0, 1), got {midpoint}")
@@ -115,7 +117,7 @@ class FilmicCRF(CRF):
 
     def __init__(self, white_point: float = 11.2, **kw: Any) -> None:
         super().__init__(**kw)
-        if not (np.isfinite(white_point) and white_point > 0):
+        if not real_param("white_point", white_point) > 0:
             raise CRFError(f"white_point must be a positive finite number, got {white_point}")
         self.white_point = float(white_point)
         self._hw = self._h(self.white_point)

@@ -19,6 +19,8 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
+import math
+import numbers
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Any
 
@@ -41,6 +43,14 @@ _SLOPE_GRID = 1024
 
 class CRFError(ValueError):
     """Bad input to a camera response function: parameters, tables, files or values out of the domain."""
+
+
+def real_param(name: str, value: object) -> float:
+    """A curve parameter as a float; CRFError naming it unless it is a finite real number (an int, float or numpy
+    number; not a bool, a string or complex). Ranges are each curve's to check."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise CRFError(f"{name} must be a finite number, got {type(value).__name__} {value!r:.60}")
+    return float(value)
 
 
 def as_float_array(values: npt.ArrayLike, name: str) -> npt.NDArray[np.float64]:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import CRF, CRFError
+from .base import CRF, CRFError, real_param
 
 
 def _models():
@@ -42,7 +42,7 @@ class _ColourCurve(CRF):
     """Base for the colour-science curves: subclasses provide _encode/_decode on scene-linear values."""
 
     def _init_curve(self, in_max: float) -> None:
-        if not (np.isfinite(in_max) and in_max > 0):
+        if not real_param("in_max", in_max) > 0:
             raise CRFError(f"in_max must be a positive finite number, got {in_max}")
         self.in_max = float(in_max)
         self._e0 = float(self._enc(0.0))

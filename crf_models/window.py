@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import CRF, CRFError
+from .base import CRF, CRFError, real_param
 
 
 class WindowCRF(CRF):
@@ -44,7 +44,8 @@ class WindowCRF(CRF):
         super().__init__(**kw)
         from . import get  # the registry imports this module
 
-        if not (np.isfinite(levels) and levels > 0):
+        low, high, levels = (real_param(n, v) for n, v in (("low", low), ("high", high), ("levels", levels)))
+        if not levels > 0:
             raise CRFError(f"levels must be a positive finite number, got {levels}")
         if not 0.0 <= low < high <= levels:
             raise CRFError(f"the window must satisfy 0 <= low < high <= levels, got low={low}, high={high}")

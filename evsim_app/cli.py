@@ -87,6 +87,58 @@ def _dataset_config(args):
     return parse_config(data, source="<command line>")
 
 
+# ----- paths checked before any work ----------------------------------------------------------------------
+
+_FOLDER_OUTPUT_COMMANDS = ("demo", "generate", "convert", "reconstruct")  # their --out is a folder
+_FILE_OUTPUT_FLAGS = ("json", "out", "animate")  # of the other commands (evaluate, plot): files
+MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows file systems)
+
+
+def _check_paths(args) -> None:
+    """--config and the outputs, before any work: EvsimInputError (exit 2, one line) naming the flag, the path and
+    the problem. The configuration file itself is read by generators.config.read_text_file."""
+    config = getattr(args, "config", None)
+    if config is not None and not str(config):
+        raise sim.EvsimInputError("--config is empty: give a TOML configuration file")
+    folder = args.command in _FOLDER_OUTPUT_COMMANDS
+    for flag in ("out",) if folder else _FILE_OUTPUT_FLAGS:
+        value = getattr(args, flag, None)
+        if value is not None:
+            _check_output(f"--{flag}", str(value), folder=folder)
+
+
+def _check_output(flag: str, text: str, *, folder: bool) -> None:
+    """An output path that can be created (or, for a folder, exists as one) and written."""
+    from generators.config import missing_path_reason
+
+    kind = "folder" if folder else "file"
+    if not text:
+        raise sim.EvsimInputError(f"{flag} is empty: give an output {kind}" + (" ('.' for the current folder)"
+                                                                                 if folder else ""))
+    path = Path(text)
+    long = [part for part in path.parts if len(part.encode()) > MAX_NAME_BYTES]
+    if long:
+        raise sim.EvsimInputError(f"{flag} {text:.80}...: a name of {len(long[0].encode())} bytes, more than the "
+                                  f"{MAX_NAME_BYTES} a file system allows")
+    if path.is_symlink() and not path.exists():
+        raise sim.EvsimInputError(f"{flag}: {missing_path_reason(path)}; remove the link or give another {kind}")
+    if path.exists():
+        if folder and not path.is_dir():
+            raise sim.EvsimInputError(f"{flag} {path} exists and is not a folder")
+        if not folder and path.is_dir():
+            raise sim.EvsimInputError(f"{flag} {path} is a folder, not a file")
+        if folder and not os.access(path, os.W_OK | os.X_OK):
+            raise sim.EvsimInputError(f"{flag} {path}: the folder is not writable (permissions or a read-only "
+                                      "file system)")
+        return
+    parent = next((q for q in path.absolute().parents if q.exists()), None)
+    if parent is not None and not parent.is_dir():
+        raise sim.EvsimInputError(f"{flag}: {parent} is a file, not a folder, so {path} cannot be created")
+    if parent is not None and not os.access(parent, os.W_OK | os.X_OK):
+        raise sim.EvsimInputError(f"{flag} {path} cannot be created: {parent} is not writable (permissions or a "
+                                  "read-only file system)")
+
+
 # ----- subcommands -----------------------------------------------------------------------------------------
 
 def _cmd_generate_ahdr(args) -> int:
@@ -337,7 +389,7 @@ def _add_scene_flags(p) -> None:
     from generators.builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)
-    p.add_argument("--config", type=Path, help="TOML dataset configuration (see generators.config)")
+    p.add_argument("--config", help="TOML dataset configuration (see generators.config)")
     g = p.add_argument_group("scene and sensors (without --config)")
     g.add_argument("--scene", help=f"a built-in scene: {names} (default: all of them for ahdr, the first for sweep)")
     g.add_argument("--image", help="an HDR image (.exr, .hdr, .npy) or an LDR image (inverse sRGB) to move over")
@@ -480,7 +532,7 @@ def build_parser() -> argparse.ArgumentParser:
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
                         epilog=EPILOG)
     rc.add_argument("dataset", type=Path, help="as for evaluate")
-    rc.add_argument("--out", type=Path, required=True, help="output folder (one sub-folder per sequence when the "
+    rc.add_argument("--out", required=True, help="output folder (one sub-folder per sequence when the "
                                                             "dataset has several), written atomically: it "
                                                             "appears whole")
     rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
@@ -509,6 +561,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(e.code or 0)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
+        _check_paths(args)
         return args.func(args)
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)

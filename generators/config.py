@@ -38,10 +38,13 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
+import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+import crf_models
 import sim
 from sim import EvsimInputError, InvalidParameterError
 
@@ -161,6 +164,13 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
                 raise _fail(f"{where}.dvs.{sorted(unknown)[0]}", "unknown sim.DVSParams field")
         elif key == "crf":
             value = _check_table(f"{where}.crf", value, {"name": str, "params": dict})
+            if "name" not in value:
+                raise _fail(f"{where}.crf.name", "missing: a crf table replaces the default curve, so it must name "
+                                                 f"one of {', '.join(crf_models.available())}")
+            try:  # built here once, so that a bad curve is refused with the file, not by each sequence later
+                crf_models.get(value["name"], **value.get("params", {}))
+            except crf_models.CRFError as e:
+                raise _fail(f"{where}.crf", str(e)) from None
         if isinstance(value, dict) and key != "crf":
             settings[key] = {**settings[key], **value}
         else:
@@ -300,18 +310,73 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
             raise _fail(f"{source}: sweep.{key}", f"unknown sweep parameter (allowed: {', '.join(SWEEP_KEYS)})")
         if not isinstance(values, list) or not values:
             raise _fail(f"{source}: sweep.{key}", "expected a non-empty list of values")
-        for v in values:
-            _check_type(f"{source}: sweep.{key}", v, int if key == "refractory_us" else float)
+        for i, v in enumerate(values):
+            _check_type(f"{source}: sweep.{key}[{i}]", v, int if key == "refractory_us" else float)
+        check_sweep_values(f"{source}: sweep", key, values)
     return DatasetConfig(seed, fmt, sequences, sweep, source)
 
 
-def load_config(path: str | Path) -> DatasetConfig:
-    """Read and validate a TOML dataset configuration (see the module docstring)."""
+def check_sweep_values(where: str, key: str, values: list) -> None:
+    """InvalidParameterError naming where.key[i] for the first value that sim.DVSParams refuses for field key
+    (a negative rate, a fraction above 1, a non-integer refractory period, ...)."""
+    for i, v in enumerate(values):
+        try:
+            sim.DVSParams().replace(**{key: v})
+        except InvalidParameterError as e:
+            raise _fail(f"{where}.{key}[{i}]", str(e)) from None
+
+
+MAX_CONFIG_BYTES = 16 << 20  # a configuration is a few kB: a larger file is not one
+
+
+def missing_path_reason(path: Path) -> str:
+    """Why `path` does not exist, for a message: a dangling symbolic link, a file where a folder should be on the
+    way to it, or simply not there."""
+    if path.is_symlink():
+        return f"{path} is a symbolic link to {os.readlink(path)}, which does not exist"
+    for parent in path.parents:
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                return f"{parent} is a file, not a folder, so {path} cannot exist"
+            break
+    return f"{path} does not exist"
+
+
+def read_text_file(path: str | Path, what: str = "configuration file") -> str:
+    """The UTF-8 text of a small regular file (a leading byte-order mark is dropped). EvsimInputError naming the
+    path and the problem otherwise: missing (dangling link, a file on the way), a folder, not a regular file (a
+    FIFO or device, which could block or never end), unreadable, larger than MAX_CONFIG_BYTES, not UTF-8."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise EvsimInputError(f"configuration file not found: {path}") from None
+        st = path.stat()
+    except (FileNotFoundError, NotADirectoryError):  # ENOTDIR: a file on the way
+        raise EvsimInputError(f"{what} not found: {missing_path_reason(path)}") from None
+    except OSError as e:  # EACCES on the way, ELOOP, ENAMETOOLONG
+        raise EvsimInputError(f"{what} {path}: cannot be opened: {e.strerror or e}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise EvsimInputError(f"{what} {path} is a folder, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise EvsimInputError(f"{what} {path} is not a regular file (a FIFO, socket or device)")
+    if st.st_size > MAX_CONFIG_BYTES:
+        raise EvsimInputError(f"{what} {path} has {st.st_size} bytes: not a {what} (at most {MAX_CONFIG_BYTES})")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise EvsimInputError(f"{what} {path}: cannot be read: {e.strerror or e}") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise EvsimInputError(f"{what} {path} is not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start}): "
+                              "is it a binary file?") from None
+
+
+def load_config(path: str | Path) -> DatasetConfig:
+    """Read and validate a TOML dataset configuration (see the module docstring; the file as read_text_file
+    takes it)."""
+    path = Path(path)
+    text = read_text_file(path)
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
     return parse_config(data, source=str(path), base_dir=path.parent.resolve())

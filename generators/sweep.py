@@ -17,7 +17,7 @@ from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .ahdr import AHDRConfig
-from .config import SWEEP_KEYS
+from .config import SWEEP_KEYS, check_sweep_values
 from .dataset import EXPORT_SUFFIX, SceneRecipe, SequenceTask, run_sequences
 
 if TYPE_CHECKING:
@@ -30,12 +30,14 @@ DEFAULT_GRID = {"threshold_sigma": [0.0, 0.05], "shot_noise_hz": [0.0, 2.0]}
 
 
 def grid_points(grid: dict) -> list[dict]:
-    """The Cartesian product of the grid, in the order of the keys (the last key varies fastest)."""
+    """The Cartesian product of the grid, in the order of the keys (the last key varies fastest); every value is
+    checked as its sim.DVSParams field (InvalidParameterError naming sweep.<key>[i])."""
     for key, values in grid.items():
         if key not in GRID_KEYS:
             raise InvalidParameterError(f"sweep: unknown parameter {key!r}; one of {', '.join(GRID_KEYS)}")
         if not isinstance(values, (list, tuple)) or len(values) == 0:
             raise InvalidParameterError(f"sweep: {key} needs a non-empty list of values, got {values!r}")
+        check_sweep_values("sweep", key, list(values))
     keys = list(grid)
     return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
 

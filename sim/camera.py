@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .camera_kernels import accumulate_rows, sense
-from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_number
+from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_int, check_number, check_real_array
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -79,6 +79,11 @@ class CameraParams:
     max_subframes: int = 64
 
     def __post_init__(self) -> None:
+        if self.exposure_us is None:
+            raise InvalidParameterError("exposure_us must be integer microseconds (one value or a sequence), got None")
+        if self.frame_times_us is not None and not isinstance(self.frame_times_us, (list, tuple, np.ndarray)):
+            raise InvalidParameterError(f"frame_times_us must be a sequence of integer microseconds, got "
+                                        f"{self.frame_times_us!r}")
         for name in ("exposure_us", "frame_times_us"):
             value = getattr(self, name)
             many = isinstance(value, (list, tuple, np.ndarray))
@@ -98,23 +103,23 @@ class CameraParams:
             if np.any(np.diff(t) <= 0):
                 i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
                 raise TimeOrderError(f"frame_times_us must increase strictly: [{i}]={t[i]} after {t[i - 1]} us")
-        elif not (math.isfinite(self.fps) and self.fps > 0):
-            raise InvalidParameterError(f"fps must be > 0, got {self.fps}")
-        for name in ("full_well_e", "reference_radiance", "max_px_per_subframe"):
+        check_number("fps", self.fps, positive=True)
+        for name in ("first_frame_us", "reference_exposure_us"):
+            if getattr(self, name) is not None:
+                check_int(name, getattr(self, name), minimum=0 if name == "first_frame_us" else 1,
+                          unit="microseconds")
+        for name in ("full_well_e", "reference_radiance", "max_px_per_subframe", "reference_fill"):
             check_number(name, getattr(self, name), positive=True)
-        if not 0 < self.reference_fill <= 1:
+        if self.reference_fill > 1:
             raise InvalidParameterError(f"reference_fill must lie in (0, 1], got {self.reference_fill}")
-        if self.reference_exposure_us is not None and self.reference_exposure_us <= 0:
-            raise InvalidParameterError(f"reference_exposure_us must be > 0, got {self.reference_exposure_us}")
         for name in ("read_noise_e", "dark_current_e_per_s", "prnu_sigma", "dsnu_e", "rolling_shutter_line_us"):
             check_number(name, getattr(self, name), positive=False)
-        if not (isinstance(self.bit_depth, (int, np.integer)) and 8 <= self.bit_depth <= 16):
-            raise InvalidParameterError(f"bit_depth must be an integer in 8..16, got {self.bit_depth}")
-        if self.n_subframes is not None and not (isinstance(self.n_subframes, (int, np.integer))
-                                                 and self.n_subframes >= 1):
-            raise InvalidParameterError(f"n_subframes must be None or an integer >= 1, got {self.n_subframes}")
-        if not (isinstance(self.max_subframes, (int, np.integer)) and self.max_subframes >= 1):
-            raise InvalidParameterError(f"max_subframes must be an integer >= 1, got {self.max_subframes}")
+        check_int("bit_depth", self.bit_depth, minimum=8, maximum=16)
+        if not isinstance(self.noise, (bool, np.bool_)):
+            raise InvalidParameterError(f"noise must be a bool, got {self.noise!r}")
+        if self.n_subframes is not None:
+            check_int("n_subframes", self.n_subframes, minimum=1)
+        check_int("max_subframes", self.max_subframes, minimum=1)
 
     @property
     def exposures(self) -> tuple[int, ...]:
@@ -221,9 +226,8 @@ class LDRCamera:
 
     def __init__(self, height: int, width: int, params: CameraParams, crf: CRF,
                  seed: int | np.random.SeedSequence = 0) -> None:
-        if not (isinstance(height, (int, np.integer)) and isinstance(width, (int, np.integer))
-                and height > 0 and width > 0):
-            raise InvalidParameterError(f"height and width must be positive integers, got {height} x {width}")
+        height = check_int("height", height, minimum=1, unit="pixels")
+        width = check_int("width", width, minimum=1, unit="pixels")
         if not isinstance(params, CameraParams):
             raise InvalidParameterError(f"params must be a CameraParams, got {type(params).__name__}")
         for attr in ("forward", "inverse", "weight", "variance", "name", "params"):
@@ -275,9 +279,8 @@ class LDRCamera:
                t_start_us: int = 0) -> LDRFrame:
         """Sensor model without a source: `radiance` is either the mean radiance over the exposure (H, W) or
         equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`."""
-        if not (isinstance(exposure_us, (int, np.integer)) and exposure_us > 0):
-            raise InvalidParameterError(f"exposure_us must be a positive integer, got {exposure_us}")
-        rad = np.asarray(radiance)
+        check_int("exposure_us", exposure_us, minimum=1, unit="microseconds")
+        rad = check_real_array("radiance", radiance)
         if rad.ndim == 3:
             subframes = rad.shape[0]
             rad = rad.mean(axis=0, dtype=np.float64) if subframes else rad

@@ -76,7 +76,7 @@ import numpy.typing as npt
 
 from . import dvs_kernels as K
 from .dvs_params import DVSParams
-from .errors import EvsimInputError, InvalidParameterError, TimeOrderError
+from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_int
 from .events import EVENT_DTYPE, check_times_us, empty_events
 from .parallel import in_parallel
 from .seeding import as_seed_sequence, child_seed
@@ -103,8 +103,7 @@ class DVSEmulator:
     def __init__(self, height: int, width: int, params: DVSParams | None = None,
                  seed: int | np.random.SeedSequence = 0, *, return_labels: bool = False):
         for name, n in (("height", height), ("width", width)):
-            if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 65535:
-                raise InvalidParameterError(f"{name} must be an int in [1, 65535], got {n!r}")
+            check_int(name, n, minimum=1, maximum=65535, unit="pixels")
         if params is None:
             params = DVSParams.preset("davis346")
         if not isinstance(params, DVSParams):

@@ -17,7 +17,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .errors import InvalidParameterError, check_number
+from .errors import InvalidParameterError, check_int, check_number
 
 
 @dataclass(frozen=True)
@@ -71,9 +71,9 @@ class DVSParams:
             check_number(name, getattr(self, name), positive=False)
         if self.hot_pixel_fraction > 1:
             raise InvalidParameterError(f"hot_pixel_fraction must be in [0, 1], got {self.hot_pixel_fraction}")
-        r = self.refractory_us
-        if isinstance(r, bool) or not isinstance(r, int) or r < 0:
-            raise InvalidParameterError(f"refractory_us must be a non-negative integer (microseconds), got {r!r}")
+        # a numpy integer is stored as an int (the parameters go into JSON metadata)
+        object.__setattr__(self, "refractory_us", check_int("refractory_us", self.refractory_us, minimum=0,
+                                                            unit="microseconds"))
 
     @classmethod
     def preset(cls, name: str, **overrides: object) -> DVSParams:

@@ -1,8 +1,15 @@
 """Exceptions raised at evsim's boundaries (all derive from ValueError so that callers can catch broadly), and the
-shared check of numeric parameters."""
+shared checks of parameters: one helper per kind (number, integer, real-valued array), each naming the parameter."""
+
+from __future__ import annotations
 
 import math
 import numbers
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 
 class EvsimInputError(ValueError):
@@ -21,12 +28,58 @@ class UnsortedEventsError(TimeOrderError):
     """An event array is not sorted by time."""
 
 
-def check_number(name: str, value: object, *, positive: bool) -> None:
-    """Raise InvalidParameterError unless `value` is a finite real number (not a bool), > 0 when `positive`,
-    else >= 0. `name` is the parameter's name, quoted in the message."""
+def _kind(value: object) -> str:
+    return f"{type(value).__name__} {value!r:.60}"
+
+
+def check_number(name: str, value: object, *, positive: bool) -> float:
+    """`value` as a float; InvalidParameterError unless it is a finite real number (an int, float or numpy number;
+    not a bool, string or complex), > 0 when `positive`, else >= 0. `name` is the parameter's name, quoted in the
+    message."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise InvalidParameterError(f"{name} must be a finite number, got {value!r}")
+        raise InvalidParameterError(f"{name} must be a finite number, got {_kind(value)}")
     if positive and value <= 0:
         raise InvalidParameterError(f"{name} must be > 0, got {value}")
     if value < 0:
         raise InvalidParameterError(f"{name} must be >= 0, got {value}")
+    return float(value)
+
+
+def check_real(name: str, value: object) -> float:
+    """`value` as a float; InvalidParameterError unless it is a finite real number of any sign (not a bool,
+    string or complex)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise InvalidParameterError(f"{name} must be a finite number, got {_kind(value)}")
+    return float(value)
+
+
+def check_int(name: str, value: object, *, minimum: int | None = None, maximum: int | None = None,
+              unit: str = "") -> int:
+    """`value` as an int; InvalidParameterError unless it is an integer (int or numpy integer; not a bool, a float
+    or a string) within [minimum, maximum] (either bound optional). `unit` (e.g. "microseconds") is quoted."""
+    what = "an integer" + (f" ({unit})" if unit else "")
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InvalidParameterError(f"{name} must be {what}, got {_kind(value)}")
+    v = int(value)
+    if (minimum is not None and v < minimum) or (maximum is not None and v > maximum):
+        span = (f"in [{minimum}, {maximum}]" if minimum is not None and maximum is not None
+                else f">= {minimum}" if minimum is not None else f"<= {maximum}")
+        raise InvalidParameterError(f"{name} must be {what} {span}, got {v}")
+    return v
+
+
+def check_real_array(name: str, value: object, *, error: type[EvsimInputError] = EvsimInputError
+                     ) -> npt.NDArray[np.float64]:
+    """`value` as a float64 array; `error` unless its values are real numbers: an integer or floating dtype, not
+    bool, complex, object (e.g. a list mixing numbers and strings) or strings. Finiteness and range are the
+    caller's to check (their meaning differs: radiance, contrast, ...)."""
+    import numpy as np  # here, so that importing sim (for its errors) stays light
+
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError) as e:  # ragged nested lists
+        raise error(f"{name} must be an array of real numbers: {e}") from None
+    if a.dtype.kind not in "iuf":
+        raise error(f"{name} must hold real numbers (integer or float), got dtype {a.dtype}"
+                    + (f" ({_kind(value)})" if a.ndim == 0 else ""))
+    return a.astype(np.float64, copy=False)

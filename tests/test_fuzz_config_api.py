@@ -9,6 +9,8 @@ EVSIM_FUZZ_N (default 40) scales the number of mutants (x 4).
 from __future__ import annotations
 
 import copy
+import dataclasses
+import inspect
 import math
 import os
 from pathlib import Path
@@ -19,6 +21,7 @@ import pytest
 import akf
 import crf_models
 import sim
+from akf.params import AKFParams
 from generators.ahdr import MAX_REFERENCE_FRAMES, AHDRConfig, _reference_times
 from generators.config import build_scene, load_config, parse_config, to_ahdr_config
 from generators.scenes import Trajectory
@@ -284,3 +287,85 @@ def test_reconstruct_refuses_an_existing_output_unless_overwrite(tmp_path):
                  "--overwrite"]) == 0
     assert (out / "timestamps.txt").is_file() and not list(tmp_path.glob(".*.tmp"))
     assert Path(out).is_dir()
+
+
+# ----- API fuzz (issue 27): every parameter of the public constructors and methods with hostile kinds ----------
+
+HOSTILE_API = [True, np.bool_(False), "0.2", "", 0.2 + 0j, float("nan"), float("-inf"), -1, 0, 2.5, 1e300, None,
+               [], (1.0,), (0.5, 2.0, 3.0), object(), np.float32(0.5), np.int64(3), np.array([1.0, 2.0])]
+_NOT_A_NUMBER = (bool, np.bool_, str, complex, type(None), list, tuple)  # (a 2-array is a valid pair)
+
+
+def _scene_calls():
+    from generators.scenes import Checkerboard, FlickeringLight, MovingEdge, RotatingBar, RotatingDisk, SunPatch
+
+    for cls in (MovingEdge, Checkerboard, RotatingBar, RotatingDisk, FlickeringLight, SunPatch):
+        names = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+        for name in names:
+            def call(v, cls=cls, name=name):
+                args = {"height": 8, "width": 8, "duration_us": 1000, name: v}
+                scene = cls(args.pop("height"), args.pop("width"), args.pop("duration_us"), **args)
+                img = scene.radiance(0)
+                assert img.shape == (scene.height, scene.width) and np.isfinite(img).all() and img.min() >= 0, \
+                    "bad rendering"
+                return scene
+            default = inspect.signature(cls.__init__).parameters[name].default
+            yield f"{cls.__name__}.{name}", call, default is None, False
+
+
+def _dataclass_calls():
+    for cls in (AKFParams, sim.DVSParams, sim.CameraParams, Trajectory):
+        for f in dataclasses.fields(cls):
+            yield (f"{cls.__name__}.{f.name}", lambda v, cls=cls, name=f.name: cls(**{name: v}), "None" in f.type,
+                   f.type == "bool")
+
+
+def _function_calls():
+    ev, frames, ts, te, crf = _akf_inputs()
+    img, ref = np.full((8, 8), 0.5), np.linspace(0.1, 1.0, 64).reshape(8, 8)
+    for name in ("contrast", "max_intensity", "bit_depth"):
+        yield (f"reconstruct.{name}", lambda v, name=name: akf.reconstruct(ev, frames, ts, te, crf, [20_500],
+                                                                            **{name: v}), name == "max_intensity",
+               False)
+    for name in ("crossover_hz", "alpha", "i0", "adaptive_factor", "adaptive_margin"):
+        def cf(v, name=name):
+            kw = {name: v} if name != "alpha" else {"alpha": v, "crossover_hz": None}
+            return akf.complementary_filter(ev, frames, ts, te, crf, [20_500], **kw)
+        yield f"complementary_filter.{name}", cf, name in ("crossover_hz", "alpha"), False
+    def image(v):  # a hostile number fills an image; other values are the image
+        return np.full((8, 8), v) if isinstance(v, (int, float, complex, np.generic)) else v
+
+    for metric in akf.metrics.METRICS:
+        yield (f"metrics.{metric}", lambda v, metric=metric: akf.metrics.score(metric, image(v), ref, white=1.0),
+               False, False)
+    yield "metrics.psnr.data_range", lambda v: akf.metrics.psnr(img, ref, data_range=v), True, False
+    yield "metrics.pu21_ssim.luminance_scale", lambda v: akf.metrics.pu21_ssim(img, ref, luminance_scale=v), False, \
+        False
+
+
+def test_api_parameters_of_hostile_kinds_are_refused_naming_the_parameter():
+    """Each parameter with each hostile value: accepted only when the value is a real number (a bool only for a
+    bool field, None only where None is the documented default), else an EvsimInputError whose message names the
+    parameter; never another exception."""
+    failures, outcomes = [], {"valid": 0, "error": 0}
+    calls = [*_dataclass_calls(), *_scene_calls(), *_function_calls()]
+    for what, call, none_ok, bool_field in calls:
+        param = what.rsplit(".", 1)[-1]
+        for v in HOSTILE_API:
+            try:
+                call(v)
+            except EvsimInputError as e:
+                outcomes["error"] += 1
+                if param not in str(e) and not what.startswith("metrics."):
+                    failures.append(f"{what}={v!r}: the message does not name {param}: {e}")
+                continue
+            except Exception as e:  # noqa: BLE001 - the point of the test
+                failures.append(f"{what}={v!r}: undocumented {type(e).__name__}: {e}")
+                continue
+            outcomes["valid"] += 1
+            kind_ok = (v is None and none_ok) or (isinstance(v, (bool, np.bool_)) and bool_field)
+            if (isinstance(v, _NOT_A_NUMBER) or type(v) is object) and not kind_ok and not what.startswith("metrics."):
+                failures.append(f"{what}={v!r}: silently accepted")
+    assert not failures, f"{len(failures)} failures:\n" + "\n".join(failures[:30])
+    assert outcomes["error"] > outcomes["valid"]
+    print(len(calls), "parameters,", outcomes)

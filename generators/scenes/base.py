@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from sim import EvsimInputError, InvalidParameterError
+from sim.errors import check_int, check_number, check_real
 
 
 class Scene:
@@ -38,14 +39,10 @@ class Scene:
         cls.__init__ = checked_init
 
     def _init_size(self, height: int, width: int, duration_us: int) -> None:
-        for name, v in (("height", height), ("width", width)):
-            if int(v) != v or v < 1:
-                raise InvalidParameterError(f"{type(self).__name__}: {name} must be a positive integer, got {v!r}")
-        if int(duration_us) != duration_us or duration_us < 1:
-            raise InvalidParameterError(
-                f"{type(self).__name__}: duration_us must be a positive integer (microseconds), got {duration_us!r}"
-            )
-        self.height, self.width, self.duration_us = int(height), int(width), int(duration_us)
+        owner = type(self).__name__
+        self.height, self.width = (check_int(f"{owner}: {name}", v, minimum=1, unit="pixels")
+                                   for name, v in (("height", height), ("width", width)))
+        self.duration_us = check_int(f"{owner}: duration_us", duration_us, minimum=1, unit="microseconds")
 
     def radiance(self, t_us: int) -> np.ndarray:
         """Linear radiance at time t_us (microseconds, in [0, duration_us]): float32 (height, width), >= 0."""
@@ -53,8 +50,11 @@ class Scene:
             raise EvsimInputError(
                 f"{type(self).__name__}: t_us={t_us} is outside the source's time range [0, {self.duration_us}] us"
             )
-        img = self._render(int(t_us))
-        return np.ascontiguousarray(img, dtype=np.float32)
+        img = np.ascontiguousarray(self._render(int(t_us)), dtype=np.float32)
+        if img.size and not img.max() < np.inf:  # NaN (max propagates it) or beyond float32 (3.4e38)
+            raise InvalidParameterError(f"{type(self).__name__}: the radiance at t={t_us} us is not finite (NaN, or "
+                                        "beyond float32's 3.4e38): check the scene's parameters")
+        return img
 
     def log_radiance(self, t_us: int) -> np.ndarray:
         """Natural log of radiance(t_us) (float64); -inf where the radiance is exactly zero."""
@@ -77,12 +77,33 @@ class Scene:
 
 
 def positive(name: str, value: float, owner: str, *, allow_zero: bool = False) -> float:
-    """Validate a finite positive (or non-negative) scalar parameter and return it as float."""
-    v = float(value)
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        need = "non-negative" if allow_zero else "positive"
-        raise InvalidParameterError(f"{owner}: {name} must be a finite {need} number, got {value!r}")
+    """A finite real number (not a bool or a string) > 0 (>= 0 with allow_zero), as a float; InvalidParameterError
+    naming owner and parameter otherwise."""
+    return check_number(f"{owner}: {name}", value, positive=not allow_zero)
+
+
+MAX_RADIANCE = 1e30  # radiance levels (and gains) at most this: rendered in float32 (max 3.4e38) with room to spare
+
+
+def level(name: str, value: float, owner: str, *, allow_zero: bool = False) -> float:
+    """A radiance level or gain: as positive(), and at most MAX_RADIANCE."""
+    v = positive(name, value, owner, allow_zero=allow_zero)
+    if v > MAX_RADIANCE:
+        raise InvalidParameterError(f"{owner}: {name} must be at most {MAX_RADIANCE:g} (radiance is rendered in "
+                                    f"float32), got {value!r}")
     return v
+
+
+def number(name: str, value: float, owner: str) -> float:
+    """A finite real number of any sign (not a bool or a string), as a float (speeds, angles, positions)."""
+    return check_real(f"{owner}: {name}", value)
+
+
+def numbers(name: str, values: tuple[float, ...], owner: str, n: int = 2) -> tuple[float, ...]:
+    """A sequence of n finite real numbers (a velocity, a position), as a tuple of floats."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") or len(values) != n:
+        raise InvalidParameterError(f"{owner}: {name} must be {n} numbers, got {values!r}")
+    return tuple(number(f"{name}[{i}]", v, owner) for i, v in enumerate(values))
 
 
 def _check_finite(owner: str, params, where: str = "") -> None:

@@ -45,6 +45,7 @@ import numpy as np
 from numba import njit
 
 from sim import InvalidParameterError
+from sim.errors import check_number
 from sim.parallel import in_parallel  # row blocks on numba's thread count (the kernels are nogil)
 
 from ..choices import DIS_PRESET_NAMES, FLOW_METHODS
@@ -57,6 +58,7 @@ _FB_ALPHA, _FB_BETA = 0.01, 0.5  # forward-backward consistency: relative (1) an
 _WEIGHT_FLOOR = 1e-3
 _MIN_ROWS = 32  # rows per thread, at least
 FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
+DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below this (pixels)
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
 
 
@@ -67,6 +69,9 @@ class FlowEstimator:
     log_range: (low, high) log radiance mapped to 0..255 for the flow computation (values outside are clipped).
     scale: the flow is computed on the frames area-resized by this factor (0 < scale <= 1) and resized back
         (bilinear, vectors divided by the factor); 0.5 (default) costs about a quarter of the full-size flow.
+    DIS needs frames of at least DIS_MIN_SIDE pixels per side: with DIS the scale is raised where the scaled frames
+    would be smaller (up to full size), and frames smaller than that at full size are padded by edge replication
+    (the flow is cropped back); flow_note(shape) says so for a frame size. Farneback takes any size.
     """
 
     def __init__(self, log_range: tuple[float, float], method: str = "dis", preset: str = "medium",
@@ -78,7 +83,7 @@ class FlowEstimator:
         low, high = (float(v) for v in log_range)
         if not (np.isfinite(low) and np.isfinite(high) and high > low):
             raise InvalidParameterError(f"log_range must be finite with high > low, got {log_range!r}")
-        if not (0 < scale <= 1):
+        if not check_number("flow scale", scale, positive=True) <= 1:
             raise InvalidParameterError(f"flow scale must be in (0, 1], got {scale!r}")
         self.method, self.preset, self.log_range, self.scale = method, preset, (low, high), float(scale)
         self._dis = cv2.DISOpticalFlow_create(DIS_PRESETS[preset]) if method == "dis" else None
@@ -87,19 +92,45 @@ class FlowEstimator:
         return {"method": self.method, **({"preset": self.preset} if self.method == "dis" else {}),
                 "log_range": list(self.log_range), "scale": self.scale}
 
+    def flow_size(self, shape: tuple[int, int]) -> tuple[int, int]:
+        """(height, width) of the frames the flow is computed on, for frames of `shape` (see the class docstring)."""
+        h, w = shape
+        scale = self.scale
+        if self._dis is not None and min(round(h * scale), round(w * scale)) < DIS_MIN_SIDE:
+            scale = min(1.0, DIS_MIN_SIDE / min(h, w))
+        return (h, w) if scale == 1 else (max(1, round(h * scale)), max(1, round(w * scale)))
+
+    def flow_note(self, shape: tuple[int, int]) -> str | None:
+        """What differs from the configured scale for frames of `shape` (None: nothing)."""
+        if self._dis is None:
+            return None
+        fh, fw = self.flow_size(shape)
+        if min(fh, fw) < DIS_MIN_SIDE:
+            return (f"frames of {shape[1]}x{shape[0]} px are below DIS's minimum of {DIS_MIN_SIDE} px per side: the "
+                    f"flow is computed at full size on frames padded by edge replication")
+        if (fh, fw) != (max(1, round(shape[0] * self.scale)), max(1, round(shape[1] * self.scale))):
+            return (f"the flow is computed at {fw}x{fh} px, not at scale {self.scale:g}: DIS needs at least "
+                    f"{DIS_MIN_SIDE} px per side")
+        return None
+
     def to_u8(self, log_img: np.ndarray) -> np.ndarray:
         low, high = self.log_range
         u8 = cv2.convertScaleAbs(log_img, alpha=255.0 / (high - low), beta=-255.0 * low / (high - low))
-        if self.scale == 1:
+        fh, fw = self.flow_size(u8.shape)
+        if (fh, fw) == u8.shape:
             return u8
-        h, w = u8.shape
-        size = (max(1, round(w * self.scale)), max(1, round(h * self.scale)))
-        return cv2.resize(u8, size, interpolation=cv2.INTER_AREA)
+        return cv2.resize(u8, (fw, fh), interpolation=cv2.INTER_AREA)
 
     def flow(self, u8_from: np.ndarray, u8_to: np.ndarray) -> np.ndarray:
         """float32 (H, W, 2) flow (dx, dy) in pixels: pixel p of `from` is at p + flow(p) in `to`."""
         if self._dis is not None:
-            return self._dis.calc(u8_from, u8_to, None)
+            h, w = u8_from.shape
+            if min(h, w) >= DIS_MIN_SIDE:
+                return self._dis.calc(u8_from, u8_to, None)
+            pad = dict(top=0, bottom=max(0, DIS_MIN_SIDE - h), left=0, right=max(0, DIS_MIN_SIDE - w),
+                       borderType=cv2.BORDER_REPLICATE)
+            padded = self._dis.calc(cv2.copyMakeBorder(u8_from, **pad), cv2.copyMakeBorder(u8_to, **pad), None)
+            return np.ascontiguousarray(padded[:h, :w])
         return cv2.calcOpticalFlowFarneback(u8_from, u8_to, None, *_FARNEBACK)
 
     def pair(self, log0: np.ndarray, log1: np.ndarray, **kwargs: Any) -> FlowPair:

@@ -19,8 +19,9 @@ import cv2
 import numpy as np
 
 from sim import EvsimInputError, InvalidParameterError
+from sim.errors import check_int
 
-from .base import Scene, positive
+from .base import Scene, level, number, numbers, positive
 from .luminance import to_luminance
 
 _INTERPOLATION = {"linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
@@ -55,17 +56,13 @@ class Trajectory:
     shake_seed: int = 0
 
     def __post_init__(self):
-        if len(self.pan_px_per_s) != 2:
-            raise InvalidParameterError(f"Trajectory: pan_px_per_s must be (vx, vy), got {self.pan_px_per_s!r}")
-        object.__setattr__(self, "pan_px_per_s", tuple(float(v) for v in self.pan_px_per_s))
-        if not all(math.isfinite(v) for v in self.pan_px_per_s):
-            raise InvalidParameterError(f"Trajectory: pan_px_per_s must be finite, got {self.pan_px_per_s!r}")
-        for name in ("zoom_per_s", "rotation_deg_per_s", "shake_px", "shake_deg", "shake_hz"):
-            if not math.isfinite(float(getattr(self, name))):
-                raise InvalidParameterError(f"Trajectory: {name} must be finite, got {getattr(self, name)!r}")
-        positive("shake_px", self.shake_px, "Trajectory", allow_zero=True)
-        positive("shake_deg", self.shake_deg, "Trajectory", allow_zero=True)
-        positive("shake_hz", self.shake_hz, "Trajectory")
+        object.__setattr__(self, "pan_px_per_s", numbers("pan_px_per_s", self.pan_px_per_s, "Trajectory"))
+        for name in ("zoom_per_s", "rotation_deg_per_s"):
+            object.__setattr__(self, name, number(name, getattr(self, name), "Trajectory"))
+        for name in ("shake_px", "shake_deg", "shake_hz"):
+            object.__setattr__(self, name, positive(name, getattr(self, name), "Trajectory",
+                                                    allow_zero=name != "shake_hz"))
+        object.__setattr__(self, "shake_seed", check_int("Trajectory: shake_seed", self.shake_seed, minimum=0))
         phases = np.random.default_rng(self.shake_seed).uniform(0, 2 * np.pi, size=(3, 3))
         object.__setattr__(self, "_phases", phases)
 
@@ -132,7 +129,10 @@ def load_image(path: str | Path, *, channel: str | int | None = None, crf: str |
             raise EvsimInputError(f"cannot read Radiance image {path}")
         img = img[..., ::-1] if img.ndim == 3 else img
     elif suffix == ".npy":
-        img = np.load(path, allow_pickle=False)
+        try:
+            img = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as e:  # not .npy, truncated, or an object array (pickles refused)
+            raise EvsimInputError(f"cannot read {path} as a numpy array: {e}") from None
     else:
         raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if raw is None:
@@ -243,14 +243,17 @@ class ImageMotionScene(Scene):
             raise InvalidParameterError(f"ImageMotionScene: border must be one of {sorted(_BORDER)}, got {border!r}")
         self.trajectory = trajectory or Trajectory()
         self.interpolation, self.border = interpolation, border
-        self.border_value = positive("border_value", border_value, "ImageMotionScene", allow_zero=True)
-        self.gain = positive("gain", gain, "ImageMotionScene")
+        self.border_value = level("border_value", border_value, "ImageMotionScene", allow_zero=True)
+        self.gain = level("gain", gain, "ImageMotionScene")
         self.name = name
         scale = (min(sh / self.height, sw / self.width) if scale is None
                  else positive("scale", scale, "ImageMotionScene"))
-        if isinstance(supersample, bool) or int(supersample) != supersample or supersample < 1:
-            raise InvalidParameterError(f"ImageMotionScene: supersample must be a positive integer, "
-                                        f"got {supersample!r}")
+        supersample = check_int("ImageMotionScene: supersample", supersample, minimum=1)
+        if not isinstance(prefilter, (bool, np.bool_)):
+            raise InvalidParameterError(f"ImageMotionScene: prefilter must be a bool, got {prefilter!r}")
+        if trajectory is not None and not isinstance(trajectory, Trajectory):
+            raise InvalidParameterError(f"ImageMotionScene: trajectory must be a Trajectory, got "
+                                        f"{type(trajectory).__name__}")
         self.scale = scale
         self.supersample = int(supersample) if scale > 1 else 1
         self.prefilter = bool(prefilter)

@@ -13,6 +13,9 @@ import numpy as np
 from sim import EvsimInputError
 
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
+#: negative values down to this fraction of the image's maximum are clipped to 0 (merging and filtering leave such
+#: noise in EXR files); below it an image is refused: radiance is never negative
+NEGATIVE_TOLERANCE = 0.01
 _CHANNELS = {"R": 0, "G": 1, "B": 2}
 
 
@@ -21,9 +24,13 @@ def to_luminance(image: np.ndarray, channel: str | int | None = None) -> np.ndar
 
     channel: None for Rec. 709 luminance of the first three channels (a fourth, alpha, is ignored; a 1-channel
     image is returned as is), or "R"/"G"/"B"/an integer index to select one channel. Small negative values
-    (EXR files may hold them from merging or filtering) are clipped to 0; NaN/inf raise EvsimInputError.
+    (EXR files may hold them from merging or filtering: at most NEGATIVE_TOLERANCE times the image's maximum) are
+    clipped to 0; larger ones, NaN/inf and values that are not real numbers (bool, complex, object) raise
+    EvsimInputError.
     """
     img = np.asarray(image)
+    if img.dtype.kind not in "iuf":
+        raise EvsimInputError(f"an image must hold real numbers (integer or float), got dtype {img.dtype}")
     if img.ndim == 3 and img.shape[2] == 1:
         img = img[..., 0]
     if img.ndim == 2:
@@ -46,4 +53,9 @@ def to_luminance(image: np.ndarray, channel: str | int | None = None) -> np.ndar
         raise EvsimInputError(f"an image must have shape (H, W) or (H, W, C), got {img.shape}")
     if not np.all(np.isfinite(y)):
         raise EvsimInputError("image holds NaN or infinite values")
+    limit = NEGATIVE_TOLERANCE * max(float(y.max()), 0.0) if y.size else 0.0
+    if y.size and y.min() < -limit:
+        raise EvsimInputError(f"image holds negative radiance down to {y.min():.4g}: radiance is never negative "
+                              f"(values down to {-limit or 0.0:.4g}, {NEGATIVE_TOLERANCE:g} x the image's maximum, "
+                              "are taken as rounding noise and clipped to 0)")
     return np.maximum(y, 0.0, out=y)

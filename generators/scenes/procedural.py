@@ -17,12 +17,13 @@ import math
 import numpy as np
 
 from sim import InvalidParameterError
+from sim.errors import check_int
 
-from .base import Scene, positive
+from .base import Scene, level, number, numbers, positive
 
 
 def _levels(owner: str, low: float, high: float) -> tuple[float, float]:
-    low, high = positive("low", low, owner), positive("high", high, owner)
+    low, high = level("low", low, owner), level("high", high, owner)
     if high <= low:
         raise InvalidParameterError(f"{owner}: high={high} must exceed low={low}")
     return low, high
@@ -54,8 +55,8 @@ class MovingEdge(Scene):
     def __init__(self, height: int, width: int, duration_us: int, *, speed_px_per_s: float = 100.0,
                  x0: float | None = None, low: float = 0.05, high: float = 1.0):
         self._init_size(height, width, duration_us)
-        self.speed = float(speed_px_per_s)
-        self.x0 = width / 4 if x0 is None else float(x0)
+        self.speed = number("speed_px_per_s", speed_px_per_s, "MovingEdge")
+        self.x0 = self.width / 4 if x0 is None else number("x0", x0, "MovingEdge")
         self.low, self.high = _levels("MovingEdge", low, high)
 
     def edge_x(self, t_us: float) -> float:
@@ -95,8 +96,8 @@ class Checkerboard(Scene):
                  origin: tuple[float, float] = (0.0, 0.0)):
         self._init_size(height, width, duration_us)
         self.square = positive("square_px", square_px, "Checkerboard")
-        self.vx, self.vy = (float(v) for v in velocity_px_per_s)
-        self.origin = tuple(float(v) for v in origin)
+        self.vx, self.vy = numbers("velocity_px_per_s", velocity_px_per_s, "Checkerboard")
+        self.origin = numbers("origin", origin, "Checkerboard")
         self.low, self.high = _levels("Checkerboard", low, high)
 
     @property
@@ -133,10 +134,10 @@ class RotatingBar(Scene):
                  length_px: float | None = None, thickness_px: float = 4.0, angle0_deg: float = 0.0,
                  low: float = 0.05, high: float = 1.0):
         self._init_size(height, width, duration_us)
-        self.omega = float(angular_speed_deg_s)
+        self.omega = number("angular_speed_deg_s", angular_speed_deg_s, "RotatingBar")
         self.length = 0.8 * min(height, width) if length_px is None else positive("length_px", length_px, "RotatingBar")
         self.thickness = positive("thickness_px", thickness_px, "RotatingBar")
-        self.angle0 = float(angle0_deg)
+        self.angle0 = number("angle0_deg", angle0_deg, "RotatingBar")
         self.low, self.high = _levels("RotatingBar", low, high)
         self.centre = ((width - 1) / 2, (height - 1) / 2)
 
@@ -173,15 +174,13 @@ class RotatingDisk(Scene):
                  radius_px: float | None = None, sectors: int = 4, angle0_deg: float = 0.0, low: float = 0.05,
                  high: float = 1.0, background: float = 0.2):
         self._init_size(height, width, duration_us)
-        self.omega = float(angular_speed_deg_s)
+        self.omega = number("angular_speed_deg_s", angular_speed_deg_s, "RotatingDisk")
         self.radius = (0.45 * min(height, width) if radius_px is None
                        else positive("radius_px", radius_px, "RotatingDisk"))
-        if int(sectors) != sectors or sectors < 1:
-            raise InvalidParameterError(f"RotatingDisk: sectors must be a positive integer, got {sectors!r}")
-        self.sectors = int(sectors)
-        self.angle0 = float(angle0_deg)
+        self.sectors = check_int("RotatingDisk: sectors", sectors, minimum=1)
+        self.angle0 = number("angle0_deg", angle0_deg, "RotatingDisk")
         self.low, self.high = _levels("RotatingDisk", low, high)
-        self.background = positive("background", background, "RotatingDisk")
+        self.background = level("background", background, "RotatingDisk")
         self.centre = ((width - 1) / 2, (height - 1) / 2)
 
     def angle_deg(self, t_us: float) -> float:
@@ -221,12 +220,12 @@ class FlickeringLight(Scene):
                  radius_px: float | None = None):
         self._init_size(height, width, duration_us)
         self.frequency = positive("frequency_hz", frequency_hz, "FlickeringLight")
-        self.mean = positive("mean", mean, "FlickeringLight")
-        self.depth = float(depth)
+        self.mean = level("mean", mean, "FlickeringLight")
+        self.depth = number("depth", depth, "FlickeringLight")
         if not 0 <= self.depth < 1:
             raise InvalidParameterError(f"FlickeringLight: depth must be in [0, 1), got {depth!r}")
-        self.phase = float(phase_rad)
-        self.background = positive("background", background, "FlickeringLight")
+        self.phase = number("phase_rad", phase_rad, "FlickeringLight")
+        self.background = level("background", background, "FlickeringLight")
         self.radius = (0.25 * min(height, width) if radius_px is None
                        else positive("radius_px", radius_px, "FlickeringLight"))
         centre = ((width - 1) / 2, (height - 1) / 2)
@@ -259,11 +258,11 @@ class SunPatch(Scene):
                  radius_px: float | None = None, start: tuple[float, float] | None = None,
                  velocity_px_per_s: tuple[float, float] = (30.0, 10.0)):
         self._init_size(height, width, duration_us)
-        self.sun = positive("sun", sun, "SunPatch")
-        self.dark = positive("dark", dark, "SunPatch")
+        self.sun = level("sun", sun, "SunPatch")
+        self.dark = level("dark", dark, "SunPatch")
         self.radius = 0.08 * min(height, width) if radius_px is None else positive("radius_px", radius_px, "SunPatch")
-        self.start = (width / 3, height / 3) if start is None else tuple(float(v) for v in start)
-        self.vx, self.vy = (float(v) for v in velocity_px_per_s)
+        self.start = (self.width / 3, self.height / 3) if start is None else numbers("start", start, "SunPatch")
+        self.vx, self.vy = numbers("velocity_px_per_s", velocity_px_per_s, "SunPatch")
         yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
         self._background = self.dark * (1 + 0.5 * np.sin(2 * np.pi * xx / 23) * np.sin(2 * np.pi * yy / 17))
 

@@ -43,6 +43,7 @@ import cv2
 import numpy as np
 
 from sim import EvsimInputError, InvalidParameterError
+from sim.errors import check_int
 
 from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
@@ -354,9 +355,7 @@ class VideoScene(Scene):
         self.start_s, self.stop_s = start_s, stop_s
         self.upsample, self.channel = upsample, channel
         self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
-        if isinstance(max_keys, bool) or int(max_keys) != max_keys or max_keys < 1:
-            raise InvalidParameterError(f"VideoScene: max_keys must be a positive integer, got {max_keys!r}")
-        self.max_keys = int(max_keys)
+        self.max_keys = check_int("VideoScene: max_keys", max_keys, minimum=1)
         self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
         h0, w0 = self._input.size
         if height is None and width is None:
@@ -531,6 +530,9 @@ class VideoScene(Scene):
         if self.upsample == "flow":
             up.update(self._flow.describe(), occlusion="forward-backward consistency", blend="log radiance",
                       key_step_px=self.key_step_px, max_keys=self.max_keys)
+            note = self._flow.flow_note((self.height, self.width))
+            if note:
+                up["note"] = note
         elif self.upsample == "linear":
             up["blend"] = "linear in time in log(I + log_eps)"
         return {
