@@ -12,6 +12,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
+#: the ITU-R BT.709 luminance weights of linear R, G, B
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
 _CHANNELS = {"R": 0, "G": 1, "B": 2}
 
