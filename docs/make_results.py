@@ -96,7 +96,7 @@ def machine_block(m: dict, extra: str = "") -> list[str]:
 def fmt(v: float, digits: int = 4) -> str:
     if isinstance(v, str):
         return v
-    return f"{v:.{digits}g}"
+    return f"{v:#.{digits}g}"
 
 
 # ----- benchmarks --------------------------------------------------------------------------------------------------
