@@ -58,6 +58,11 @@ if TYPE_CHECKING:
     #: a keep-mask: one bool per event, True where the event is kept
     KeepMask = npt.NDArray[np.bool_]
 
+__all__ = ["FILTERS", "DenoiseFilter", "get_filter", "filter_available", "keep_mask", "TIME_GRID_US",
+           "CorrelationFilter", "correlation_filter", "hot_pixel_map", "hot_pixel_filter", "dv_background_activity",
+           "dv_knoise", "dv_fast_decay", "tonic_denoise", "DenoiseDependencyError", "DENOISE_EXTRA_HINT"]
+
+#: how to install the optional libraries of the wrapped filters (said by DenoiseDependencyError)
 DENOISE_EXTRA_HINT = 'pip install "evsim[denoise]"'
 _NEVER_US = np.iinfo(np.int64).min // 4  # "no event yet": older than any window
 
@@ -213,6 +218,7 @@ def tonic_denoise(events: np.ndarray, height: int, width: int, filter_time_us: f
 
 # ----- the registry -------------------------------------------------------------------------------------------------
 
+#: the time windows (microseconds) an ROC sweeps for the filters whose parameter is a time
 TIME_GRID_US = (100, 300, 1000, 3000, 10_000, 30_000, 100_000, 300_000)
 
 
@@ -232,6 +238,7 @@ class DenoiseFilter:
     summary: str
 
 
+#: filter name -> DenoiseFilter (its function, main parameter, default and ROC grid)
 FILTERS = {f.name: f for f in (
     DenoiseFilter("correlation", correlation_filter, "window_us", "us", 2000, TIME_GRID_US, None,
                   "evsim spatio-temporal correlation (8 neighbours, support 1)"),

@@ -25,6 +25,8 @@ if TYPE_CHECKING:
     #: the reconstruction scores of evaluate_sequence: {method: {metric: mean value}}
     ScoreTable = dict[str, dict[str, float]]
 
+__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names"]
+
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
 METHODS = {"akf": reconstruct, **BASELINES}

@@ -141,6 +141,7 @@ def log_mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
     return float(np.mean((np.log(x + LOG_EPS) - np.log(ref + LOG_EPS)) ** 2))
 
 
+#: metric name -> function(x, ref, ...) of an image against its reference (see NORMALISATION)
 METRICS = {"mse01": mse01, "ssim01": ssim01, "mse": mse, "psnr": psnr, "ssim": ssim, "log_mse": log_mse,
            "pu21_psnr": pu21_psnr, "pu21_ssim": pu21_ssim}
 #: the metrics that take the white level of the [0, 1] protocol

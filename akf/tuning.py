@@ -51,10 +51,14 @@ if TYPE_CHECKING:
 
         def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Sequence[str]) -> dict[str, float]: ...
 
+__all__ = ["SEARCH_SPACES", "DEFAULTS", "Tuned", "tune", "tune_cases", "setting_options", "default_setting",
+           "describe_setting"]
+
 _CONTRAST = (0.67, 0.8, 1.0, 1.25, 1.5)
 _ALPHA = (1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0)
 _NOISE = (1 / 16, 0.25, 1.0, 4.0, 16.0)
 _BOUND = (1.0, 4.0, 16.0, 64.0, None)
+#: method -> {parameter: the grid the tuning searches} (the parameters are listed in the module docstring)
 SEARCH_SPACES = {
     "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,
             "max_intensity": _BOUND},
@@ -64,6 +68,7 @@ SEARCH_SPACES = {
     "frames": {},
     "frames_linear": {},
 }
+#: the untuned value of every search parameter, where the search starts
 DEFAULTS = {"contrast_scale": 1.0, "alpha": 2 * math.pi * 0.5, "event_noise_scale": 1.0, "frame_noise_scale": 1.0,
             "max_intensity": 1.0}
 

@@ -5,7 +5,7 @@ peak memory.
 Synthetic input: spatially coherent random-walk events (walkers stepping one pixel per event, random polarity)
 at the requested rate, and 8-bit frames of a smooth pattern through the AHDR window CRF.
 
-    python bench/bench_akf.py [--rate 10e6] [--seconds 1.0] [--threads N] [--repeat 3]
+    python bench/bench_akf.py [--rate 10e6] [--seconds 1.0] [--threads N] [--repeat 3] [--json FILE]
 
 Prints throughput (events/s, excluding the one-off numba compilation) against wall-clock and against the process's
 CPU time (the fairer figure on a shared machine: with N threads it is the work, not the elapsed time), the best of
@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import argparse
 import functools
+import json
 import resource
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 
@@ -60,6 +62,7 @@ def main() -> None:
                          "in parallel")
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per method (the best is printed)")
     ap.add_argument("--leak-hz", type=float, default=0.0, help="the AKF's leak_rate_hz (0: the paper's event model)")
+    ap.add_argument("--json", type=Path, help="also write the results to this JSON file")
     args = ap.parse_args()
 
     import numba
@@ -80,6 +83,9 @@ def main() -> None:
     # warm-up on the first 3 frames, with events between them and 2 published images: every kernel the timed run
     # uses is compiled (or loaded from the numba cache) here, not timed
     warm_events = events[: np.searchsorted(events["t"], ts[3])][::50]
+    results = {"bench": "bench_akf", "events": int(events.size), "seconds": args.seconds, "size": f"{W}x{H}",
+               "frames": len(frames), "published": len(out_t), "threads": threads, "leak_hz": args.leak_hz,
+               "repeat": args.repeat, "methods": {}}
     for name, fn in methods:
         fn(warm_events, frames[:3], ts[:3], te[:3], crf, out_t[:2])
         dt = cpu = float("inf")
@@ -94,8 +100,12 @@ def main() -> None:
         print(f"{name:4s} {events.size / dt / 1e6:7.2f} M events/s wall ({dt:.3f} s, best of {args.repeat}), "
               f"{events.size / cpu / 1e6:7.2f} M events/s of CPU time ({cpu:.3f} s)  "
               f"peak traced memory {peak / 2**20:.1f} MiB (output {len(out_t) * H * W * 4 / 2**20:.1f} MiB)")
-    print(f"process max RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB "
-          "(includes the input events and frames)")
+        results["methods"][name] = {"wall_s": dt, "cpu_s": cpu, "events_per_s": events.size / dt,
+                                    "events_per_cpu_s": events.size / cpu, "peak_traced_mib": peak / 2**20}
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"process max RSS {rss:.0f} MiB (includes the input events and frames)")
+    if args.json:
+        args.json.write_text(json.dumps({**results, "max_rss_mib": rss}, indent=1))
 
 
 if __name__ == "__main__":

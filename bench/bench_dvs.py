@@ -6,7 +6,7 @@ fed --block at a time. For 346x260 and 1280x720 it prints pixel-frames/s, frames
 pixel-frames per CPU-second (steadier on a shared machine) and peak memory (traced allocations over two more
 untimed blocks, and max RSS), and the same for a bare one-thread numba kernel of the ESIM rule fed the same blocks
 in the same loop (the ratio is the figure to quote on a shared machine). `--block 1` feeds frame by frame, as a
-streaming user does.
+streaming user does. `--json FILE` also writes the figures as JSON (docs/make_results.py reads it).
 
     python bench/bench_dvs.py --frames 3000 --frames-hd 300 --preset davis346 --speed 0.2
 """
@@ -14,10 +14,12 @@ streaming user does.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import resource
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -80,7 +82,7 @@ class TexturedScene:
         return out
 
 
-def run(height: int, width: int, n_frames: int, preset: str, fps: float, block: int, speed: float) -> None:
+def run(height: int, width: int, n_frames: int, preset: str, fps: float, block: int, speed: float) -> dict:
     scene = TexturedScene(height, width, speed_px=speed)
     dt = int(round(1e6 / fps))
     emu = sim.DVSEmulator(height, width, sim.DVSParams.preset(preset), seed=0)
@@ -138,6 +140,13 @@ def run(height: int, width: int, n_frames: int, preset: str, fps: float, block: 
         f"({bare_events / n_frames:.0f} events/frame), CPU time {bare_cpu:.2f} s; emulator / bare speed: "
         f"{bare_wall / elapsed:.2f}x wall clock, {bare_cpu / cpu:.2f}x per CPU-second"
     )
+    return {"size": f"{width}x{height}", "preset": preset, "frames": n_frames, "fps": fps, "block": block,
+            "contrast": float(q[1] / q[0]), "wall_s": elapsed, "cpu_s": cpu, "events": n_events,
+            "pixel_frames_per_s": px_frames / elapsed, "frames_per_s": n_frames / elapsed,
+            "events_per_s": n_events / elapsed, "events_per_frame": n_events / n_frames,
+            "pixel_frames_per_cpu_s": px_frames / cpu, "peak_traced_mib": peak / 2**20, "max_rss_mib": rss_mb,
+            "bare_frames_per_s": n_frames / bare_wall, "bare_cpu_s": bare_cpu,
+            "speed_vs_bare_wall": bare_wall / elapsed, "speed_vs_bare_cpu": bare_cpu / cpu}
 
 
 def main() -> None:
@@ -148,13 +157,17 @@ def main() -> None:
     ap.add_argument("--fps", type=float, default=1000.0, help="frame rate of the input video (default 1000)")
     ap.add_argument("--block", type=int, default=0, help="frames per feed() call (default: the emulator's block)")
     ap.add_argument("--speed", type=float, default=0.2, help="scene motion in pixels per frame (default 0.2)")
+    ap.add_argument("--json", type=Path, help="also write the results to this JSON file")
     args = ap.parse_args()
     if min(args.frames, args.frames_hd, args.block) < 0 or args.fps <= 0:
         ap.error("--frames, --frames-hd and --block must be >= 0 and --fps > 0")
+    results = []
     if args.frames > 0:
-        run(260, 346, args.frames, args.preset, args.fps, args.block, args.speed)
+        results.append(run(260, 346, args.frames, args.preset, args.fps, args.block, args.speed))
     if args.frames_hd > 0:
-        run(720, 1280, args.frames_hd, args.preset, args.fps, args.block, args.speed)
+        results.append(run(720, 1280, args.frames_hd, args.preset, args.fps, args.block, args.speed))
+    if args.json:
+        args.json.write_text(json.dumps({"bench": "bench_dvs", "runs": results}, indent=1))
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@
 
     python bench/bench_generate.py [--scene astronaut_pan | --image ../shared/data/hdr/Desk.exr --pan 60 0]
                                    [--duration-s 1] [--compare-dense] [--compression gzip|lzf|none]
-                                   [--memory-duration-s 8] [--skip-memory] [--export]
+                                   [--memory-duration-s 8] [--skip-memory] [--export] [--json FILE]
 """
 
 from __future__ import annotations
@@ -117,6 +117,7 @@ def main() -> None:
                    help="HDF5 compression (default gzip, the generator's default)")
     p.add_argument("--compare-dense", action="store_true",
                    help="also run the dense rendering and compare the events")
+    p.add_argument("--json", type=Path, help="also write the results to this JSON file")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--scene-json", help=argparse.SUPPRESS)
     p.add_argument("--dense", action="store_true", help=argparse.SUPPRESS)
@@ -129,9 +130,11 @@ def main() -> None:
         _child(args)
         return
     name = args.image or args.scene
+    results = {"bench": "bench_generate", "scene": name, "compression": args.compression, "memory": []}
     with tempfile.TemporaryDirectory() as tmp:
         r = _spawn(args, args.duration_s, keep=Path(tmp) / "default.h5")
         _print_split(name, args.compression, r)
+        results["work"] = r
         if args.compare_dense:
             dense = _spawn(args, args.duration_s, keep=Path(tmp) / "dense.h5", dense=True)
             a, b = (_pixel_counts(Path(tmp) / f, 260, 346) for f in ("default.h5", "dense.h5"))
@@ -140,6 +143,7 @@ def main() -> None:
                   f"{r['cpu_s']:.2f} CPU-s ({r['n_dvs_samples']:,} samples), events x{a.sum() / b.sum():.4f}, "
                   f"per-pixel count correlation {np.corrcoef(a, b)[0, 1]:.4f}")
     if args.skip_memory:
+        _write_json(args.json, results)
         return
     print(f"peak memory, 346x260 {name} (generation{'; export of that file to e2vid' if args.export else ''}):")
     for d in (args.memory_duration_s / 4, args.memory_duration_s):
@@ -149,6 +153,13 @@ def main() -> None:
         print(f"  {d:6.1f} s: peak RSS {m['peak_rss_mb']:7.0f} MB ({m['n_events']:,} events, {m['file_mb']:.0f} MB "
               f"file, {m['cpu_s']:.1f} CPU-s)"
               + (f"; export {e['peak_rss_mb']:.0f} MB ({e['wall_s']:.1f} s)" if e else ""))
+        results["memory"].append({**m, "export": e})
+    _write_json(args.json, results)
+
+
+def _write_json(path: Path | None, results: dict) -> None:
+    if path:
+        path.write_text(json.dumps(results, indent=1))
 
 
 def _pixel_counts(path: Path, height: int, width: int):

@@ -35,6 +35,8 @@ if TYPE_CHECKING:
     #: (not a 0-d array) for a scalar input
     FloatValues = npt.NDArray[np.float64] | np.float64
 
+#: the weighting rules f^w of CRF.weight: "derivative" (certainty of the response, eq. 5 of the AKF paper) and
+#: "robertson" (a Gaussian weight of the 8-bit response, as the AKF authors' code uses)
 WEIGHTINGS = ("derivative", "robertson")
 
 # Response grid on which the certainty's normalising slope is searched (see CRF._max_slope).

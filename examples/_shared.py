@@ -6,14 +6,23 @@ import argparse
 from pathlib import Path
 
 
-def output_dir(description: str) -> Path:
-    """Parse --out (default ./examples_out), create the folder and return it."""
+def example_args(description: str = "an evsim teaching example", *, video: bool = False) -> argparse.Namespace:
+    """Parse the examples' flags: --out (default ./examples_out; the folder is created) and, with video=True,
+    --video (a clip to convert instead of the built-in one). sphinx-gallery runs the examples with --out set."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--out", type=Path, default=Path("examples_out"), help="folder for the figures "
                                                                               "(default ./examples_out)")
-    out = parser.parse_args().out
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+    if video:
+        parser.add_argument("--video", type=Path, default=None,
+                            help="a video file to convert (default: a clip made from the built-in astronaut photo)")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    return args
+
+
+def output_dir(description: str = "an evsim teaching example") -> Path:
+    """Parse --out (default ./examples_out), create the folder and return it."""
+    return example_args(description).out
 
 
 def builtin_sequence(path, *, scene=None, height=72, width=96, duration_s=0.5, sensor="ideal", crf="gamma",

@@ -37,6 +37,9 @@ from .sampling import make_sampler
 if TYPE_CHECKING:
     from sim.source import RadianceSource
 
+__all__ = ["AHDRConfig", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
+           "REFERENCE_WHITE_PERCENTILE", "MAX_RATE_HZ", "MAX_REFERENCE_FRAMES", "MAX_FIXED_SAMPLES"]
+
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
              "scikit-image", "tqdm", "isal")
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1

@@ -53,6 +53,10 @@ from .ahdr import AHDRConfig
 from .formats import EXPORT_FORMATS
 from .formats.native import COMPRESSIONS
 
+__all__ = ["load_config", "parse_config", "build_scene", "to_ahdr_config", "DatasetConfig", "SequenceSpec",
+           "SCENE_TYPES", "DEFAULTS", "SWEEP_KEYS", "check_sequence_name"]
+
+#: scene type of a configuration -> what it is and its keys (or the scene class whose keyword arguments they are)
 SCENE_TYPES = {
     "image": "an HDR (or LDR) image file under camera motion: path, trajectory {...}, channel, crf, crf_params, "
              "scale, interpolation, border, gain, supersample (sub-samples per output pixel and axis when the "
@@ -81,8 +85,10 @@ OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": lis
                "compression": str}
 SEQUENCE_KEYS = {"duration_s": float, "height": int, "width": int, "sensor": str, "dvs": dict, "camera": dict,
                  "crf": dict, "sampling": dict, "output": dict}
+#: the DVS parameters a [sweep] table may vary
 SWEEP_KEYS = ("threshold_sigma", "shot_noise_hz", "leak_hz", "refractory_us", "hot_pixel_fraction", "hot_pixel_hz")
 
+#: the settings of a sequence that neither [defaults] nor the sequence sets (see the module docstring)
 DEFAULTS = {
     "duration_s": 1.0, "height": 180, "width": 240, "sensor": "davis346", "dvs": {}, "camera": {},
     "crf": {"name": "window", "params": {}},

@@ -19,6 +19,8 @@ from .config import DatasetConfig, parse_config
 from .dataset import generate_dataset
 from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
 
+__all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS"]
+
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
                  "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")

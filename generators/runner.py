@@ -38,6 +38,8 @@ from sim import EvsimInputError
 if TYPE_CHECKING:
     from distributed import LocalCluster
 
+__all__ = ["run_tasks", "TaskOutcome", "TasksFailed", "local_cluster", "usable_cores"]
+
 _THREAD_ENV = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _SIMPLE = (str, bytes, int, float, bool, type(None), os.PathLike)
 

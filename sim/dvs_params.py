@@ -129,6 +129,7 @@ class DVSParams:
         return dataclasses.replace(self, **changes)
 
 
+#: named DVS configurations (DVSParams.preset(name, **overrides)): "ideal", "davis346" (the defaults) and "noisy"
 PRESETS: dict[str, DVSParams] = {
     # A perfect log-contrast detector: no mismatch, no refractory, no bandwidth limit, no noise.
     "ideal": DVSParams(

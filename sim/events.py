@@ -13,6 +13,7 @@ from .errors import EvsimInputError, UnsortedEventsError
 if TYPE_CHECKING:
     import numpy.typing as npt
 
+#: the event record: t (int64 microseconds), x and y (uint16 pixels), p (int8 polarity, +1 ON or -1 OFF)
 EVENT_DTYPE = np.dtype([("t", np.int64), ("x", np.uint16), ("y", np.uint16), ("p", np.int8)])
 
 

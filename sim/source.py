@@ -9,6 +9,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+__all__ = ["RadianceSource"]
+
 
 @runtime_checkable
 class RadianceSource(Protocol):

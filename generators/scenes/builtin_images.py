@@ -19,6 +19,7 @@ from sim import InvalidParameterError
 from .image_motion import ImageMotionScene, Trajectory, linearise_ldr
 from .luminance import to_luminance
 
+#: the scikit-image photos builtin_hdr_image turns into HDR radiance (no download needed)
 BUILTIN_IMAGES = ("astronaut", "camera", "coffee", "chelsea")
 WINDOW_GAIN, SUN_RADIANCE, SHADOW_GAIN, FLOOR = 8.0, 30.0, 0.02, 1e-3
 

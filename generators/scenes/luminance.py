@@ -12,6 +12,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
+#: the ITU-R BT.709 luminance weights of linear R, G, B
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
 #: negative values down to this fraction of the image's maximum are clipped to 0 (merging and filtering leave such
 #: noise in EXR files); below it an image is refused: radiance is never negative
