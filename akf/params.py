@@ -30,9 +30,9 @@ class AKFParams:
         sigma_ref2: refractory noise (log^2), added when the pixel's previous event is at most rho_bar_us earlier.
         rho_bar_us: upper bound of the refractory period (microseconds). Default 5 ms: events closer than
             this come from a bandwidth-limited pixel (a DAVIS photoreceptor's time constant is ~0.5 ms at full
-            illumination and grows as 1 / illumination, ~5 ms at 10 %), whose log change they under-report;
-            1 ms let the ON burst of a dark-to-bright edge ride on a stale dark state past the next
-            well-exposed frame (the authors' code uses 10 ms; 3-5 ms was best on the AHDR suite).
+            illumination and grows as 1 / illumination, ~5 ms at 10 %), whose log change they under-report. A
+            shorter bound lets the ON burst of a dark-to-bright edge ride on a stale dark state past the next
+            well-exposed frame (the authors' code uses 10 ms; 3-5 ms scores best on the AHDR suite).
     Frame noise (eqs. 6-9):
         sigma_im2: base variance of a frame pixel (x^2); Rbar = sigma_im2 / f^w(response), saturated at
             max_variance (x^2) where f^w ~ 0 (clipped responses).
@@ -44,8 +44,7 @@ class AKFParams:
         i0: offset I0 (x units) in L = log(I + I0); keeps the log finite at I = 0.
         bias_max_variance: the bias correction of eq. 8 subtracts R/2 (log^2 -> log), capped at
             bias_max_variance / 2; clipped pixels get none (a censored response: the expansion does not apply, and
-            the truth lies beyond the clip level, so a shift toward the middle only adds bias; on the AHDR suite,
-            tuned, this lowered the AKF's mean mse01 by 4 %).
+            the truth lies beyond the clip level, so a shift toward the middle only adds bias).
     Filter:
         p0: initial state variance P (log^2) at the start of the first exposure.
     Frame augmentation (section 4.1):
@@ -63,8 +62,8 @@ class AKFParams:
     "so the filter trusts events there"). Where the state is consistent with a clipped frame its pull is then weak
     (a time constant of seconds instead of ~10 ms), so events carry the clipped regions; the drift of event noise
     there is bounded by the output bound (reconstruct's max_intensity, the full well) above and by the strong
-    one-sided pull at the clip level. max_variance was chosen on the built-in AHDR suite with the tuning protocol
-    (evsim_eval), among 100, 3e3, 1e4 and 1e5 times sigma_im2 (CHANGELOG.md, 0.1.0).
+    one-sided pull at the clip level. max_variance is the best of 100, 3e3, 1e4 and 1e5 times sigma_im2 on the
+    built-in AHDR suite with the tuning protocol (evsim_eval).
     """
 
     sigma_proc2: float = 5e-4

@@ -13,9 +13,8 @@ Parameters (all multiplicative or in the method's units):
 - event_noise_scale: multiplies the AKF's event noise (sigma_proc2, sigma_iso2, sigma_ref2).
 - frame_noise_scale: multiplies the AKF's frame noise sigma_im2, the variance of a well-exposed pixel; the
   saturated variance of clipped pixels (max_variance) is the clip's, not noise, and stays (raised to sigma_im2
-  if the scaled noise exceeds it). Scaling both together let the mse01 tuning of HDR photos, whose error sits in
-  clipped highlights, buy a weaker pull of clipped frames with noisier well-exposed pixels (MtTamWest pan ssim01
-  0.5225, below frames-only's 0.5257; 0.5365 with this rule).
+  if the scaled noise exceeds it), so the mse01 tuning of HDR photos, whose error sits in clipped highlights,
+  cannot buy a weaker pull of clipped frames with noisier well-exposed pixels.
 - max_intensity: the output bound (x units; None: unbounded) of every event-based method that has one (the AKF and
   both complementary filters), 1 (the full well) by default. Events can tell what lies above the full well, so
   on HDR content a higher bound may score better; the same grid is searched for each method, last.
