@@ -225,26 +225,51 @@ def _write_e2vid_lines(fe, rec: Recording, chunks) -> None:
 
 def is_e2vid_txt(path: str | Path) -> bool:
     """True for a .txt or .zip file whose first line is two integers ("width height")."""
+    return e2vid_txt_problem(path) is None
+
+
+def e2vid_txt_problem(path: str | Path) -> str | None:
+    """None when `path` is a .txt or .zip file whose first line is two integers ("width height"), else why it is
+    not E2VID text (the reader's own words: a .zip with more than one member, a byte-order mark, ...)."""
     path = Path(path)
-    if not path.is_file() or path.suffix.lower() not in (".txt", ".zip"):
-        return False
+    if not path.is_file():
+        return "no such file"
+    if path.suffix.lower() not in (".txt", ".zip"):
+        return "E2VID text is a .txt or .zip file"
     try:
         with _open_e2vid_text(path) as f:
-            first = f.readline().split()
-    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, DatasetFormatError):
-        return False
-    return len(first) == 2 and all(tok.isdigit() for tok in first)
+            first = f.readline(1024).split()
+    except DatasetFormatError as e:
+        return str(e).removeprefix(f"{path}: ")
+    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, RuntimeError,
+            NotImplementedError) as e:  # zipfile: encrypted members, unsupported compression
+        return f"unreadable ({type(e).__name__}: {e})"
+    if len(first) != 2 or not all(tok.isdigit() for tok in first):
+        return f"its first line must be 'width height', got {' '.join(first)[:60]!r}"
+    return None
+
+
+_BOMS = {b"\xef\xbb\xbf": "UTF-8", b"\xff\xfe": "UTF-16", b"\xfe\xff": "UTF-16"}
 
 
 def _open_e2vid_text(path: Path):
     if path.suffix.lower() != ".zip":
-        return open(path, encoding="ascii")
-    z = zipfile.ZipFile(path)
-    names = z.namelist()
-    if len(names) != 1:
-        z.close()
-        raise fail(path, f"an E2VID .zip holds one text file, found {len(names)}")
-    return io.TextIOWrapper(z.open(names[0]), encoding="ascii")
+        raw = open(path, "rb")
+    else:
+        z = zipfile.ZipFile(path)
+        names = z.namelist()
+        if len(names) != 1:
+            z.close()
+            raise fail(path, f"an E2VID .zip holds one text file, found {len(names)} members "
+                             f"({', '.join(names[:3])}{', ...' if len(names) > 3 else ''})")
+        raw = z.open(names[0])
+    head = raw.peek(3)[:3] if hasattr(raw, "peek") else b""
+    for bom, name in _BOMS.items():
+        if head.startswith(bom):
+            raw.close()
+            raise fail(path, f"starts with a {name} byte-order mark: E2VID text is plain ASCII (save it without "
+                             "a BOM)")
+    return io.TextIOWrapper(raw, encoding="ascii")
 
 
 def read_e2vid_txt(path: str | Path) -> Recording:
@@ -260,6 +285,8 @@ def read_e2vid_txt(path: str | Path) -> Recording:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
                 ev = np.loadtxt(f, dtype=np.float64, ndmin=2, comments="#")
+    except DatasetFormatError:
+        raise
     except (zipfile.BadZipFile, zlib.error, UnicodeDecodeError, OSError, EOFError) as e:
         raise fail(path, f"unreadable E2VID text file (truncated or corrupt?): {e}") from e
     except ValueError as e:
