@@ -374,3 +374,14 @@ def test_aedat4_reader_lets_keyboard_interrupt_through(tmp_path, monkeypatch):
     monkeypatch.setattr(aedat, "Decoder", interrupted)
     with pytest.raises(KeyboardInterrupt):
         load(path)
+
+
+def test_ijrr_threshold_maps_with_a_corrupt_npy_header_is_a_dataset_format_error(tmp_path):
+    # numpy parses the header with tokenize: an unbalanced bracket raises tokenize.TokenError (not a ValueError)
+    exported(make_recording(), tmp_path / "ij", "ijrr")
+    npy = tmp_path / "ij" / "threshold_maps.npy"
+    data = npy.read_bytes()
+    i = data.index(b"(2, 6, 8)") + 8
+    npy.write_bytes(data[:i] + b"," + data[i + 1 :])
+    with pytest.raises(DatasetFormatError, match=r"threshold_maps\.npy: not a readable \.npy array .*TokenError"):
+        load(tmp_path / "ij")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import io
 import json
+import tokenize
 import warnings
 import zipfile
 import zlib
@@ -155,12 +156,21 @@ def read_ijrr(directory: str | Path) -> Recording:
     reference = reference_t = None
     if (d / "reference").is_dir():
         reference, reference_t = read_exr_sequence(d / "reference")
-    thr = np.load(d / "threshold_maps.npy") if (d / "threshold_maps.npy").is_file() else None
+    thr = _load_npy(d / "threshold_maps.npy") if (d / "threshold_maps.npy").is_file() else None
     return Recording(events=events, height=h, width=w, frames=frames, frame_t_start_us=t_start,
                      frame_t_mid_us=t_mid, frame_t_end_us=t_end,
                      frame_bit_depth=int(info.get("frame_bit_depth", depth)), reference=reference,
                      reference_t_us=reference_t, crf=info.get("crf"), threshold_maps=thr, event_labels=labels,
                      metadata=info.get("metadata", {}))
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """np.load of a .npy file (no pickles); what numpy raises on a corrupt header (its parser raises
+    tokenize.TokenError and SyntaxError too) is a DatasetFormatError naming the file."""
+    try:
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError, tokenize.TokenError) as e:
+        raise fail(path, f"not a readable .npy array (corrupt?): {type(e).__name__}: {e}") from e
 
 
 def _read_frames(d: Path):
