@@ -20,7 +20,7 @@ from numba import njit
 WRAP_WINDOW = 256  # a wrap moves time forward by at most 1/WRAP_WINDOW of the counter's range (see time_step_ok)
 
 
-def time_step_ok(prev, new, period):
+def time_step_ok(prev: int | np.ndarray, new: int | np.ndarray, period: int) -> bool | np.ndarray:
     """Whether a time counter of range `period` may read `new` after `prev`: the one rule of every Prophesee reader
     (the 32-bit .dat event time, the 28-bit EVT 2.0 and the 12-bit EVT 3.0 TIME_HIGH).
 
