@@ -2,13 +2,17 @@
 
 Every mutant is a copy of a file (or folder) written by evsim's own writers, changed by one seeded mutation:
 structural ones that keep the container readable (an HDF5 attribute or dataset replaced by a hostile value, a
-dataset's dtype changed, an object deleted, a text token replaced, a .mat variable replaced) and byte-level ones
-(random bytes flipped, truncation, garbage inserted). The oracle lives in the test.
+dataset's dtype changed, an object deleted, a text token replaced, a .mat variable replaced), byte-level ones
+(random bytes flipped, truncation, garbage inserted) and time-order ones that keep everything else intact (a time
+that goes back, a reversed block, a time that jumps ahead, a wrap word of a Prophesee stream that goes back or a
+time just before 0 that a 32-bit counter stores near the top of its range). The oracle lives in the test.
 """
 
 from __future__ import annotations
 
+import io
 import shutil
+import zipfile
 from pathlib import Path
 
 import h5py
@@ -251,3 +255,238 @@ def copy_input(src: Path, dst: Path) -> Path:
     else:
         shutil.copyfile(src, dst)
     return dst
+
+
+# ----- time order ------------------------------------------------------------------------------------------
+
+BACK_US = [1, 7, 1000, 65_536, 1_000_000, 1 << 24, 1 << 31]  # how far a time goes back or jumps ahead
+
+
+def disorder(t: np.ndarray, rng: np.random.Generator, per_us: float = 1.0) -> tuple[np.ndarray, str]:
+    """One time-order corruption of a copy of the time vector t (per_us: units per microsecond, 1e-6 for seconds):
+    a time that goes back, a reversed block, or a time that jumps ahead (never the last: the next then goes back;
+    a later last time is a valid file that no reader can tell from the original)."""
+    t = np.array(t, copy=True)
+    if t.size < 2:
+        return t, "too short to disorder"
+    kind = rng.integers(3)
+    d = BACK_US[rng.integers(len(BACK_US))]
+    if kind == 0:
+        i = int(rng.integers(1, t.size))
+        t[i] = t[i - 1] - (d * per_us if t.dtype.kind == "f" else int(d * per_us) or 1)
+        return t, f"t[{i}] {d} us before t[{i - 1}]"
+    if kind == 1:
+        i = int(rng.integers(0, t.size - 1))
+        j = min(t.size, i + int(rng.integers(2, 64)))
+        t[i:j] = t[i:j][::-1].copy()
+        return t, f"t[{i}:{j}] reversed"
+    i = int(rng.integers(0, t.size - 1))
+    t[i] = t[i] + (d * per_us if t.dtype.kind == "f" else int(d * per_us) or 1)
+    return t, f"t[{i}] {d} us ahead"
+
+
+_H5_TIMES = {"events/t": 1.0, "events/ts": 1e-6, "frames/t_start_us": 1.0, "frames/t_mid_us": 1.0,
+             "frames/t_end_us": 1.0, "reference/t_us": 1.0, "evsim/reference/t_us": 1.0}
+
+
+def mutate_time_h5(path: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of one time dataset (events most often) or of E2VID image timestamps, in place."""
+    with h5py.File(path, "r+") as f:
+        names = [n for n in _H5_TIMES if n in f and f[n].ndim == 1 and f[n].shape[0] >= 2]
+        images = sorted(f["images"]) if "images" in f and "frames" not in f else []
+        if images and rng.random() < 0.25:  # E2VID: image timestamp attributes
+            i = int(rng.integers(1, len(images)))
+            a, prev = f["images"][images[i]].attrs, f["images"][images[i - 1]].attrs
+            d = BACK_US[rng.integers(len(BACK_US))]
+            a["timestamp"] = prev["timestamp"] - d * 1e-6
+            if "t_mid_us" in a:
+                a["t_mid_us"] = int(prev["t_mid_us"]) - d
+            return f"image {images[i]} timestamp {d} us before the previous image's"
+        name = names[0] if rng.random() < 0.5 else names[rng.integers(len(names))]
+        t, desc = disorder(f[name][()], rng, _H5_TIMES[name])
+        f[name][...] = t
+        return f"{name}: {desc}"
+
+
+def _disorder_lines(lines: list[str], rng: np.random.Generator, per_us: float, fmt) -> tuple[list[str], str]:
+    """Time-order corruption of text lines whose first token is a time: a reversed block of lines, or one time
+    moved back or ahead (fmt formats a time)."""
+    rows = [i for i, ln in enumerate(lines) if ln.strip() and not ln.startswith("#")]
+    if len(rows) < 2:
+        return lines, "too few lines"
+    if rng.random() < 0.35:
+        a = int(rng.integers(0, len(rows) - 1))
+        b = min(len(rows), a + int(rng.integers(2, 64)))
+        block = [lines[i] for i in rows[a:b]][::-1]
+        for i, ln in zip(rows[a:b], block):
+            lines[i] = ln
+        return lines, f"lines {rows[a]}..{rows[b - 1]} reversed"
+    t = np.array([float(lines[i].split()[0]) for i in rows])
+    t2, desc = disorder(t, rng, per_us)
+    k = int(np.flatnonzero(t2 != t)[0]) if (t2 != t).any() else 0
+    tokens = lines[rows[k]].split()
+    lines[rows[k]] = " ".join([fmt(t2[k]), *tokens[1:]]) + "\n"
+    return lines, desc
+
+
+def _seconds(v: float) -> str:
+    return f"{v:.6f}"
+
+
+def _micros(v: float) -> str:
+    return str(int(round(v)))
+
+
+def mutate_time_folder(folder: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of an IJRR folder (events.txt most often, images.txt, exposures.txt, the
+    reference's timestamps.txt) or of an EXR folder (timestamps.txt), in place."""
+    choices = [p for p in (folder / "events.txt", folder / "images.txt", folder / "exposures.txt",
+                           folder / "reference" / "timestamps.txt", folder / "timestamps.txt") if p.is_file()]
+    p = choices[0] if rng.random() < 0.5 else choices[rng.integers(len(choices))]
+    us = p.name == "timestamps.txt"
+    lines, desc = _disorder_lines(p.read_text().splitlines(keepends=True), rng, 1.0 if us else 1e-6,
+                                  _micros if us else _seconds)
+    p.write_text("".join(lines))
+    return f"{p.relative_to(folder)}: {desc}"
+
+
+def mutate_time_e2vid_text(path: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of E2VID text (its first line "width height" kept), plain or zipped, in place."""
+    if path.suffix == ".zip":
+        with zipfile.ZipFile(path) as z:
+            name = z.namelist()[0]
+            text = z.read(name).decode("ascii")
+    else:
+        text = path.read_text()
+    lines = text.splitlines(keepends=True)
+    body, desc = _disorder_lines(lines[1:], rng, 1e-6, _seconds)
+    text = "".join(lines[:1] + body)
+    if path.suffix == ".zip":
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
+            z.writestr(name, text)
+        path.write_bytes(buf.getvalue())
+    else:
+        path.write_text(text)
+    return f"{path.name}: {desc}"
+
+
+def mutate_time_mat(path: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of an AKF .mat: event times (rows reversed with their events), frame or reference
+    times, in place."""
+    m = {k: v for k, v in scipy.io.loadmat(path).items() if not k.startswith("__")}
+    names = [k for k in ("time_image", "evsim_frame_t_start_us", "evsim_frame_t_end_us", "evsim_reference_t_us")
+             if k in m and np.asarray(m[k]).size >= 2]
+    if rng.random() < 0.5 or not names:
+        ev = np.array(m["events"], dtype=np.float64)
+        if rng.random() < 0.3:
+            i = int(rng.integers(0, len(ev) - 1))
+            j = min(len(ev), i + int(rng.integers(2, 64)))
+            ev[i:j] = ev[i:j][::-1].copy()
+            desc = f"events rows {i}:{j} reversed"
+        else:
+            t, desc = disorder(ev[:, 0], rng)
+            ev[:, 0] = t
+        m["events"] = ev
+        scipy.io.savemat(path, m)
+        return f"{path.name}: events {desc}"
+    k = names[rng.integers(len(names))]
+    a = np.asarray(m[k], dtype=np.float64)
+    t, desc = disorder(a.ravel(), rng)
+    m[k] = t.reshape(a.shape)
+    scipy.io.savemat(path, m)
+    return f"{path.name}: {k} {desc}"
+
+
+def _header_end(data: bytes) -> int:
+    pos = 0
+    while data[pos : pos + 1] == b"%":
+        nl = data.index(b"\n", pos) + 1
+        if data[pos:nl].strip() == b"% end":
+            return nl
+        pos = nl
+    return pos
+
+
+def mutate_time_prophesee(path: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of a Prophesee file, in place: .dat event times (one back, one ahead, a reversed
+    block, one just before 0: near the top of the 32-bit range); EVT 2.0 / EVT 3.0 words (a TIME_HIGH that goes
+    back, one that jumps to the top of its range, a time low that goes back, a reversed block of words)."""
+    data = path.read_bytes()
+    start = _header_end(data)
+    if path.suffix == ".dat":
+        start += 2  # event type and size
+        d = np.frombuffer(data[start:], [("t", "<u4"), ("xyp", "<u4")]).copy()
+        if rng.random() < 0.2:
+            i = int(rng.integers(1, d.size))
+            back = int(d["t"][i - 1]) + int(rng.integers(1, 1 << 20))
+            d["t"][i] = (int(d["t"][i - 1]) - back) % (1 << 32)
+            desc = f"t[{i}] {back} us before t[{i - 1}], stored in 32 bits"
+        elif rng.random() < 0.3:
+            i = int(rng.integers(0, d.size - 1))
+            j = min(d.size, i + int(rng.integers(2, 64)))
+            d[i:j] = d[i:j][::-1].copy()
+            desc = f"events {i}:{j} reversed"
+        else:
+            t, desc = disorder(d["t"].astype(np.int64), rng)
+            d["t"] = t % (1 << 32)
+        path.write_bytes(data[:start] + d.tobytes())
+        return f"{path.name}: {desc}"
+    evt3 = b"evt 3.0" in data[:start] or b"EVT3" in data[:start]
+    dt, bits, typ_th = ("<u2", 12, 0x8) if evt3 else ("<u4", 28, 0x8)
+    shift = 12 if evt3 else 28
+    w = np.frombuffer(data[start:], dt).copy()
+    typ = w >> shift
+    th = np.flatnonzero(typ == typ_th)
+    mask = (1 << bits) - 1
+    kind = rng.integers(4)
+    if kind <= 1 and th.size > 2:
+        k = int(rng.integers(1, th.size - 1))  # not the last: a later last time is a valid file (see disorder)
+        prev = int(w[th[k - 1]]) & mask
+        if kind == 0:
+            new = (prev - int(rng.integers(1, 1 << min(bits, 12)))) % (1 << bits)
+            desc = f"TIME_HIGH word {th[k]} goes back from {prev} to {new}"
+        else:
+            new = mask - int(rng.integers(0, 4))
+            desc = f"TIME_HIGH word {th[k]} jumps from {prev} to the top ({new})"
+        w[th[k]] = (typ_th << shift) | new
+    elif kind == 2:
+        low = np.flatnonzero(typ == 0x6) if evt3 else np.flatnonzero(typ <= 1)
+        i = int(low[rng.integers(low.size)])
+        if evt3:
+            w[i] = 0x6000 | max(0, (int(w[i]) & 0xFFF) - int(rng.integers(1, 4096)))
+        else:
+            w[i] = int(w[i]) & ~(63 << 22)  # time low bits 0: earlier than the event before, most often
+        desc = f"time low of word {i} goes back"
+    else:
+        i = int(rng.integers(0, w.size - 1))
+        j = min(w.size, i + int(rng.integers(2, 64)))
+        w[i:j] = w[i:j][::-1].copy()
+        desc = f"words {i}:{j} reversed"
+    path.write_bytes(data[:start] + w.tobytes())
+    return f"{path.name}: {desc}"
+
+
+def aedat4_event_times(path: Path) -> tuple[np.ndarray, int, int]:
+    """(event times, byte offset of the first event's time, bytes per event) of an uncompressed AEDAT4 file with
+    one event packet, found by searching the bytes for the times the aedat decoder reports."""
+    import aedat
+
+    t = np.concatenate([p["events"]["t"] for p in aedat.Decoder(str(path)) if "events" in p]).astype(np.int64)
+    data = path.read_bytes()
+    first = data.find(int(t[0]).to_bytes(8, "little", signed=True))
+    stride = data.find(int(t[1]).to_bytes(8, "little", signed=True), first + 1) - first
+    assert first > 0 and stride > 0
+    return t, first, stride
+
+
+def mutate_time_aedat4(path: Path, rng: np.random.Generator) -> str:
+    """A time-order corruption of the event times of an uncompressed AEDAT4 file (one event packet), in place."""
+    t, first, stride = aedat4_event_times(path)
+    t2, desc = disorder(t, rng)
+    data = bytearray(path.read_bytes())
+    for i in np.flatnonzero(t2 != t):
+        at = first + stride * int(i)
+        data[at : at + 8] = int(t2[i]).to_bytes(8, "little", signed=True)
+    path.write_bytes(bytes(data))
+    return f"{path.name}: {desc}"

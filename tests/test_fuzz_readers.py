@@ -1,15 +1,22 @@
-"""Fuzz suite: seeded mutants of files written by evsim's own writers, fed to generators.load.
+"""Fuzz suite: seeded mutants of files written by evsim's own writers, fed to generators.load (and EXR folders to
+generators.formats.exr.read_exr_sequence).
 
 Every outcome must be a Recording that satisfies every documented rule (checked here independently of
-generators.formats.recording.validate_recording), or a DatasetFormatError naming the file; never another exception type,
-never a hang (each case runs under a SIGALRM time bound). EVSIM_FUZZ_N sets the mutants per layout (default 40
-in CI: about 250 cases; EVSIM_FUZZ_N=350 runs 2,000+). EVSIM_FUZZ_SEED shifts the seeds.
-"""
+generators.formats.recording.validate_recording), or a DatasetFormatError naming the file; never another exception
+type, never a crash, never a hang (cases run in a forked child, killed after CASE_TIMEOUT_S), and never a time
+span (of the events, the frames' mid-exposure times or the reference) that grows by more than the original file's
+own span: what a misread wrap or offset does. Every reader gets byte-level or structural mutants and time-order
+mutants (a time that goes back, a reversed block, a time that jumps ahead, a Prophesee wrap word that goes back).
+EVSIM_FUZZ_N sets the mutants per layout (default 40 in CI: about 1,000 cases; EVSIM_FUZZ_N=400 runs about
+10,000). EVSIM_FUZZ_SEED shifts the seeds."""
 
 from __future__ import annotations
 
 import os
+import pickle
+import select
 import signal
+import struct
 from collections import Counter
 from contextlib import contextmanager
 from pathlib import Path
@@ -18,6 +25,7 @@ import numpy as np
 import pytest
 
 from generators.formats import DatasetFormatError, export, load
+from generators.formats.exr import read_exr_sequence
 from generators.formats.recording import Recording
 from sim import EVENT_DTYPE
 
@@ -38,6 +46,8 @@ class Hang(BaseException):
 
 @contextmanager
 def time_bound(seconds: int):
+    """SIGALRM after `seconds`: ends a case stuck in Python code (one stuck inside a C library needs run_case's
+    child process)."""
     def on_alarm(signum, frame):
         raise Hang()
 
@@ -48,6 +58,78 @@ def time_bound(seconds: int):
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
+
+
+class CaseWorker:
+    """A forked child that runs cases one after another (forking once per case costs more than the cases): a case
+    that takes longer than `timeout` is a 'hang' and the child is killed (this ends a case stuck inside HDF5 or
+    another C library, where SIGALRM cannot); a child that dies of a signal (a segfault or abort in a native
+    library) gives 'crash: signal N'. The next case starts a new child. Without fork, cases run in this process."""
+
+    def __init__(self, fn, timeout: float):
+        self.fn, self.timeout, self.pid = fn, timeout, None
+
+    def _start(self) -> None:
+        req_r, req_w = os.pipe()
+        res_r, res_w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # the child: serve cases until the request pipe closes; leave without the parent's cleanup
+            try:
+                os.close(req_w)
+                os.close(res_r)
+                with os.fdopen(req_r, "rb") as req, os.fdopen(res_w, "wb") as res:
+                    while True:
+                        try:
+                            args = pickle.load(req)
+                        except EOFError:
+                            break
+                        try:
+                            out = self.fn(*args)
+                        except BaseException as e:  # noqa: BLE001 - reported to the parent
+                            out = f"harness error {type(e).__name__}: {e}"
+                        data = out.encode("utf-8", "replace")
+                        res.write(struct.pack("<I", len(data)) + data)
+                        res.flush()
+            finally:
+                os._exit(0)
+        os.close(req_r)
+        os.close(res_w)
+        self.pid, self.req, self.res = pid, os.fdopen(req_w, "wb"), res_r
+
+    def stop(self, kill: bool = False) -> int:
+        """End the child; returns its wait status."""
+        if kill:
+            os.kill(self.pid, signal.SIGKILL)
+        self.req.close()
+        os.close(self.res)
+        _, status = os.waitpid(self.pid, 0)
+        self.pid = None
+        return status
+
+    def _read(self, n: int) -> bytes:
+        data = b""
+        while len(data) < n and (chunk := os.read(self.res, n - len(data))):
+            data += chunk
+        return data
+
+    def __call__(self, *args) -> str:
+        if not hasattr(os, "fork"):
+            return self.fn(*args)
+        if self.pid is None:
+            self._start()
+        try:
+            pickle.dump(args, self.req)
+            self.req.flush()
+        except BrokenPipeError:
+            return f"crash: signal {os.WTERMSIG(self.stop())}"
+        if not select.select([self.res], [], [], self.timeout)[0]:
+            self.stop(kill=True)
+            return "hang"
+        head = self._read(4)
+        if len(head) < 4:  # the child died
+            status = self.stop()
+            return f"crash: signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status) else "crash: child exited"
+        return self._read(struct.unpack("<I", head)[0]).decode()
 
 
 def rule_violations(rec: Recording) -> list[str]:
@@ -108,11 +190,56 @@ def rule_violations(rec: Recording) -> list[str]:
     return bad
 
 
-def run_case(path: Path) -> str:
-    """'valid', 'error' (DatasetFormatError naming the file), or a failure description."""
+def spans(rec: Recording) -> dict[str, int]:
+    """Time spans (us) of a Recording's time series: events, frames (mid-exposure times) and reference frames.
+    (An exposure window may be as long as the rules allow: its bounds are not a series.)"""
+    out = {}
+    if rec.events.size:
+        out["events"] = int(rec.events["t"].max()) - int(rec.events["t"].min())
+    if rec.frames is not None and len(rec.frames):
+        out["frames"] = int(np.max(rec.frame_t_mid_us)) - int(np.min(rec.frame_t_mid_us))
+    if rec.reference is not None and len(rec.reference):
+        out["reference"] = int(np.max(rec.reference_t_us)) - int(np.min(rec.reference_t_us))
+    return out
+
+
+def exr_violations(out) -> list[str]:
+    """The documented rules of what read_exr_sequence returns: (R, H, W) float32 radiance, finite and >= 0, and
+    (R,) int64 times that never decrease."""
+    images, t = out
+    if not (isinstance(images, np.ndarray) and images.dtype == np.float32 and images.ndim == 3):
+        return ["images dtype/shape"]
+    if not (isinstance(t, np.ndarray) and t.dtype == np.int64 and t.shape == (images.shape[0],)):
+        return ["times dtype/shape"]
+    bad = []
+    if (np.diff(t) < 0).any():
+        bad.append("times decrease")
+    if not np.isfinite(images).all() or (images < 0).any():
+        bad.append("pixels not finite >= 0")
+    return bad
+
+
+def exr_spans(out) -> dict[str, int]:
+    _, t = out
+    return {"reference": int(t.max()) - int(t.min())} if t.size else {}
+
+
+# what each reader is: (read, rules, spans)
+READERS = {"load": (load, rule_violations, spans), "exr": (read_exr_sequence, exr_violations, exr_spans)}
+
+
+def run_case(path: Path, own: dict[str, int] | None = None, reader: str = "load") -> str:
+    """'valid', 'error' (DatasetFormatError naming the file), or a failure description ('hang' past
+    CASE_TIMEOUT_S, a crash, an undocumented exception, a silent acceptance). own: the time spans of the original
+    file, which a valid outcome's must not exceed by more than themselves."""
+    return _WORKER(path, own, reader)
+
+
+def _case(path: Path, own: dict[str, int] | None, reader: str) -> str:
+    read, rules, time_spans = READERS[reader]
     try:
         with time_bound(CASE_TIMEOUT_S):
-            rec = load(path)
+            out = read(path)
     except Hang:
         return "hang"
     except DatasetFormatError as e:
@@ -120,10 +247,41 @@ def run_case(path: Path) -> str:
     except Exception as e:  # noqa: BLE001 - the point of the test
         return f"undocumented {type(e).__name__}: {e}"
     try:
-        bad = rule_violations(rec)
+        bad = rules(out)
+        if not bad and own:
+            got = time_spans(out)
+            bad = [f"{k} time span grew from {own[k]} to {got[k]} us" for k in own if got.get(k, 0) > 2 * own[k]]
     except Exception as e:  # noqa: BLE001 - content so broken that plain numpy checks fail on it
         bad = [f"unusable content ({type(e).__name__}: {e})"]
     return "valid" if not bad else f"silent acceptance: {', '.join(bad)}"
+
+
+_WORKER = CaseWorker(_case, CASE_TIMEOUT_S)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _case_worker():
+    yield
+    if _WORKER.pid is not None:
+        _WORKER.stop()
+
+
+def _misbehave(how: str) -> str:
+    if how == "spin":
+        while True:
+            pass
+    if how == "die":  # as a segfault or abort in a native library ends the process
+        os.kill(os.getpid(), signal.SIGKILL)
+    return f"done {how}"
+
+
+def test_the_case_worker_reports_hangs_and_crashes_and_goes_on():
+    worker = CaseWorker(_misbehave, timeout=1)
+    assert worker("a") == "done a"
+    assert worker("spin") == "hang"
+    assert worker("die") == f"crash: signal {int(signal.SIGKILL)}"
+    assert worker("b") == "done b"
+    worker.stop()
 
 
 @pytest.fixture(scope="module")
@@ -140,39 +298,56 @@ def originals(tmp_path_factory):
     with pytest.warns(UserWarning):  # events-only formats say what they leave out
         for name, fmt in EVENTS_ONLY.items():
             export(rec, d / name, fmt)
+        export(rec, d / "exr", "exr")
     for p in (d / "native.h5", d / "e2vid.h5", d / "ijrr", d / "akf.mat", *(d / n for n in EVENTS_ONLY)):
         assert run_case(p) == "valid", p
+    assert run_case(d / "exr", reader="exr") == "valid"
     return d
 
 
 EVENTS_ONLY = {"evt3.raw": "evt3", "evt2.raw": "evt2", "td.dat": "dat", "events.txt.zip": "e2vid-txt",
                "e2vid.txt": "e2vid-txt"}
+# layout: (original, mutator, reader)
 LAYOUTS = {
-    "native-structure": ("native.h5", fm.mutate_h5),
-    "native-bytes": ("native.h5", fm.mutate_bytes),
-    "e2vid-structure": ("e2vid.h5", fm.mutate_h5),
-    "e2vid-bytes": ("e2vid.h5", fm.mutate_bytes),
-    "ijrr+exr": ("ijrr", fm.mutate_folder),
-    "akf-mat-structure": ("akf.mat", fm.mutate_mat),
-    "akf-mat-bytes": ("akf.mat", fm.mutate_bytes),
-    "evt3-bytes": ("evt3.raw", fm.mutate_bytes),
-    "evt2-bytes": ("evt2.raw", fm.mutate_bytes),
-    "dat-bytes": ("td.dat", fm.mutate_bytes),
-    "e2vid-txt-zip-bytes": ("events.txt.zip", fm.mutate_bytes),
-    "e2vid-txt-text": ("e2vid.txt", fm.mutate_text),
+    "native-structure": ("native.h5", fm.mutate_h5, "load"),
+    "native-bytes": ("native.h5", fm.mutate_bytes, "load"),
+    "native-time": ("native.h5", fm.mutate_time_h5, "load"),
+    "e2vid-structure": ("e2vid.h5", fm.mutate_h5, "load"),
+    "e2vid-bytes": ("e2vid.h5", fm.mutate_bytes, "load"),
+    "e2vid-time": ("e2vid.h5", fm.mutate_time_h5, "load"),
+    "ijrr+exr": ("ijrr", fm.mutate_folder, "load"),
+    "ijrr-time": ("ijrr", fm.mutate_time_folder, "load"),
+    "akf-mat-structure": ("akf.mat", fm.mutate_mat, "load"),
+    "akf-mat-bytes": ("akf.mat", fm.mutate_bytes, "load"),
+    "akf-mat-time": ("akf.mat", fm.mutate_time_mat, "load"),
+    "evt3-bytes": ("evt3.raw", fm.mutate_bytes, "load"),
+    "evt3-time": ("evt3.raw", fm.mutate_time_prophesee, "load"),
+    "evt2-bytes": ("evt2.raw", fm.mutate_bytes, "load"),
+    "evt2-time": ("evt2.raw", fm.mutate_time_prophesee, "load"),
+    "dat-bytes": ("td.dat", fm.mutate_bytes, "load"),
+    "dat-time": ("td.dat", fm.mutate_time_prophesee, "load"),
+    "e2vid-txt-zip-bytes": ("events.txt.zip", fm.mutate_bytes, "load"),
+    "e2vid-txt-zip-time": ("events.txt.zip", fm.mutate_time_e2vid_text, "load"),
+    "e2vid-txt-text": ("e2vid.txt", fm.mutate_text, "load"),
+    "e2vid-txt-time": ("e2vid.txt", fm.mutate_time_e2vid_text, "load"),
+    "exr-sequence": ("exr", fm.mutate_folder, "exr"),
+    "exr-sequence-time": ("exr", fm.mutate_time_folder, "exr"),
 }
 
 
 def fuzz(originals: Path, work: Path, layout: str, n: int) -> Counter:
-    source, mutate = LAYOUTS[layout]
+    source, mutate, reader = LAYOUTS[layout]
+    read, _, time_spans = READERS[reader]
+    own = time_spans(read(originals / source))
     outcomes, failures = Counter(), []
     for i in range(n):
         rng = np.random.default_rng([SEED, i, sum(map(ord, layout))])
         target = fm.copy_input(originals / source, work / f"{layout}_{i}{Path(source).suffix}")
         desc = mutate(target, rng)
-        if rng.random() < 0.3:  # a second mutation on top, for combinations
+        if rng.random() < 0.3 and not layout.endswith("-time"):  # a second mutation on top, for combinations
+            # (time-order mutants carry one corruption: two can build a valid file whose last time is later)
             desc += "; " + mutate(target, rng)
-        out = run_case(target)
+        out = run_case(target, own, reader)
         outcomes[out.split(":")[0]] += 1
         if out not in ("valid", "error"):
             failures.append(f"{layout} #{i} ({desc}): {out}")
@@ -193,11 +368,35 @@ def test_mutated_aedat4_loads_valid_or_raises(tmp_path):
         pytest.skip("no shared AEDAT4 sample")
     fm.copy_input(AEDAT4, tmp_path / "sample.aedat4")
     assert run_case(tmp_path / "sample.aedat4") == "valid"
-    LAYOUTS["aedat4-bytes"] = ("sample.aedat4", fm.mutate_bytes)
+    LAYOUTS["aedat4-bytes"] = ("sample.aedat4", fm.mutate_bytes, "load")
     try:
-        fuzz(tmp_path, tmp_path, "aedat4-bytes", max(5, N_PER_LAYOUT // 2))
+        outcomes = fuzz(tmp_path, tmp_path, "aedat4-bytes", N_PER_LAYOUT)
     finally:
         del LAYOUTS["aedat4-bytes"]
+    assert outcomes["error"] > 0
+
+
+def test_aedat4_with_times_out_of_order_raises(tmp_path):
+    # an uncompressed AEDAT4 file (dv-processing, one event packet), whose event times the mutator rewrites
+    pytest.importorskip("aedat")
+    dv = pytest.importorskip("dv_processing")
+    ev = make_recording(n_events=300).events
+    config = dv.io.MonoCameraWriter.Config("evsim-fuzz")
+    config.addEventStream((8, 6))
+    config.compression = dv.CompressionType.NONE
+    writer = dv.io.MonoCameraWriter(str(tmp_path / "plain.aedat4"), config)
+    store = dv.EventStore()
+    for t, x, y, p in zip(ev["t"].tolist(), ev["x"].tolist(), ev["y"].tolist(), (ev["p"] > 0).tolist()):
+        store.push_back(t, x, y, p)
+    writer.writeEvents(store)
+    del writer
+    np.testing.assert_array_equal(fm.aedat4_event_times(tmp_path / "plain.aedat4")[0], ev["t"])
+    LAYOUTS["aedat4-time"] = ("plain.aedat4", fm.mutate_time_aedat4, "load")
+    try:
+        outcomes = fuzz(tmp_path, tmp_path, "aedat4-time", N_PER_LAYOUT)
+    finally:
+        del LAYOUTS["aedat4-time"]
+    assert outcomes["error"] > 0
 
 
 # ----- regression tests: the reproductions of issue 12 ---------------------------------------------------------

@@ -24,7 +24,7 @@ from .akfmat import read_akf_mat, write_akf_mat
 from .common import DatasetFormatError, fail, open_h5, reading, validated
 from .e2vid import is_e2vid, read_e2vid, write_e2vid
 from .exr import write_exr_sequence
-from .ijrr import is_e2vid_txt, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_txt, write_ijrr
+from .ijrr import e2vid_txt_problem, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_txt, write_ijrr
 from .interop import from_tonic, to_tonic
 from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
 from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
@@ -50,13 +50,19 @@ class ExportDropWarning(UserWarning):
 
 def detect(path: str | Path) -> str:
     """The layout of `path`: "native", "e2vid", "ijrr", "e2vid-txt", "akf-mat", "aedat4", "evt3", "evt2" or
-    "dat"; DatasetFormatError when unknown."""
+    "dat"; DatasetFormatError when unknown. A .txt or .zip file (other than an IJRR events.txt) is E2VID text,
+    or a DatasetFormatError saying why it is not (a .zip with several members, a byte-order mark, ...)."""
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or directory")
-    if is_e2vid_txt(path):
-        return "e2vid-txt"
-    if path.suffix.lower() in (".raw", ".dat"):
+    suffix = path.suffix.lower()
+    if suffix in (".txt", ".zip") and path.is_file():
+        problem = e2vid_txt_problem(path)
+        if problem is None:
+            return "e2vid-txt"
+        if path.name != "events.txt":  # (an IJRR events.txt is read with its folder below)
+            raise fail(path, f"unknown layout: a {suffix} file is read as E2VID text, but {problem}")
+    if suffix in (".raw", ".dat"):
         kind = prophesee_kind(path)
         if kind is None:
             raise fail(path, "unknown layout: a .raw file whose header names neither EVT 2.0 nor EVT 3.0")
@@ -65,9 +71,9 @@ def detect(path: str | Path) -> str:
         if is_ijrr(path if path.is_dir() else path.parent):
             return "ijrr"
         raise fail(path, "unknown layout: a folder without events.txt")
-    if path.suffix.lower() == ".mat":
+    if suffix == ".mat":
         return "akf-mat"
-    if path.suffix.lower() == ".aedat4":
+    if suffix == ".aedat4":
         return "aedat4"
     if h5py.is_hdf5(path):
         with reading(path), open_h5(path) as f:

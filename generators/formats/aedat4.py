@@ -33,8 +33,15 @@ def _grey(frame: dict) -> np.ndarray:
     return px
 
 
+def _is_native_panic(e: BaseException) -> bool:
+    """A panic of a Rust library (the aedat decoder) raised through pyo3: pyo3_runtime.PanicException, which
+    derives from BaseException, not Exception."""
+    return type(e).__name__ == "PanicException" and type(e).__module__ == "pyo3_runtime"
+
+
 def read_aedat4(path: str | Path) -> Recording:
-    """Read an AEDAT4 file; DatasetFormatError when aedat is missing or the file is unreadable/truncated."""
+    """Read an AEDAT4 file; DatasetFormatError when aedat is missing or the file is unreadable/truncated (a panic
+    of the aedat decoder on corrupt bytes included)."""
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
@@ -60,6 +67,10 @@ def read_aedat4(path: str | Path) -> Recording:
                 times.append((int(f["exposure_begin_t"]), int(f["exposure_end_t"])))
     except RuntimeError as e:  # the decoder's error for truncated or corrupt files
         raise fail(path, f"unreadable AEDAT4 file (truncated or corrupt?): {e}") from e
+    except BaseException as e:
+        if not _is_native_panic(e):  # KeyboardInterrupt, SystemExit and the like pass through
+            raise
+        raise fail(path, f"unreadable AEDAT4 file (corrupt?): the aedat decoder failed: {e}") from None
     ev = np.concatenate(chunks) if chunks else None
     if ev is not None:
         pol = ev["on"] if "on" in ev.dtype.fields else ev["p"]

@@ -17,6 +17,7 @@ from sim import EvsimInputError
 
 from .atomic import atomic_path
 from .common import fail
+from .recording import MAX_TIME_US
 
 TIMES_FILE = "timestamps.txt"
 
@@ -69,23 +70,46 @@ def write_exr_sequence(directory: str | Path, images: np.ndarray, t_us: np.ndarr
 
 
 def read_exr_sequence(directory: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read an EXR folder written by write_exr_sequence: (R, H, W) float32 images and (R,) int64 times (us)."""
+    """Read an EXR folder written by write_exr_sequence: (R, H, W) float32 images and (R,) int64 times (us).
+
+    What it holds is checked as the radiance of a reference: times in timestamps.txt that never decrease and lie
+    within +-2**62 us, frames of one size with finite pixels >= 0; anything else (or an unreadable file) is a
+    DatasetFormatError naming the file and the line or frame."""
     directory = Path(directory)
     times = directory / TIMES_FILE
     if not times.is_file():
         raise fail(directory, f"no {TIMES_FILE} (lines 't_us file_name')")
+    try:
+        text = times.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise fail(times, f"unreadable: {e}") from e
     t, names = [], []
-    for n, line in enumerate(times.read_text().splitlines(), 1):
+    for n, line in enumerate(text.splitlines(), 1):
         if not line.strip() or line.startswith("#"):
             continue
         parts = line.split()
         if len(parts) != 2 or not parts[0].lstrip("-").isdigit():
             raise fail(times, f"line {n}: expected 't_us file_name', got {line!r}")
-        t.append(int(parts[0]))
+        ti = int(parts[0])
+        if abs(ti) > MAX_TIME_US:
+            raise fail(times, f"line {n}: time {ti} us outside +-2**62 us")
+        if t and ti < t[-1]:
+            raise fail(times, f"line {n}: time {ti} us is before the previous frame's {t[-1]} us (times must not "
+                              "decrease)")
+        t.append(ti)
         names.append(parts[1])
     if not names:
         return np.zeros((0, 0, 0), np.float32), np.zeros(0, np.int64)
-    images = [read_exr(directory / name) for name in names]
+    images = []
+    for name in names:
+        img = read_exr(directory / name)
+        if img.ndim != 2 or not img.size:
+            raise fail(directory / name, f"expected a non-empty (H, W) image, got shape {img.shape}")
+        if not np.isfinite(img).all():
+            raise fail(directory / name, "pixels must be finite radiance: found NaN or infinite values")
+        if (img < 0).any():
+            raise fail(directory / name, f"pixels must be radiance >= 0: found {float(img.min())}")
+        images.append(img)
     if len({im.shape for im in images}) != 1:
         raise fail(directory, "EXR frames differ in size")
     return np.stack(images), np.array(t, dtype=np.int64)

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import io
 import json
+import tokenize
 import warnings
 import zipfile
 import zlib
@@ -163,12 +164,21 @@ def read_ijrr(directory: str | Path) -> Recording:
     reference = reference_t = None
     if (d / "reference").is_dir():
         reference, reference_t = read_exr_sequence(d / "reference")
-    thr = np.load(d / "threshold_maps.npy") if (d / "threshold_maps.npy").is_file() else None
+    thr = _load_npy(d / "threshold_maps.npy") if (d / "threshold_maps.npy").is_file() else None
     return Recording(events=events, height=h, width=w, frames=frames, frame_t_start_us=t_start,
                      frame_t_mid_us=t_mid, frame_t_end_us=t_end,
                      frame_bit_depth=int(info.get("frame_bit_depth", depth)), reference=reference,
                      reference_t_us=reference_t, crf=info.get("crf"), threshold_maps=thr, event_labels=labels,
                      metadata=info.get("metadata", {}))
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """np.load of a .npy file (no pickles); what numpy raises on a corrupt header (its parser raises
+    tokenize.TokenError and SyntaxError too) is a DatasetFormatError naming the file."""
+    try:
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError, tokenize.TokenError) as e:
+        raise fail(path, f"not a readable .npy array (corrupt?): {type(e).__name__}: {e}") from e
 
 
 def _read_frames(d: Path):
@@ -233,26 +243,51 @@ def _write_e2vid_lines(fe, rec: Recording, chunks) -> None:
 
 def is_e2vid_txt(path: str | Path) -> bool:
     """True for a .txt or .zip file whose first line is two integers ("width height")."""
+    return e2vid_txt_problem(path) is None
+
+
+def e2vid_txt_problem(path: str | Path) -> str | None:
+    """None when `path` is a .txt or .zip file whose first line is two integers ("width height"), else why it is
+    not E2VID text (the reader's own words: a .zip with more than one member, a byte-order mark, ...)."""
     path = Path(path)
-    if not path.is_file() or path.suffix.lower() not in (".txt", ".zip"):
-        return False
+    if not path.is_file():
+        return "no such file"
+    if path.suffix.lower() not in (".txt", ".zip"):
+        return "E2VID text is a .txt or .zip file"
     try:
         with _open_e2vid_text(path) as f:
-            first = f.readline().split()
-    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, DatasetFormatError):
-        return False
-    return len(first) == 2 and all(tok.isdigit() for tok in first)
+            first = f.readline(1024).split()
+    except DatasetFormatError as e:
+        return str(e).removeprefix(f"{path}: ")
+    except (OSError, zipfile.BadZipFile, zlib.error, EOFError, UnicodeDecodeError, RuntimeError,
+            NotImplementedError) as e:  # zipfile: encrypted members, unsupported compression
+        return f"unreadable ({type(e).__name__}: {e})"
+    if len(first) != 2 or not all(tok.isdigit() for tok in first):
+        return f"its first line must be 'width height', got {' '.join(first)[:60]!r}"
+    return None
+
+
+_BOMS = {b"\xef\xbb\xbf": "UTF-8", b"\xff\xfe": "UTF-16", b"\xfe\xff": "UTF-16"}
 
 
 def _open_e2vid_text(path: Path):
     if path.suffix.lower() != ".zip":
-        return open(path, encoding="ascii")
-    z = zipfile.ZipFile(path)
-    names = z.namelist()
-    if len(names) != 1:
-        z.close()
-        raise fail(path, f"an E2VID .zip holds one text file, found {len(names)}")
-    return io.TextIOWrapper(z.open(names[0]), encoding="ascii")
+        raw = open(path, "rb")
+    else:
+        z = zipfile.ZipFile(path)
+        names = z.namelist()
+        if len(names) != 1:
+            z.close()
+            raise fail(path, f"an E2VID .zip holds one text file, found {len(names)} members "
+                             f"({', '.join(names[:3])}{', ...' if len(names) > 3 else ''})")
+        raw = z.open(names[0])
+    head = raw.peek(3)[:3] if hasattr(raw, "peek") else b""
+    for bom, name in _BOMS.items():
+        if head.startswith(bom):
+            raw.close()
+            raise fail(path, f"starts with a {name} byte-order mark: E2VID text is plain ASCII (save it without "
+                             "a BOM)")
+    return io.TextIOWrapper(raw, encoding="ascii")
 
 
 def read_e2vid_txt(path: str | Path) -> Recording:
@@ -268,6 +303,8 @@ def read_e2vid_txt(path: str | Path) -> Recording:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
                 ev = np.loadtxt(f, dtype=np.float64, ndmin=2, comments="#")
+    except DatasetFormatError:
+        raise
     except (zipfile.BadZipFile, zlib.error, UnicodeDecodeError, OSError, EOFError) as e:
         raise fail(path, f"unreadable E2VID text file (truncated or corrupt?): {e}") from e
     except ValueError as e:

@@ -33,8 +33,8 @@ from sim import EvsimInputError
 from .atomic import atomic_path
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .native import recording_event_chunks
-from .prophesee_kernels import TIME_HIGH_MAX_STEP, decode_evt3, encode_evt3
-from .recording import Recording, validate_recording
+from .prophesee_kernels import STATE_SIZE, TIME_HIGH_MAX_STEP, WRAP_WINDOW, decode_evt3, encode_evt3, time_step_ok
+from .recording import MAX_TIME_US, Recording, validate_recording
 
 PROPHESEE_FORMATS = ("evt3", "evt2", "dat")
 SUFFIX = {"evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
@@ -42,6 +42,9 @@ _TIME_LIMIT = {"evt3": 1 << 24, "evt2": 1 << 34, "dat": 1 << 32}  # stored times
 _MAX_COORD = {"evt3": 2048, "evt2": 2048, "dat": 1 << 14}
 _WORD = {"evt3": np.dtype("<u2"), "evt2": np.dtype("<u4")}
 _DAT_EVENT = np.dtype([("t", "<u4"), ("xyp", "<u4")])
+_EVT2_TH_STEP = (1 << 28) // WRAP_WINDOW  # the longest TIME_HIGH step the EVT 2.0 writer makes (67 s)
+_DAT_MAX_STEP = (1 << 32) - (1 << 32) // WRAP_WINDOW  # .dat: no step between two events this long (71.3 min)
+_DAT_CD_TYPES = (0, 12)  # the .dat event type byte: 0 Event2D, 12 EventCD (same 8-byte layout); 14 is triggers
 LAYOUT_VERSION = 1
 _DAT_DATE = "1970-01-01 00:00:00"
 _POPCOUNT = np.array([bin(i).count("1") for i in range(4096)], np.int64)  # set bits of 12-bit vector masks
@@ -51,7 +54,9 @@ class PropheseeWriter:
     """Stream events into an EVT 3.0 / EVT 2.0 .raw or a .dat file, atomically (`with` block or close()).
 
     The time offset is fixed by the first event (see the module docstring); later chunks must stay in the
-    format's time range (EvsimInputError otherwise, naming the limit)."""
+    format's time range (EvsimInputError otherwise, naming the limit). A .dat file cannot hold a silence of 71.3
+    min or more between two events (readers take it for time going back: prophesee_kernels.time_step_ok); EVT 2.0
+    and EVT 3.0 files hold silences of any length (TIME_HIGH words every few steps)."""
 
     def __init__(self, path: str | Path, fmt: str, height: int, width: int):
         if fmt not in PROPHESEE_FORMATS:
@@ -65,6 +70,7 @@ class PropheseeWriter:
         self._offset = None
         self._t_last = None
         self._state = np.array([0, -1, -1], np.int64)  # evt3 encoder: time_high 0 written first
+        self._dat_last = None  # dat: the last relative time written
 
     def _start(self, t_offset: int) -> None:
         self._offset = t_offset
@@ -117,6 +123,20 @@ class PropheseeWriter:
         self._f.write(out[:n].tobytes())
 
     def _write_evt2(self, t, ev) -> None:
+        # a TIME_HIGH word at least every _EVT2_TH_STEP (67 s) of silence, as readers refuse a longer step that
+        # could be a step back (prophesee_kernels.time_step_ok)
+        th = t >> 6
+        prev = np.concatenate([[self._th2], th[:-1]])
+        cuts = np.flatnonzero(th - prev > _EVT2_TH_STEP).tolist()
+        for a, b in zip([0, *cuts], [*cuts, t.size]):
+            if a == b:
+                continue
+            while int(th[a]) - self._th2 > _EVT2_TH_STEP:
+                self._th2 += _EVT2_TH_STEP
+                self._f.write(np.array([(0x8 << 28) | self._th2], "<u4").tobytes())
+            self._write_evt2_run(t[a:b], ev[a:b])
+
+    def _write_evt2_run(self, t, ev) -> None:
         th = t >> 6
         new = np.empty(t.size, bool)
         new[0] = th[0] != self._th2
@@ -130,6 +150,12 @@ class PropheseeWriter:
         self._f.write(out.tobytes())
 
     def _write_dat(self, t, ev) -> None:
+        steps = np.diff(t, prepend=t[0] if self._dat_last is None else self._dat_last)
+        if steps.max() >= _DAT_MAX_STEP:
+            raise EvsimInputError(f"dat cannot hold a silence of {_DAT_MAX_STEP} us ({_DAT_MAX_STEP / 6e7:.1f} min) "
+                                  "or more between two events: readers take so long a step of the 32-bit time for "
+                                  "time going back")
+        self._dat_last = int(t[-1])
         out = np.empty(t.size, _DAT_EVENT)
         out["t"] = t
         out["xyp"] = ev["x"].astype(np.uint32) | (ev["y"].astype(np.uint32) << 14) | \
@@ -222,21 +248,48 @@ def _raw_kind(keys: dict) -> str | None:
     return None
 
 
+def _header_int(path: Path, keys: dict, key: str, lo: int, hi: int, value: str | None = None) -> int:
+    """The integer header value of `key` (or `value`, taken from it), checked to be in lo..hi."""
+    text = keys[key] if value is None else value
+    try:
+        v = int(text)
+    except ValueError:
+        raise fail(path, f"header key {key!r}: expected an integer, got {text!r}") from None
+    if not lo <= v <= hi:
+        raise fail(path, f"header key {key!r}: {v} outside {lo}..{hi}")
+    return v
+
+
 def _geometry(path: Path, keys: dict) -> tuple[int | None, int | None]:
+    """(height, width) from the header ("Height"/"Width" of .dat, "format ...;height=H;width=W" or "geometry WxH"
+    of .raw), each checked to be 1..the format's largest coordinate + 1; (None, None) when the header has none."""
+    most = _MAX_COORD["dat"] if path.suffix.lower() == ".dat" else _MAX_COORD["evt3"]
     if "Height" in keys and "Width" in keys:
-        return int(keys["Height"]), int(keys["Width"])
+        return _header_int(path, keys, "Height", 1, most), _header_int(path, keys, "Width", 1, most)
     fields = dict(kv.split("=", 1) for kv in keys.get("format", "").split(";")[1:] if "=" in kv)
     if "height" in fields and "width" in fields:
-        return int(fields["height"]), int(fields["width"])
+        return (_header_int(path, keys, "format", 1, most, fields["height"]),
+                _header_int(path, keys, "format", 1, most, fields["width"]))
     if "geometry" in keys:
         w, _, h = keys["geometry"].partition("x")
-        return int(h), int(w)
+        return _header_int(path, keys, "geometry", 1, most, h), _header_int(path, keys, "geometry", 1, most, w)
     return None, None
+
+
+def _header_offset(path: Path, keys: dict) -> int:
+    """The evsim header keys the readers rely on: the time offset (0 when absent) and a known layout version."""
+    if "evsim_layout_version" in keys:
+        _header_int(path, keys, "evsim_layout_version", 1, LAYOUT_VERSION)
+    if "evsim_t_offset_us" not in keys:
+        return 0
+    return _header_int(path, keys, "evsim_t_offset_us", -MAX_TIME_US, MAX_TIME_US)
 
 
 def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[np.ndarray]:
     """Stream the CD events of an EVT 3.0 / EVT 2.0 .raw or .dat file in chunks (times with the header's offset
-    added back). Bad files raise DatasetFormatError naming the file."""
+    added back). Bad files raise DatasetFormatError naming the file: among them a time that goes back (naming its
+    byte position) other than a wrap of the format's counter from the top of its range to its bottom
+    (prophesee_kernels.time_step_ok)."""
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
@@ -245,10 +298,16 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
         raise fail(path, "not a Prophesee EVT 2.0 / EVT 3.0 .raw file (header has no 'evt' or 'format' key)")
     with open(path, "rb") as f:
         keys, _ = _read_header(path, f)
-        offset = int(keys.get("evsim_t_offset_us", 0))
+        offset = _header_offset(path, keys)
+        _geometry(path, keys)
         if kind == "dat":
             head = f.read(2)
-            if len(head) == 2 and head[1] != 8:
+            if len(head) < 2:
+                raise fail(path, "truncated: no event type and size bytes after the header")
+            if head[0] not in _DAT_CD_TYPES:
+                raise fail(path, f".dat event type {head[0]}: only CD events are read (type 0 Event2D or 12 "
+                                 "EventCD)")
+            if head[1] != 8:
                 raise fail(path, f".dat events of {head[1]} bytes: only 8-byte CD events are read")
             yield from _dat_chunks(path, f, offset, size)
         elif kind == "evt2":
@@ -264,44 +323,96 @@ def _words(path, f, dtype, count):
     return np.frombuffer(raw, dtype)
 
 
+def _byte(pos: int, stride: int, word_index, i: int) -> int:
+    """The file position of item i of a chunk read at `pos`: word word_index[i] (or i) of `stride` bytes."""
+    return pos + stride * int(i if word_index is None else word_index[i])
+
+
+def _unwrap(path, values, prev, period, what, pos, stride, word_index=None) -> tuple[np.ndarray, int]:
+    """Wrap counts of a chunk of counter values (int64) whose predecessor is `prev` (None before the first):
+    returns (for each value the number of wraps since prev, that number after the last value). Every step must
+    pass time_step_ok, else DatasetFormatError naming the byte position of the value (see _byte)."""
+    before = np.empty_like(values)
+    before[1:] = values[:-1]
+    before[0] = values[0] if prev is None else prev
+    ok = time_step_ok(before, values, period)
+    if not ok.all():
+        i = int(np.argmin(ok))
+        new, old = int(values[i]), int(before[i])
+        how = "goes back" if new < old else "jumps from the bottom of the range to its top (back across zero)"
+        raise fail(path, f"time goes back at byte {_byte(pos, stride, word_index, i)}: {what} {new} after {old} "
+                         f"{how}; a wrap of the {period.bit_length() - 1}-bit range goes from its top 1/{WRAP_WINDOW} "
+                         f"to its bottom 1/{WRAP_WINDOW}: a corrupt file")
+    wraps = np.cumsum(values < before)
+    return wraps, int(wraps[-1])
+
+
+def _time_order(path, t, last, pos, stride, word_index) -> None:
+    """DatasetFormatError at the first event earlier than its predecessor (last: the previous chunk's last time)."""
+    if t.size == 0:
+        return
+    prev = np.empty_like(t)
+    prev[1:] = t[:-1]
+    prev[0] = t[0] if last is None else last
+    back = np.flatnonzero(t < prev)
+    if back.size:
+        i = int(back[0])
+        raise fail(path, f"time goes back at byte {_byte(pos, stride, word_index, i)}: an event at {int(t[i])} us "
+                         f"after one at {int(prev[i])} us: a corrupt file")
+
+
 def _dat_chunks(path, f, offset, size):
-    ovf, last = 0, 0
+    ovf, prev = 0, None
     while True:
+        pos = f.tell()
         d = _words(path, f, _DAT_EVENT, size)
         if d.size == 0:
             return
         t = d["t"].astype(np.int64)
-        wraps = np.concatenate([[t[0] < last], np.diff(t) < 0]).cumsum()  # 32-bit time wrap-arounds
+        wraps, n_wraps = _unwrap(path, t, prev, 1 << 32, ".dat event time", pos, _DAT_EVENT.itemsize)
+        prev = int(t[-1])
         t += (ovf + wraps) << 32
-        ovf, last = ovf + int(wraps[-1]), int(d["t"][-1])
+        ovf += n_wraps
         xyp = d["xyp"]
         yield events_from_columns(path, t + offset, xyp & 0x3FFF, (xyp >> 14) & 0x3FFF,
                                   np.where((xyp >> 28) & 1, 1, -1).astype(np.int8))
 
 
 def _evt2_chunks(path, f, offset, size):
-    th = 0
+    th, ovf, prev, last = 0, 0, None, None  # time high (unwrapped), its wraps, its last raw value, last event time
     while True:
+        pos = f.tell()
         w = _words(path, f, _WORD["evt2"], size).astype(np.int64)
         if w.size == 0:
             return
         typ = w >> 28
         is_th = typ == 0x8
+        th_at = np.flatnonzero(is_th)
+        th_full = np.zeros(w.size, np.int64)
+        if th_at.size:
+            raw = w[is_th] & 0x0FFF_FFFF
+            wraps, n_wraps = _unwrap(path, raw, prev, 1 << 28, "EVT 2.0 TIME_HIGH", pos, 4, th_at)
+            th_full[is_th] = raw + ((ovf + wraps) << 28)
+            prev, ovf = int(raw[-1]), ovf + n_wraps
         last_th = np.maximum.accumulate(np.where(is_th, np.arange(w.size), -1))
-        th_of = np.where(last_th >= 0, w[np.maximum(last_th, 0)] & 0x0FFF_FFFF, th)
-        if is_th.any():
-            th = int(w[is_th][-1] & 0x0FFF_FFFF)
+        th_of = np.where(last_th >= 0, th_full[np.maximum(last_th, 0)], th)
+        if th_at.size:
+            th = int(th_full[th_at[-1]])
         cd = typ <= 1
         wc = w[cd]
         t = (th_of[cd] << 6) | ((wc >> 22) & 63)
+        _time_order(path, t, last, pos, 4, np.flatnonzero(cd))
+        last = int(t[-1]) if t.size else last
         yield events_from_columns(path, t + offset, (wc >> 11) & 0x7FF, wc & 0x7FF,
                                   np.where(typ[cd] == 1, 1, -1).astype(np.int8))
 
 
 def _evt3_chunks(path, f, offset, size):
-    state = np.zeros(6, np.int64)
+    state = np.zeros(STATE_SIZE, np.int64)
+    state[6] = -1  # no event yet
     per_read = max(1, size // 2)
     while True:
+        pos = f.tell()
         w = _words(path, f, _WORD["evt3"], per_read)
         if w.size == 0:
             return
@@ -311,6 +422,17 @@ def _evt3_chunks(path, f, offset, size):
         t, x, y, p = np.empty(n_max, np.int64), np.empty(n_max, np.uint16), np.empty(n_max, np.uint16), \
             np.empty(n_max, np.int8)
         n = decode_evt3(w, state, t, x, y, p)
+        if n < 0:
+            i = -1 - n
+            if w[i] >> 12 == 0x8:
+                new, old = int(w[i]) & 0xFFF, int(state[0]) & 0xFFF
+                how = "goes back" if new < old else "jumps from the bottom of the range to its top (back across zero)"
+                raise fail(path, f"time goes back at byte {pos + 2 * i}: EVT 3.0 TIME_HIGH {new} after {old} {how}; "
+                                 f"a wrap of the 12-bit range goes from its top 1/{WRAP_WINDOW} to its bottom "
+                                 f"1/{WRAP_WINDOW}: a corrupt file")
+            raise fail(path, f"time goes back at byte {pos + 2 * i}: an event at "
+                             f"{(int(state[0]) << 12) | int(state[1])} us after one at {int(state[6])} us: a corrupt "
+                             "file")
         yield events_from_columns(path, t[:n] + offset, x[:n], y[:n], p[:n])
 
 
@@ -319,9 +441,7 @@ def read_prophesee(path: str | Path) -> Recording:
     in the header, the sensor is max(x) + 1 by max(y) + 1."""
     path = Path(path)
     chunks = list(iter_prophesee_events(path))
-    events = np.concatenate(chunks) if chunks else events_from_columns(path, [], [], [], [])
-    if events.size > 1 and np.any(np.diff(events["t"]) < 0):
-        raise fail(path, "event times decrease across chunks (corrupt file?)")
+    events = np.concatenate(chunks) if chunks else events_from_columns(path, [], [], [], [])  # in time order
     with open(path, "rb") as f:
         keys, _ = _read_header(path, f)
     h, w = _geometry(path, keys)

@@ -7,7 +7,8 @@ EVT 3.0 words (little-endian uint16, type in bits 15..12), as Prophesee document
     0x4 VECT_12       bits 11..0: events at base + k for each set bit k; base += 12
     0x5 VECT_8        bits 7..0: the same for 8 pixels; base += 8
     0x6 TIME_LOW      bits 11..0 = time bits 11..0
-    0x8 TIME_HIGH     bits 11..0 = time bits 23..12; a value below the previous one means the 24-bit time wrapped
+    0x8 TIME_HIGH     bits 11..0 = time bits 23..12; a value below the previous one is a wrap of the 24-bit time
+                      when time_step_ok says so (from the top of the range to its bottom), else a corrupt file
     0xA EXT_TRIGGER, 0xE OTHERS, 0x7 CONTINUED_4, 0xF CONTINUED_12: carry no CD event (skipped)
 """
 
@@ -15,6 +16,27 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+WRAP_WINDOW = 256  # a wrap moves time forward by at most 1/WRAP_WINDOW of the counter's range (see time_step_ok)
+
+
+def time_step_ok(prev: int | np.ndarray, new: int | np.ndarray, period: int) -> bool | np.ndarray:
+    """Whether a time counter of range `period` may read `new` after `prev`: the one rule of every Prophesee reader
+    (the 32-bit .dat event time, the 28-bit EVT 2.0 and the 12-bit EVT 3.0 TIME_HIGH).
+
+    With m = period // WRAP_WINDOW (EVT 3.0: 16 TIME_HIGH steps, 65.5 ms; EVT 2.0: 67.1 s; .dat: 16.8 s):
+    new >= prev is time moving forward by new - prev, which must be less than period - m; new < prev is a wrap,
+    from the top of the range to its bottom, moving time forward by new + period - prev, which must be at most m.
+    Anything else is a time that goes back (a step back, or across zero: from near the bottom of the range to
+    near its top), i.e. a corrupt file. So one corrupt value cannot pass for a wrap: a value just below an early
+    time reads as near the top, and the step to it is refused. Works on ints and numpy arrays alike (in numba
+    kernels as _time_step_ok). Metavision's EVT 3.0 decoder counts a wrap for a drop of at least 4085 of 4096
+    steps, which this rule accepts too."""
+    m = period // WRAP_WINDOW
+    return ((new >= prev) & (new - prev < period - m)) | ((new < prev) & (prev - new >= period - m))
+
+
+_time_step_ok = njit(cache=True)(time_step_ok)
 
 TIME_HIGH_MAX_STEP = 8  # TIME_HIGH steps (of 4096 us) in a silence: Metavision counts a wrap only when TIME_HIGH
 # drops by at least 4085 steps (openeb evt3 decoder, LoopThreshold = 10 steps), so wraps must come in small steps
@@ -56,46 +78,67 @@ def encode_evt3(t, x, y, p, state, out):
     return k
 
 
+STATE_SIZE = 7  # decode_evt3's state: time_high, time_low, y, base_x, polarity, seen time_high, last event time
+
+
 @njit(cache=True)
 def decode_evt3(words, state, t, x, y, p):
     """Decode EVT 3.0 words into t (int64 us, from the unwrapped 24-bit time), x, y (uint16), p (int8 -1/+1),
     each as long as the words' events (ADDR_X words plus the set bits of vector words). state = [time_high
-    (unwrapped), time_low, y, base_x, polarity, seen time_high] carried between chunks. Returns the number of
-    events decoded."""
-    th, tl, yy, base, pol, seen = state[0], state[1], state[2], state[3], state[4], state[5]
+    (unwrapped), time_low, y, base_x, polarity, seen time_high, time of the last event (-1 before the first)],
+    np.int64 of STATE_SIZE, carried between chunks. Returns the number of events decoded, or -1 - i when word i
+    makes time go back: a TIME_HIGH step that time_step_ok refuses, or an event earlier than the one before it;
+    state then holds the state before word i."""
+    th, tl, yy, base, pol, seen, last = state[0], state[1], state[2], state[3], state[4], state[5], state[6]
     n = 0
+    bad = -1
     for i in range(words.size):
         w = np.int64(words[i])
         typ = w >> 12
         if typ == 0x0:
             yy = w & 0x7FF
         elif typ == 0x2:
-            t[n] = (th << 12) | tl
+            ti = (th << 12) | tl
+            if ti < last:
+                bad = i
+                break
+            t[n] = ti
             x[n] = w & 0x7FF
             y[n] = yy
             p[n] = 1 if w & 0x800 else -1
             n += 1
+            last = ti
         elif typ == 0x3:
             base = w & 0x7FF
             pol = 1 if w & 0x800 else -1
         elif typ == 0x4 or typ == 0x5:
+            ti = (th << 12) | tl
+            bits = w & (0xFFF if typ == 0x4 else 0xFF)
+            if bits and ti < last:
+                bad = i
+                break
             width = 12 if typ == 0x4 else 8
             for b in range(width):
                 if (w >> b) & 1:
-                    t[n] = (th << 12) | tl
+                    t[n] = ti
                     x[n] = base + b
                     y[n] = yy
                     p[n] = pol
                     n += 1
+                    last = ti
             base += width
         elif typ == 0x6:
             tl = w & 0xFFF
         elif typ == 0x8:
             v = w & 0xFFF
+            low = th & 0xFFF
             if seen == 0:
                 th = v
                 seen = 1
+            elif not _time_step_ok(low, v, 4096):
+                bad = i
+                break
             else:
-                th += (v - (th & 0xFFF)) & 0xFFF  # forward steps modulo the 12-bit wrap
-    state[0], state[1], state[2], state[3], state[4], state[5] = th, tl, yy, base, pol, seen
-    return n
+                th += (v - low) & 0xFFF  # forward, across a wrap when v < low
+    state[0], state[1], state[2], state[3], state[4], state[5], state[6] = th, tl, yy, base, pol, seen, last
+    return n if bad < 0 else -1 - bad
