@@ -122,8 +122,9 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, tuple, dict]], *, workers
 
 def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | None) -> TaskOutcome:
     """Run one task where this is called (in a worker: with `threads` numba/OpenCV threads), catching its error."""
-    if threads is not None:
+    if threads is not None:  # in a worker process
         limit_threads(threads)
+        _guard_resource_tracker()  # (a worker relaunches the tracker too when it was killed)
     t0 = time.perf_counter()
     try:
         outcome = TaskOutcome(name, value=fn(*args, **kwargs))

@@ -1,5 +1,6 @@
 """AEDAT4 (iniVation DV): reader through the optional `aedat` package (`pip install aedat`), writer through
-dv-processing (`pip install dv-processing`), iniVation's own library.
+dv-processing (`pip install dv-processing`), iniVation's own library, run in a child process (it aborts its
+process when a write fails).
 
 Reads the first event stream (and the first frame stream, if any) into a Recording. Times are the camera's
 int64 microseconds (usually Unix time). Frame exposure windows come from exposure_begin_t / exposure_end_t;
