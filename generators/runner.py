@@ -195,8 +195,18 @@ def local_cluster(workers: int) -> Iterator[LocalCluster]:
             yield cluster
         except BaseException as e:
             if not isinstance(e, Exception):  # SIGTERM (the CLI's Terminated) or Ctrl-C: the workers go now,
-                stop_child_processes()  # with the temporaries of the tasks they were running
+                stop_child_processes(_worker_pids(cluster))  # with the temporaries of the tasks they were running
             raise
+
+
+def _worker_pids(cluster) -> list[int]:
+    """The pids of a LocalCluster's worker processes (started by its nannies)."""
+    pids = []
+    for nanny in getattr(cluster, "workers", {}).values():
+        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
+        if isinstance(pid, int):
+            pids.append(pid)
+    return pids
 
 
 _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"  # (its "leaked semaphores" and "relaunching" warnings)
@@ -366,13 +376,14 @@ def _scatter_shared(client, tasks) -> dict:
 
 # ----- stopping the worker processes at once (SIGTERM, Ctrl-C) ---------------------------------------------
 
-def _descendants() -> list[int]:
-    """This process's descendants (Linux /proc), children first."""
+def _descendants(root: int | None, pids: list[int]) -> list[int]:
+    """The descendants of process `root` (if given) and the processes `pids` with theirs (Linux /proc), parents
+    first."""
     parent: dict[int, int] = {}
     try:
         names = os.listdir("/proc")
     except OSError:
-        return []
+        return list(pids)
     for name in names:
         if name.isdigit():
             try:
@@ -381,11 +392,14 @@ def _descendants() -> list[int]:
                 parent[int(name)] = int(stat[stat.rindex(b")") + 2 :].split()[1])
             except (OSError, ValueError, IndexError):
                 pass
-    out, frontier = [], [os.getpid()]
+    out = list(pids)
+    seen = set(out) | {root}
+    frontier = set(seen)
     while frontier:
-        children = [p for p, pp in parent.items() if pp in frontier]
+        children = [p for p, pp in parent.items() if pp in frontier and p not in seen]
         out += children
-        frontier = children
+        seen.update(children)
+        frontier = set(children)
     return out
 
 
@@ -412,12 +426,15 @@ def _open_temporaries(pids: list[int]) -> set[str]:
     return found
 
 
-def stop_child_processes() -> None:
-    """Stop this process's descendants (SIGTERM, then SIGKILL after 0.15 s: Dask's nannies and workers, writer
-    children) and delete the temporaries they had files open in (Linux; elsewhere nothing is stopped)."""
+def stop_child_processes(pids: list[int] | None = None) -> None:
+    """Stop processes `pids` and their descendants, or (None) every descendant of this process (SIGTERM, then
+    SIGKILL after 0.15 s: Dask's worker processes, writer children), and delete the temporaries they had files
+    open in. multiprocessing's resource tracker is spared (it cleans up after the others). Linux: elsewhere only
+    the pids given are signalled."""
     from .formats.atomic import discard
 
-    pids = [p for p in _descendants() if p != _resource_tracker_pid()]  # it cleans up after the others
+    tree = _descendants(os.getpid() if pids is None else None, pids or [])
+    pids = [p for p in tree if p != _resource_tracker_pid()]
     temporaries = _open_temporaries(pids)
     for sig in (signal.SIGTERM, signal.SIGKILL):
         for pid in pids:

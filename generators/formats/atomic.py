@@ -193,7 +193,7 @@ class GuardedSink(io.RawIOBase):
 
     def __init__(self, path: str | Path):
         super().__init__()
-        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o600)
+        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC | getattr(os, "O_BINARY", 0), 0o600)
         self._pos = self._size = 0
         self.error: OSError | None = None
         self._kept: list[tuple[int, bytes]] = []  # (offset, data) written since the error
@@ -217,7 +217,7 @@ class GuardedSink(io.RawIOBase):
     def readinto(self, b: bytearray | memoryview) -> int:
         view = memoryview(b).cast("B")
         n = max(0, min(len(view), self._size - self._pos))
-        data = os.pread(self._fd, n, self._pos) if n else b""
+        data = _pread(self._fd, n, self._pos) if n else b""
         view[: len(data)] = data
         view[len(data) : n] = bytes(n - len(data))
         for off, blob in self._kept:
@@ -233,7 +233,7 @@ class GuardedSink(io.RawIOBase):
         if self.error is None:
             try:
                 while len(view):
-                    k = os.pwrite(self._fd, view, off)
+                    k = _pwrite(self._fd, view, off)
                     view, off = view[k:], off + k
             except OSError as e:
                 self.error = e
@@ -268,3 +268,17 @@ class GuardedSink(io.RawIOBase):
             self._fd, self._kept = None, []
             super().close()
         self.check()
+
+
+def _pread(fd: int, n: int, offset: int) -> bytes:
+    if hasattr(os, "pread"):
+        return os.pread(fd, n, offset)
+    os.lseek(fd, offset, os.SEEK_SET)  # (Windows)
+    return os.read(fd, n)
+
+
+def _pwrite(fd: int, data: memoryview, offset: int) -> int:
+    if hasattr(os, "pwrite"):
+        return os.pwrite(fd, data, offset)
+    os.lseek(fd, offset, os.SEEK_SET)  # (Windows)
+    return os.write(fd, data)
