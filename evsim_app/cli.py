@@ -23,6 +23,8 @@ from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, U
 from generators.runner import TasksFailed, raise_failures
 
 from .plots.cli import add_plot_parser
+from .sigterm import MESSAGE as SIGTERM_MESSAGE
+from .sigterm import Watchdog, end_now
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
@@ -563,6 +565,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # argparse: --help (0) or a usage error (2), message already printed
         return int(e.code or 0)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    watchdog = Watchdog()  # ends the process 0.7 s after SIGTERM if the main thread has not by then
+    if hasattr(signal, "SIGXFSZ"):  # a file size limit (ulimit -f): writes fail with EFBIG (exit 2), not a core dump
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         _check_paths(args)
         return args.func(args)
@@ -578,28 +583,29 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("evsim: interrupted", file=sys.stderr)
         return 130
-    except Terminated:
-        print("evsim: terminated (SIGTERM); temporary files removed", file=sys.stderr)
-        return 128 + signal.SIGTERM
+    except Terminated:  # the temporary files are removed (the writers' cleanup has run)
+        watchdog.reported = True
+        print(SIGTERM_MESSAGE, file=sys.stderr)
+        end_now(reported=True)  # exits 143 now: the interpreter's teardown would take up to a second more
 
     except BrokenPipeError:  # the reader of our output went away (e.g. `evsim info f | head`): not a failure
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as e:
-        from generators.formats.atomic import is_disk_full
+        from generators.formats.atomic import DiskFullError, is_disk_full
 
+        if isinstance(e, DiskFullError):  # names the output; its temporary files are removed
+            print(f"evsim: error: {e}", file=sys.stderr)
+            return 2
         if is_disk_full(e):
             print(f"evsim: error: disk full or file too large, nothing written in its place: {e}", file=sys.stderr)
-            # HDF5 keeps the failed file's ids and can crash (SIGSEGV) when they are freed at interpreter exit:
-            # the temporary files are already removed, so leave now, skipping that teardown.
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(2)
+            return 2
         traceback.print_exc()
         print("evsim: unexpected error (a bug: please report it with the traceback above)", file=sys.stderr)
         return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
+        watchdog.stop()
 
 
 if __name__ == "__main__":

@@ -10,9 +10,9 @@ which order it runs does not change its result.
   same files (inputs and output folder) at the same paths.
 On a cluster, no more tasks are submitted at a time than it has worker threads (results come back in task order
 whatever order they finish in). One progress bar counts the finished tasks. A task that raises does not stop the
-others: its error comes back in its TaskOutcome (callers raise TasksFailed at the end). A task whose worker process
-dies is retried by Dask on another worker (distributed.scheduler.allowed-failures, default 3), then reported as
-failed (KilledWorker).
+others: its error comes back in its TaskOutcome (callers raise TasksFailed at the end); a full disk
+(formats.atomic.is_disk_full) stops the run, raised by run_tasks. A task whose worker process dies is retried by
+Dask on another worker (distributed.scheduler.allowed-failures, default 3), then reported as failed (KilledWorker).
 Threads: in each worker, numba and OpenCV get cores // (dask threads on that host) threads (at least 1), so that
 N workers do not oversubscribe the cores; BLAS/OpenMP pools of local workers get the same number.
 Arguments shared by several tasks (the same object, e.g. one scene for a whole sweep) are sent to the cluster once.
@@ -22,10 +22,12 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
 import sys
 import time
 import traceback
 import uuid
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -54,7 +56,7 @@ class TaskOutcome:
     value: object = None
     error: str | None = None
     traceback: str = ""
-    kind: str = ""  # of an error: "input" (sim.EvsimInputError), "lost" (its worker died) or "bug"
+    kind: str = ""  # of an error: "input" (sim.EvsimInputError), "lost" (its worker died), "bug" or "disk full"
     stats: dict = field(default_factory=dict)
 
     @property
@@ -122,8 +124,9 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, tuple, dict]], *, workers
 
 def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | None) -> TaskOutcome:
     """Run one task where this is called (in a worker: with `threads` numba/OpenCV threads), catching its error."""
-    if threads is not None:
+    if threads is not None:  # in a worker process
         limit_threads(threads)
+        _guard_resource_tracker()  # (a worker relaunches the tracker too when it was killed)
     t0 = time.perf_counter()
     try:
         outcome = TaskOutcome(name, value=fn(*args, **kwargs))
@@ -131,7 +134,10 @@ def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | N
         from .formats.atomic import is_disk_full
 
         if is_disk_full(e):  # every later sequence would fail the same way: stop the run
-            raise
+            if threads is None:
+                raise
+            # in a worker: returned (raising would make Dask log it), raised by run_tasks
+            return TaskOutcome(name, value=e, error=f"{type(e).__name__}: {e}", kind="disk full")
         outcome = TaskOutcome(name, error=f"{type(e).__name__}: {e}", traceback=traceback.format_exc(),
                               kind="input" if isinstance(e, EvsimInputError) else "bug")
     outcome.stats = {"pid": os.getpid(), "seconds": time.perf_counter() - t0, "rss_mb": _rss_mb(),
@@ -181,12 +187,64 @@ def local_cluster(workers: int) -> Iterator[LocalCluster]:
     import dask
     from distributed import LocalCluster
 
+    _guard_resource_tracker()
     threads = str(max(1, usable_cores() // workers))
     # worker-saturation 1: a worker holds only the task it runs, so a worker that dies costs that task alone
     with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}), \
             LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                          silence_logs=logging.ERROR, env={k: threads for k in _THREAD_ENV}) as cluster:
-        yield cluster
+        try:
+            yield cluster
+        except BaseException as e:
+            if not isinstance(e, Exception):  # SIGTERM (the CLI's Terminated) or Ctrl-C: the workers go now,
+                stop_child_processes(_worker_pids(cluster))  # with the temporaries of the tasks they were running
+            raise
+
+
+def _worker_pids(cluster) -> list[int]:
+    """The pids of a LocalCluster's worker processes (started by its nannies)."""
+    pids = []
+    for nanny in getattr(cluster, "workers", {}).values():
+        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
+        if isinstance(pid, int):
+            pids.append(pid)
+    return pids
+
+
+_QUIET_TRACKER = "ignore:resource_tracker:UserWarning"  # (its "leaked semaphores" and "relaunching" warnings)
+
+
+def _guard_resource_tracker() -> None:
+    """Keep multiprocessing's resource tracker quiet when it is killed (it is one of this process's children, and
+    Dask's worker processes use the semaphores it tracks): the relaunched tracker does not know the semaphores
+    registered with the dead one and printed a KeyError traceback for each one unregistered later (the
+    semaphores themselves are unlinked all the same). Unregistering is sent only to the tracker that registered
+    the name; the "relaunching" warning is not shown. Idempotent."""
+    from multiprocessing import resource_tracker as rt
+
+    if getattr(rt.unregister, "_evsim_guard", False):
+        return
+    tracker = rt._resource_tracker
+    before = tracker._pid  # names registered before this guard: with this tracker (or none was running)
+    registered_with: dict[tuple[str, str], int | None] = {}
+    register, unregister = rt.register, rt.unregister
+
+    def guarded_register(name: str, rtype: str) -> None:
+        register(name, rtype)
+        registered_with[name, rtype] = tracker._pid
+
+    def guarded_unregister(name: str, rtype: str) -> None:
+        pid = registered_with.pop((name, rtype), before)
+        tracker.ensure_running()  # (relaunches a dead tracker: its pid changes)
+        if pid == tracker._pid:
+            unregister(name, rtype)
+
+    guarded_unregister._evsim_guard = True
+    rt.register, rt.unregister = guarded_register, guarded_unregister
+    warnings.filterwarnings("ignore", message="resource_tracker: process died unexpectedly", category=UserWarning)
+    # the same in the processes multiprocessing starts from here on (-W options), trackers included
+    if _QUIET_TRACKER not in sys.warnoptions:
+        sys.warnoptions.append(_QUIET_TRACKER)
 
 
 @contextmanager
@@ -199,12 +257,59 @@ def _client(workers: int | None, scheduler: str | None):
         with local_cluster(workers) as cluster, Client(cluster) as client:
             yield client
         return
+    check_scheduler(scheduler)
     try:
         client = Client(scheduler, timeout="20s")
     except (OSError, ValueError, TypeError) as e:
         raise EvsimInputError(f"cannot connect to the Dask scheduler {scheduler!r}: {e}") from None
     with client:
         yield client
+
+
+def check_scheduler(address: str, timeout_s: float = 2.0) -> None:
+    """Refuse (EvsimInputError) a tcp:// scheduler address where nothing listens, nothing answers, or something
+    that is not a Dask scheduler answers, within 2 * timeout_s seconds (connecting, then its answer): a Dask
+    scheduler sends its handshake (a msgpack dict with "compression" and "python") as soon as a connection is
+    made; Dask's own client would retry a closed port for its whole timeout and read a foreign service's bytes as
+    a frame length ("Unable to allocate 3.07 EiB"). Other protocols (tls://, ucx://, ...) are left to Dask."""
+    import socket
+    import struct
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(address)
+        host, port = parse_host_port(loc, 8786)
+    except (ValueError, TypeError) as e:
+        raise EvsimInputError(f"scheduler {address!r} is not an address such as tcp://host:8786: {e}") from None
+    if scheme != "tcp":
+        return
+    where = f"the Dask scheduler {address!r}"
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s) as s:
+            deadline = time.monotonic() + timeout_s
+            head = _recv_exactly(s, 8, deadline)
+            (n,) = struct.unpack("<Q", head) if len(head) == 8 else (0,)
+            body = _recv_exactly(s, n, deadline) if 16 <= n <= 1 << 16 else b""
+    except TimeoutError:
+        raise EvsimInputError(f"cannot use {where}: no answer within {timeout_s:g} s (not a Dask scheduler, or "
+                              "unreachable)") from None
+    except OSError as e:  # refused (nothing listens there), unreachable, unknown host
+        raise EvsimInputError(f"cannot connect to {where}: {e.strerror or e}") from None
+    if b"compression" not in body or b"python" not in body:
+        raise EvsimInputError(f"cannot use {where}: what answers there is not a Dask scheduler (no Dask handshake)")
+
+
+def _recv_exactly(s, n: int, deadline: float) -> bytes:
+    """Up to n bytes from socket s (fewer when the peer closes first); TimeoutError at the deadline."""
+    data = b""
+    while len(data) < n:
+        s.settimeout(max(deadline - time.monotonic(), 1e-3))
+        more = s.recv(n - len(data))
+        if not more:
+            break
+        data += more
+    return data
 
 
 def _worker_threads(client) -> int:
@@ -247,6 +352,8 @@ def _run_on(client, fn, tasks, done) -> list[TaskOutcome]:
             outcome = future.result()
         except Exception as e:  # the task's worker died (KilledWorker) or the cluster lost it
             outcome = TaskOutcome(tasks[i][0], error=f"{type(e).__name__}: {e}", kind="lost")
+        if outcome.kind == "disk full":  # stops the run, as in a serial one
+            raise outcome.value
         outcomes[i] = done(outcome)
         future.release()
         while len(futures) < max(1, sum(client.nthreads().values())):  # workers may have joined or left
@@ -267,3 +374,105 @@ def _scatter_shared(client, tasks) -> dict:
     shared = [obj for obj, n in seen.values() if n > 1]
     futures = client.scatter(shared, hash=False) if shared else []
     return {id(obj): f for obj, f in zip(shared, futures)}
+
+
+# ----- stopping the worker processes at once (SIGTERM, Ctrl-C) ---------------------------------------------
+
+def _descendants(root: int | None, pids: list[int]) -> list[int]:
+    """The descendants of process `root` (if given) and the processes `pids` with theirs (Linux /proc), parents
+    first."""
+    parent: dict[int, int] = {}
+    try:
+        names = os.listdir("/proc")
+    except OSError:
+        return list(pids)
+    for name in names:
+        if name.isdigit():
+            try:
+                with open(f"/proc/{name}/stat", "rb") as f:
+                    stat = f.read()
+                parent[int(name)] = int(stat[stat.rindex(b")") + 2 :].split()[1])
+            except (OSError, ValueError, IndexError):
+                pass
+    out = list(pids)
+    seen = set(out) | {root}
+    frontier = set(seen)
+    while frontier:
+        children = [p for p, pp in parent.items() if pp in frontier and p not in seen]
+        out += children
+        seen.update(children)
+        frontier = set(children)
+    return out
+
+
+def _open_temporaries(pids: list[int]) -> set[str]:
+    """The temporaries (atomic.temp_sibling's `.<name>.<host>-<pid>.<random>.tmp` files and folders) that
+    processes `pids` have files open in (Linux /proc): a Dask worker's, which its own cleanup cannot remove
+    (its task runs in a thread that no signal reaches)."""
+    found = set()
+    for pid in pids:
+        try:
+            fds = os.listdir(f"/proc/{pid}/fd")
+        except OSError:
+            continue
+        for fd in fds:
+            try:
+                target = os.readlink(f"/proc/{pid}/fd/{fd}")
+            except OSError:
+                continue
+            parts = target.split("/")
+            for i, part in enumerate(parts):  # the outermost temporary on the path
+                if part.startswith(".") and part.endswith(".tmp") and i > 0:
+                    found.add("/".join(parts[: i + 1]))
+                    break
+    return found
+
+
+def stop_child_processes(pids: list[int] | None = None) -> None:
+    """Stop processes `pids` and their descendants, or (None) every descendant of this process (SIGTERM, then
+    SIGKILL after 0.15 s: Dask's worker processes, writer children), and delete the temporaries they had files
+    open in. multiprocessing's resource tracker is spared (it cleans up after the others). Linux: elsewhere only
+    the pids given are signalled."""
+    from .formats.atomic import discard
+
+    tree = _descendants(os.getpid() if pids is None else None, pids or [])
+    pids = [p for p in tree if p != _resource_tracker_pid()]
+    temporaries = _open_temporaries(pids)
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        for pid in pids:
+            try:
+                os.kill(pid, sig)
+            except OSError:
+                pass
+        deadline = time.monotonic() + 0.15
+        while pids and time.monotonic() < deadline:
+            pids = [p for p in pids if _running(p)]
+            time.sleep(0.01)
+        if not pids:
+            break
+    for p in temporaries:
+        try:
+            discard(p)
+        except OSError:
+            pass
+
+
+def _resource_tracker_pid() -> int | None:
+    """The pid of multiprocessing's resource tracker process, if this process has started one."""
+    tracker = getattr(sys.modules.get("multiprocessing.resource_tracker"), "_resource_tracker", None)
+    return getattr(tracker, "_pid", None)
+
+
+def _running(pid: int) -> bool:
+    try:
+        done, _ = os.waitpid(pid, os.WNOHANG)  # reaps a child of ours
+        if done:
+            return False
+    except ChildProcessError:  # a grandchild: gone from /proc (or a zombie) when it has ended
+        pass
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read()
+        return stat[stat.rindex(b")") + 2 :][:1] != b"Z"
+    except OSError:
+        return False

@@ -146,13 +146,13 @@ def test_ijrr_export_is_atomic_at_folder_level(tmp_path, monkeypatch, tiny_recor
     rec = tiny_recording
     export(rec, tmp_path / "ij", "ijrr")
     before = {p.name: p.read_bytes() for p in (tmp_path / "ij").iterdir() if p.is_file()}
-    calls, real_imwrite = [], cv2.imwrite
+    calls, real_imencode = [], cv2.imencode
 
-    def imwrite_fails_on_the_third_frame(path, img):
-        calls.append(path)
-        return len(calls) < 3 and real_imwrite(path, img)
+    def imencode_fails_on_the_third_frame(ext, img):
+        calls.append(ext)
+        return real_imencode(ext, img) if len(calls) < 3 else (False, None)
 
-    monkeypatch.setattr("generators.formats.ijrr.cv2.imwrite", imwrite_fails_on_the_third_frame)
+    monkeypatch.setattr("generators.formats.ijrr.cv2.imencode", imencode_fails_on_the_third_frame)
     with pytest.raises(OSError, match="could not write"):
         export(make_recording(seed=1), tmp_path / "ij", "ijrr")
     monkeypatch.undo()

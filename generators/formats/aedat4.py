@@ -1,5 +1,6 @@
 """AEDAT4 (iniVation DV): reader through the optional `aedat` package (`pip install aedat`), writer through
-dv-processing (`pip install dv-processing`), iniVation's own library.
+dv-processing (`pip install dv-processing`), iniVation's own library, run in a child process (it aborts its
+process when a write fails).
 
 Reads the first event stream (and the first frame stream, if any) into a Recording. Times are the camera's
 int64 microseconds (usually Unix time). Frame exposure windows come from exposure_begin_t / exposure_end_t;
@@ -8,7 +9,12 @@ colour frames are converted to grey with OpenCV. IMU and trigger packets are ign
 
 from __future__ import annotations
 
-import tempfile
+import importlib.util
+import json
+import struct
+import subprocess
+import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,7 +23,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .atomic import commit
+from .atomic import commit, discard, disk_full_error, is_disk_full, temp_sibling
 from .common import events_from_columns, fail, polarity_pm1
 from .native import recording_event_chunks
 from .recording import Recording, validate_recording
@@ -88,6 +94,51 @@ def read_aedat4(path: str | Path) -> Recording:
 
 
 # -- writing ----------------------------------------------------------------------------------------------------
+# dv-processing writes in a thread of its own and aborts the process (SIGABRT) when a write fails (a full disk) or
+# on a file name not ending in .aedat4: it runs in a child process, fed through a pipe, which writes
+# <temporary folder>/out.aedat4; a failure there is an exception here. Messages on the pipe: b"E" + n (u8) + t (i8
+# x n) + x (u2 x n) + y (u2 x n) + on (u1 x n) for events, b"F" + t_start, exposure (i8) + h, w (u4) + pixels for a
+# frame, b"Q" to close the file; the first line is JSON {"path", "width", "height", "frames"}.
+_WRITER_CHILD = r"""
+import json, os, struct, sys
+import numpy as np
+import dv_processing as dv
+src = sys.stdin.buffer
+def read(n):
+    buf = bytearray(n); view = memoryview(buf); got = 0
+    while got < n:
+        k = src.readinto(view[got:])
+        if not k:
+            os._exit(3)  # the parent went away: leave without finishing the file
+        got += k
+    return buf
+head = json.loads(src.readline())
+config = dv.io.MonoCameraWriter.Config("evsim")
+config.addEventStream((head["width"], head["height"]))
+if head["frames"]:
+    config.addFrameStream((head["width"], head["height"]))
+writer = dv.io.MonoCameraWriter(head["path"], config)
+while True:
+    tag = bytes(read(1))
+    if tag == b"E":
+        (n,) = struct.unpack("<Q", read(8))
+        t = np.frombuffer(read(8 * n), "<i8"); x = np.frombuffer(read(2 * n), "<u2")
+        y = np.frombuffer(read(2 * n), "<u2"); on = np.frombuffer(read(n), "u1")
+        store = dv.EventStore()
+        push = store.push_back
+        for ti, xi, yi, oi in zip(t.tolist(), x.tolist(), y.tolist(), on.astype(bool).tolist()):
+            push(ti, xi, yi, oi)
+        writer.writeEvents(store)
+    elif tag == b"F":
+        t0, exposure, h, w = struct.unpack("<qqII", read(24))
+        img = np.frombuffer(read(h * w), "u1").reshape(h, w)
+        writer.writeFrame(dv.Frame(t0, exposure, 0, 0, img, dv.FrameSource.SENSOR))
+    else:
+        break
+del writer  # closes the file (flushes the writer thread; a failed write aborts this process)
+"""
+
+
 def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
     """Write events (and frames with their exposure windows, when the recording has them) as AEDAT4 through
     dv-processing (`pip install dv-processing`), streamed chunk by chunk and atomically.
@@ -95,51 +146,96 @@ def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | N
     What AEDAT4 holds: the sensor size (stream resolution), events as int64 microsecond times with boolean
     polarity (True = ON), 8-bit grey frames whose timestamp is the exposure start and whose exposure is
     t_end - t_start (deeper frames lose their low bits). The mid-exposure time reads back as (start + end) // 2.
+    dv-processing runs in a child process (it aborts its process on a failed write): a full disk raises
+    atomic.DiskFullError naming `path`, another failure of it an OSError with its message.
     """
     validate_recording(rec)
-    try:
-        import dv_processing as dv
-    except ImportError as e:
+    if importlib.util.find_spec("dv_processing") is None:
         raise EvsimInputError("writing AEDAT4 needs the optional 'dv-processing' package "
-                              "(pip install dv-processing)") from e
+                              "(pip install dv-processing)")
     nf = 0 if rec.frames is None else rec.frames.shape[0]
-    config = dv.io.MonoCameraWriter.Config("evsim")
-    config.addEventStream((rec.width, rec.height))
-    if nf:
-        config.addFrameStream((rec.width, rec.height))
     shift = max(rec.frame_bit_depth - 8, 0)
     t_start = np.asarray(rec.frame_t_start_us if nf else [], np.int64)
     t_end = np.asarray(rec.frame_t_end_us if nf else [], np.int64)
-    next_frame = 0
-
-    def write_frames_until(writer, t_us) -> int:
-        i = next_frame
-        while i < nf and (t_us is None or t_start[i] <= t_us):
-            img = np.ascontiguousarray(rec.frames[i] >> shift if shift else rec.frames[i], dtype=np.uint8)
-            writer.writeFrame(dv.Frame(int(t_start[i]), int(t_end[i] - t_start[i]), 0, 0, img,
-                                       dv.FrameSource.SENSOR))
-            i += 1
-        return i
-
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # dv-processing aborts the process on a file name not ending in .aedat4: write one in a private temporary
-    # folder beside path, then move it onto path (atomic, as every writer)
-    with tempfile.TemporaryDirectory(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent) as d:
-        tmp = Path(d) / "out.aedat4"
-        writer = dv.io.MonoCameraWriter(str(tmp), config)
-        try:
+    tmp_dir = temp_sibling(path, directory=True)  # dv-processing needs a name ending in .aedat4: <tmp_dir>/out.aedat4
+    try:
+        with _DvWriter(tmp_dir / "out.aedat4", rec.width, rec.height, nf > 0) as writer:
+            next_frame = 0
+
+            def frames_until(t_us: int | None) -> int:
+                i = next_frame
+                while i < nf and (t_us is None or t_start[i] <= t_us):
+                    img = np.ascontiguousarray(rec.frames[i] >> shift if shift else rec.frames[i], dtype=np.uint8)
+                    writer.frame(int(t_start[i]), int(t_end[i] - t_start[i]), img)
+                    i += 1
+                return i
+
             for chunk, _ in event_source if event_source is not None else recording_event_chunks(rec):
                 if chunk.size == 0:
                     continue
-                next_frame = write_frames_until(writer, int(chunk["t"][-1]))  # frames interleaved in time
-                store = dv.EventStore()
-                push = store.push_back
-                for t, x, y, on in zip(chunk["t"].tolist(), chunk["x"].tolist(), chunk["y"].tolist(),
-                                       (chunk["p"] > 0).tolist()):
-                    push(t, x, y, on)
-                writer.writeEvents(store)
-            next_frame = write_frames_until(writer, None)
-        finally:
-            del writer  # closes the file (flushes dv-processing's writer thread)
-        commit(tmp, path)
+                next_frame = frames_until(int(chunk["t"][-1]))  # frames interleaved in time
+                writer.events(chunk)
+            next_frame = frames_until(None)
+        commit(tmp_dir / "out.aedat4", path)
+    except BaseException as e:
+        if is_disk_full(e):
+            raise disk_full_error(e, path) from e
+        raise
+    finally:
+        discard(tmp_dir)
+
+
+class _DvWriter:
+    """dv-processing's MonoCameraWriter in a child process (see _WRITER_CHILD), fed through its stdin."""
+
+    def __init__(self, path: Path, width: int, height: int, frames: bool):
+        self.path = path
+        self._err: list[bytes] = []
+        self._proc = subprocess.Popen([sys.executable, "-P", "-c", _WRITER_CHILD], stdin=subprocess.PIPE,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self._drain = threading.Thread(target=lambda: self._err.append(self._proc.stderr.read()), daemon=True)
+        self._drain.start()
+        self._send(json.dumps({"path": str(path), "width": int(width), "height": int(height),
+                               "frames": bool(frames)}).encode() + b"\n")
+
+    def events(self, chunk: np.ndarray) -> None:
+        self._send(b"E" + struct.pack("<Q", chunk.size), chunk["t"].astype("<i8").tobytes(),
+                   chunk["x"].astype("<u2").tobytes(), chunk["y"].astype("<u2").tobytes(),
+                   (chunk["p"] > 0).astype(np.uint8).tobytes())
+
+    def frame(self, t_start: int, exposure: int, img: np.ndarray) -> None:
+        h, w = img.shape
+        self._send(b"F" + struct.pack("<qqII", t_start, exposure, h, w), img.tobytes())
+
+    def _send(self, *parts: bytes) -> None:
+        try:
+            for part in parts:
+                self._proc.stdin.write(part)
+        except BrokenPipeError:  # the child died: its exit status and message say why
+            self._finish(done=False)
+
+    def _finish(self, *, done: bool = True) -> None:
+        """Close the pipe, wait for the child; raise OSError unless it wrote the whole file."""
+        try:
+            self._proc.stdin.close()
+        except BrokenPipeError:
+            pass
+        code = self._proc.wait()
+        self._drain.join()
+        if code != 0 or not done:
+            text = b"".join(self._err).decode(errors="replace")
+            lines = [ln.strip() for ln in text.splitlines() if "rror" in ln] or [text.strip() or "no message"]
+            raise OSError(f"dv-processing could not write {self.path} (exit {code}): {lines[-1][-500:]}")
+
+    def __enter__(self) -> _DvWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self._send(b"Q")
+            self._finish()
+            return
+        if self._proc.poll() is None:  # an error here, or SIGTERM/Ctrl-C: the child goes without finishing
+            self._proc.kill()
+        self._proc.wait()

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import gc
 import json
+import os
+import select
+import signal
+import time
+import warnings
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -14,6 +20,7 @@ import numpy as np
 
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
 
+from .atomic import GuardedSink, is_disk_full
 from .recording import MAX_SENSOR_PX, MAX_TIME_US, Recording, validate_recording
 
 if TYPE_CHECKING:
@@ -31,12 +38,129 @@ def fail(path: str | Path, problem: str) -> DatasetFormatError:
     return DatasetFormatError(f"{path}: {problem}")
 
 
+#: seconds without progress after which the structure read of an HDF5 file (probe_h5) is stopped
+PROBE_STALL_S = 5.0
+_PROBED: dict[tuple[int, int, int, int], None] = {}  # (device, inode, size, mtime) of files that read through
+
+
+def probe_h5(path: str | Path) -> None:
+    """Read the whole structure of the HDF5 file `path` in a forked child process: every group, dataset header,
+    attribute value, chunk index and variable-length dataset. HDF5 loops forever on some corrupt metadata (a
+    zeroed global heap, where variable-length strings live, spins inside HDF5 holding the GIL, where neither a
+    signal handler nor another thread can stop it) and may crash on some; in the child, a read that makes no
+    progress for PROBE_STALL_S seconds is stopped. Either becomes DatasetFormatError; errors HDF5 reports are
+    left to the caller's own read. A file that read through is remembered (device, inode, size, mtime) and not
+    probed again. Without os.fork (Windows) nothing is probed.
+
+    Cost: one fork and the structure walk, 10-40 ms per file (measured up to 20 M events: the data, event
+    columns and images, is not read); checksums would not do: HDF5 keeps none on global heaps."""
+    path = Path(path)
+    try:
+        st = path.stat()
+    except OSError:
+        return  # the caller's open says what is wrong
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+    if key in _PROBED or not hasattr(os, "fork"):
+        return
+    outcome = _in_child(lambda tick: _walk_h5(path, tick), PROBE_STALL_S)
+    if outcome == "stalled":
+        raise fail(path, f"corrupt HDF5 metadata: reading the file's structure made no progress for "
+                         f"{PROBE_STALL_S:g} s (HDF5 loops on it)")
+    if outcome != "done":
+        raise fail(path, f"corrupt HDF5 metadata: the HDF5 library crashed reading the file's structure ({outcome})")
+    if len(_PROBED) > 4096:
+        _PROBED.clear()
+    _PROBED[key] = None
+
+
+def _walk_h5(path: Path, tick: Callable[[], None]) -> None:
+    """Touch everything in an HDF5 file that a reader's metadata access could touch (see probe_h5); HDF5's own
+    errors are ignored here (the caller's read reports them)."""
+
+    def attributes(obj) -> None:
+        try:
+            names = list(obj.attrs)
+        except Exception:
+            return
+        for k in names:
+            try:
+                obj.attrs[k]
+            except Exception:
+                pass
+            tick()
+
+    def visit(name, obj) -> None:
+        try:
+            attributes(obj)
+            if isinstance(obj, h5py.Dataset):
+                obj.shape, obj.dtype, obj.chunks, obj.compression  # noqa: B018 (header messages)
+                if obj.chunks is not None:
+                    obj.id.chunk_iter(lambda info: None)  # the chunk index (B-tree)
+                if h5py.check_vlen_dtype(obj.dtype) is not None or obj.dtype.kind == "O":
+                    obj[()]  # variable-length data lives in the global heap
+        except Exception:
+            pass
+        tick()
+
+    with h5py.File(path, "r") as f:
+        attributes(f)
+        tick()
+        f.visititems(visit)
+
+
+def _in_child(work: Callable[[Callable[[], None]], None], stall_s: float) -> str:
+    """Run work(tick) in a forked child; return "done" when it ended (with or without an exception), "stalled"
+    when it did not call tick() for stall_s seconds (it is killed), else how it died ("signal 11")."""
+    r, w = os.pipe()
+    pid = None
+    try:
+        with h5py._objects.phil, warnings.catch_warnings():  # no other thread is inside HDF5 while forking
+            warnings.simplefilter("ignore", DeprecationWarning)  # (Python 3.12+: fork of a threaded process)
+            pid = os.fork()
+        if pid == 0:  # the child: never returns
+            try:
+                gc.disable()  # (the parent's garbage is the parent's to collect: finalizers run once)
+                signal.set_wakeup_fd(-1)  # (the parent's, if any: its signals are not the child's)
+                work(lambda: os.write(w, b"."))
+            finally:
+                os._exit(0)
+        os.close(w)
+        w = -1
+        last = time.monotonic()
+        while True:
+            ready, _, _ = select.select([r], [], [], 0.1)
+            if ready:
+                if not os.read(r, 65536):
+                    break  # EOF: the child has exited
+                last = time.monotonic()
+            elif time.monotonic() - last > stall_s:
+                return "stalled"  # (killed below)
+        _, status = os.waitpid(pid, 0)
+        pid = None
+        if os.WIFSIGNALED(status):
+            return f"signal {os.WTERMSIG(status)}"
+        return "done" if os.WEXITSTATUS(status) == 0 else f"exit {os.WEXITSTATUS(status)}"
+    finally:  # also on SIGTERM or Ctrl-C while waiting: the child goes too
+        if pid:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+        os.close(r)
+        if w >= 0:
+            os.close(w)
+
+
 @contextmanager
 def open_h5(path: str | Path) -> Iterator[h5py.File]:
-    """Open an HDF5 file for reading; missing/truncated/corrupt files and missing objects become DatasetFormatError."""
+    """Open an HDF5 file for reading; missing/truncated/corrupt files and missing objects become DatasetFormatError.
+    The file's structure is read first in a child process with a deadline (probe_h5): corrupt metadata on which
+    HDF5 would loop forever or crash is refused."""
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
+    probe_h5(path)
     try:
         f = h5py.File(path, "r")
     except OSError as e:
@@ -47,7 +171,50 @@ def open_h5(path: str | Path) -> Iterator[h5py.File]:
     except KeyError as e:
         raise fail(path, f"missing dataset or attribute: {e}") from e
     except OSError as e:
+        if is_disk_full(e):  # an output written while this file is open (export): not this file's fault
+            raise
         raise fail(path, f"unreadable data (truncated or corrupt?): {e}") from e
+
+
+class H5Output:
+    """An HDF5 file being written to `tmp` through an atomic.GuardedSink, so that a failed write (a full disk)
+    never reaches HDF5: `file` is the h5py.File; check() raises the error of a failed write (call it after each
+    block of data); close() closes the file and raises that error; abort() closes without raising."""
+
+    def __init__(self, tmp: str | Path):
+        self.sink = GuardedSink(tmp)
+        try:
+            self.file = h5py.File(self.sink, "w")
+        except BaseException:
+            self._close_sink_quietly()
+            raise
+
+    def check(self) -> None:
+        """Raise the error of a failed write, if any."""
+        self.sink.check()
+
+    def close(self) -> None:
+        """Close the HDF5 file, then the sink; raise the error of a failed write, if any."""
+        try:
+            self.file.close()
+        except BaseException:
+            self._close_sink_quietly()
+            raise
+        self.sink.close()
+
+    def abort(self) -> None:
+        """Close without raising (the caller has an error of its own to report)."""
+        try:
+            self.file.close()
+        except Exception:
+            pass
+        self._close_sink_quietly()
+
+    def _close_sink_quietly(self) -> None:
+        try:
+            self.sink.close()
+        except OSError:
+            pass
 
 
 # What libraries raise on malformed content (h5py, zlib, json, scipy.io, numpy, int()/float() of bad values).
@@ -64,6 +231,10 @@ def reading(path: str | Path) -> Iterator[None]:
         yield
     except DatasetFormatError:
         raise
+    except OSError as e:
+        if is_disk_full(e):  # an output's, not this file's
+            raise
+        raise fail(path, f"malformed content ({type(e).__name__}: {e})") from e
     except EvsimInputError as e:
         raise fail(path, str(e)) from e
     except MemoryError as e:

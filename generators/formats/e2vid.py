@@ -33,6 +33,7 @@ import numpy as np
 
 from .atomic import atomic_path
 from .common import (
+    H5Output,
     append_rows,
     events_from_columns,
     fail,
@@ -54,52 +55,67 @@ def write_e2vid(rec: Recording, path: str | Path, *, event_source: Iterator | No
     nf = 0 if rec.frames is None else rec.frames.shape[0]
     t_mid = np.asarray(rec.frame_t_mid_us if nf else [], dtype=np.int64)
     event_idx = np.zeros(nf, dtype=np.int64)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
-        ev = f.create_group("events")
-        cols = {k: ev.create_dataset(k, (0,), dtype=dt, maxshape=(None,), chunks=(_CHUNK,), compression="gzip")
-                for k, dt in (("xs", np.int16), ("ys", np.int16), ("ts", np.float64), ("ps", np.bool_))}
-        labels_ds = None
-        n = n_pos = 0
-        t0 = tk = None
-        for chunk, labels in event_source if event_source is not None else recording_event_chunks(rec):
-            if chunk.size == 0:
-                continue
-            for k, v in (("xs", chunk["x"].astype(np.int16)), ("ys", chunk["y"].astype(np.int16)),
-                         ("ts", chunk["t"] / 1e6), ("ps", chunk["p"] > 0)):
-                append_rows(cols[k], v)
-            if labels is not None:
-                if labels_ds is None:
-                    labels_ds = f.create_dataset("evsim/event_labels", (0,), dtype=np.uint8, maxshape=(None,),
-                                                 chunks=(_CHUNK,), compression="gzip")
-                append_rows(labels_ds, labels)
-            event_idx += np.searchsorted(chunk["t"], t_mid, side="left")
-            n += chunk.size
-            n_pos += int(np.count_nonzero(chunk["p"] > 0))
-            t0 = int(chunk["t"][0]) if t0 is None else t0
-            tk = int(chunk["t"][-1])
-        images = f.create_group("images")
-        shift = rec.frame_bit_depth - 8
-        for i in range(nf):
-            img = rec.frames[i] >> shift if shift > 0 else rec.frames[i]
-            ds = images.create_dataset(f"image{i:09d}", data=img.astype(np.uint8), compression="gzip")
-            ds.attrs.update({"timestamp": t_mid[i] / 1e6, "size": img.shape, "type": "greyscale",
-                             "event_idx": max(0, int(event_idx[i]) - 1), "t_start_us": int(rec.frame_t_start_us[i]),
-                             "t_mid_us": int(t_mid[i]), "t_end_us": int(rec.frame_t_end_us[i])})
-        t0 = t0 if t0 is not None else 0
-        tk = tk if tk is not None else t0
-        f.attrs.update({"sensor_resolution": (rec.height, rec.width), "num_events": n, "num_pos": n_pos,
-                        "num_neg": n - n_pos, "num_imgs": nf, "duration": (tk - t0) / 1e6, "t0": t0 / 1e6,
-                        "tk": tk / 1e6, "evsim_metadata": to_json(rec.metadata)})
-        if rec.crf is not None:
-            f.attrs["evsim_crf"] = to_json(rec.crf)
-        if rec.reference is not None:
-            refs = f.create_dataset("evsim/reference/images", (len(rec.reference), rec.height, rec.width),
-                                    dtype=np.float32, chunks=(1, rec.height, rec.width), compression="gzip")
-            for i, img in enumerate(rec.reference):  # one image at a time (the reference may be a lazy dataset)
-                refs[i] = img
-            f.create_dataset("evsim/reference/t_us", data=np.asarray(rec.reference_t_us, dtype=np.int64))
-        if rec.threshold_maps is not None:
-            f.create_dataset("evsim/threshold_maps", data=rec.threshold_maps.astype(np.float32))
+    with atomic_path(path) as tmp:  # a full disk: DiskFullError naming path
+        out = H5Output(tmp)
+        try:
+            _write_e2vid_file(out, rec, nf, t_mid, event_idx, event_source)
+        except BaseException:
+            out.abort()
+            raise
+        out.close()
+
+
+def _write_e2vid_file(out: H5Output, rec: Recording, nf: int, t_mid: np.ndarray, event_idx: np.ndarray,
+                      event_source: Iterator | None) -> None:
+    f = out.file
+    ev = f.create_group("events")
+    cols = {k: ev.create_dataset(k, (0,), dtype=dt, maxshape=(None,), chunks=(_CHUNK,), compression="gzip")
+            for k, dt in (("xs", np.int16), ("ys", np.int16), ("ts", np.float64), ("ps", np.bool_))}
+    labels_ds = None
+    n = n_pos = 0
+    t0 = tk = None
+    for chunk, labels in event_source if event_source is not None else recording_event_chunks(rec):
+        if chunk.size == 0:
+            continue
+        for k, v in (("xs", chunk["x"].astype(np.int16)), ("ys", chunk["y"].astype(np.int16)),
+                     ("ts", chunk["t"] / 1e6), ("ps", chunk["p"] > 0)):
+            append_rows(cols[k], v)
+        if labels is not None:
+            if labels_ds is None:
+                labels_ds = f.create_dataset("evsim/event_labels", (0,), dtype=np.uint8, maxshape=(None,),
+                                             chunks=(_CHUNK,), compression="gzip")
+            append_rows(labels_ds, labels)
+        out.check()  # a failed write (full disk) stops the export here
+        event_idx += np.searchsorted(chunk["t"], t_mid, side="left")
+        n += chunk.size
+        n_pos += int(np.count_nonzero(chunk["p"] > 0))
+        t0 = int(chunk["t"][0]) if t0 is None else t0
+        tk = int(chunk["t"][-1])
+    images = f.create_group("images")
+    shift = rec.frame_bit_depth - 8
+    for i in range(nf):
+        img = rec.frames[i] >> shift if shift > 0 else rec.frames[i]
+        ds = images.create_dataset(f"image{i:09d}", data=img.astype(np.uint8), compression="gzip")
+        ds.attrs.update({"timestamp": t_mid[i] / 1e6, "size": img.shape, "type": "greyscale",
+                         "event_idx": max(0, int(event_idx[i]) - 1), "t_start_us": int(rec.frame_t_start_us[i]),
+                         "t_mid_us": int(t_mid[i]), "t_end_us": int(rec.frame_t_end_us[i])})
+        out.check()
+    t0 = t0 if t0 is not None else 0
+    tk = tk if tk is not None else t0
+    f.attrs.update({"sensor_resolution": (rec.height, rec.width), "num_events": n, "num_pos": n_pos,
+                    "num_neg": n - n_pos, "num_imgs": nf, "duration": (tk - t0) / 1e6, "t0": t0 / 1e6,
+                    "tk": tk / 1e6, "evsim_metadata": to_json(rec.metadata)})
+    if rec.crf is not None:
+        f.attrs["evsim_crf"] = to_json(rec.crf)
+    if rec.reference is not None:
+        refs = f.create_dataset("evsim/reference/images", (len(rec.reference), rec.height, rec.width),
+                                dtype=np.float32, chunks=(1, rec.height, rec.width), compression="gzip")
+        for i, img in enumerate(rec.reference):  # one image at a time (the reference may be a lazy dataset)
+            refs[i] = img
+            out.check()
+        f.create_dataset("evsim/reference/t_us", data=np.asarray(rec.reference_t_us, dtype=np.int64))
+    if rec.threshold_maps is not None:
+        f.create_dataset("evsim/threshold_maps", data=rec.threshold_maps.astype(np.float32))
 
 
 def is_e2vid(f: h5py.File) -> bool:

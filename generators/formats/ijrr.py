@@ -88,8 +88,10 @@ def write_ijrr(rec: Recording, directory: str | Path, *, event_source: Iterator 
             img_lines, exp_lines = [], []
             for i, img in enumerate(rec.frames):
                 name = f"images/frame_{i:08d}.png"
-                if not cv2.imwrite(str(tmp / name), np.ascontiguousarray(img, dtype=depth)):
-                    raise OSError(f"OpenCV could not write {tmp / name}")
+                ok, png = cv2.imencode(".png", np.ascontiguousarray(img, dtype=depth))
+                if not ok:
+                    raise OSError(f"OpenCV could not write frame {i} as PNG")
+                (tmp / name).write_bytes(png.tobytes())  # (written here, a full disk is an OSError)
                 img_lines.append(f"{seconds_text(rec.frame_t_mid_us[i])} {name}\n")
                 exp_lines.append(f"{seconds_text(rec.frame_t_start_us[i])} {seconds_text(rec.frame_t_end_us[i])}\n")
             (tmp / "images.txt").write_text("".join(img_lines))

@@ -39,9 +39,10 @@ from isal import isal_zlib
 
 from sim import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError, validate_events
 
-from .atomic import commit, discard, temp_sibling
+from .atomic import DiskFullError, commit, discard, disk_full_error, is_disk_full, temp_sibling
 from .common import (
     EVENT_CHUNK,
+    H5Output,
     add_offset,
     append_rows,
     event_chunks,
@@ -126,7 +127,8 @@ class NativeWriter:
     Usage: `with NativeWriter(path, H, W, metadata=...) as w: w.add_events(chunk); w.add_frame(...)`.
     Everything goes to a temporary file beside `path`, renamed onto `path` by close() (or a clean `with` exit);
     on an exception inside the `with` block the temporary file is deleted and `path` is left as it was.
-    frame_bit_depth: 8..16 bits per LDR sample. compression: "gzip" (default), "lzf" or None.
+    A full disk (or file size limit) raises atomic.DiskFullError naming `path`, from the add_* call or close()
+    that met it. frame_bit_depth: 8..16 bits per LDR sample. compression: "gzip" (default), "lzf" or None.
     """
 
     def __init__(self, path: str | Path, height: int, width: int, *, metadata: dict, frame_bit_depth: int = 8,
@@ -147,12 +149,14 @@ class NativeWriter:
         self._ms_next = 0  # next ms_to_idx entry to fill
         self._t_offset = None  # fixed by the first non-empty chunk
         self._tmp = temp_sibling(self.path)
-        self._f = None
+        self._f = self._out = None
         try:
-            self._f = h5py.File(self._tmp, "w")
+            self._out = H5Output(self._tmp)
+            self._f = self._out.file
             self._create_layout(compression)
-        except BaseException:
+        except BaseException as e:
             self.abort()
+            self._raise_disk_full(e)
             raise
 
     def _create_layout(self, compression) -> None:
@@ -271,6 +275,15 @@ class NativeWriter:
             append_rows(self._ds[name], data)
         else:
             appender.append(data)
+        error = self._out.sink.error
+        if error is not None:  # a failed write (full disk): stop here
+            self.abort()
+            self._raise_disk_full(error)
+            raise error
+
+    def _raise_disk_full(self, e: BaseException) -> None:
+        if is_disk_full(e) and not isinstance(e, DiskFullError):
+            raise disk_full_error(e, self.path) from e
 
     def set_threshold_maps(self, maps: np.ndarray) -> None:
         """Store the (2, H, W) ON and OFF contrast threshold maps (log units)."""
@@ -311,22 +324,20 @@ class NativeWriter:
                             "height": self.height, "width": self.width, "metadata": to_json(self._metadata)})
             if self._crf is not None:
                 f.attrs["crf"] = to_json(self._crf)
-            f.close()
             self._f = None
+            out, self._out = self._out, None
+            out.close()
             commit(self._tmp, self.path)
-        except BaseException:
+        except BaseException as e:
             self.abort()
+            self._raise_disk_full(e)
             raise
 
     def abort(self) -> None:
         """Drop the temporary file; `path` is left untouched."""
-        if self._f is not None:
-            try:
-                self._f.close()
-            except Exception:  # e.g. a full disk again while flushing: the file is dropped anyway, and the
-                pass  # error that led here is the one to report
-            finally:
-                self._f = None
+        if self._out is not None:
+            self._out.abort()  # (a failed write's error is not raised: the error that led here is reported)
+            self._f = self._out = None
         discard(self._tmp)
 
     def __enter__(self) -> NativeWriter:
@@ -337,6 +348,7 @@ class NativeWriter:
             self.close()
         else:
             self.abort()
+            self._raise_disk_full(exc)
 
 
 def write_native(rec: Recording, path: str | Path, *,

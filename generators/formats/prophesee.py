@@ -30,7 +30,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .atomic import atomic_path
+from .atomic import DiskFullError, atomic_path, disk_full_error, is_disk_full
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .native import recording_event_chunks
 from .prophesee_kernels import STATE_SIZE, TIME_HIGH_MAX_STEP, WRAP_WINDOW, decode_evt3, encode_evt3, time_step_ok
@@ -173,13 +173,18 @@ class PropheseeWriter:
             self._f = None
         except BaseException as e:
             self.abort(e)
+            if is_disk_full(e):
+                raise disk_full_error(e, self.path) from e
             raise
         self._atomic.__exit__(None, None, None)
 
     def abort(self, exc: BaseException | None = None) -> None:
         """Drop the temporary file; the path is left untouched."""
         if self._f is not None:
-            self._f.close()
+            try:
+                self._f.close()  # flushes: a full disk raises again (the file descriptor is closed anyway)
+            except OSError:
+                pass
             self._f = None
         exc = exc or RuntimeError("aborted")
         try:
@@ -195,6 +200,8 @@ class PropheseeWriter:
             self.close()
         else:
             self.abort(exc)
+            if is_disk_full(exc) and not isinstance(exc, DiskFullError):
+                raise disk_full_error(exc, self.path) from exc
 
 
 def write_prophesee(rec: Recording, path: str | Path, fmt: str, *, event_source: Iterator | None = None) -> None:
