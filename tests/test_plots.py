@@ -238,6 +238,7 @@ def test_missing_matplotlib_gives_the_install_hint(monkeypatch):
     assert issubclass(PlotDependencyError, EvsimInputError)
 
 
+@pytest.mark.slow  # a subprocess
 def test_cli_without_matplotlib_exits_2_with_the_hint(seq):
     code = ("import sys; sys.modules['matplotlib'] = None\n"
             "import evsim_app.plots\n"

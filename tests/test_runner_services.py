@@ -24,6 +24,8 @@ distributed = pytest.importorskip("distributed")
 from generators.runner import check_scheduler, run_tasks  # noqa: E402
 from sim import EvsimInputError  # noqa: E402
 
+pytestmark = pytest.mark.slow  # local TCP services, a Dask cluster and subprocesses: left out of the fast loop
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -122,7 +124,6 @@ def _child_running(parent: int, needle: str) -> int | None:
     return None
 
 
-@pytest.mark.slow
 def test_a_killed_resource_tracker_leaves_no_tracebacks(tmp_path):
     """Killing one of a --workers run's child processes, multiprocessing's resource tracker, mid-run: the run
     completes (exit 0) and nothing but its own output is printed (its relaunched successor printed a KeyError
