@@ -11,34 +11,19 @@ Exports:
 - errors: EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError.
 """
 
-from __future__ import annotations
-
-import importlib
-
 from .dvs_params import PRESETS as DVS_PRESETS
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError
+from .lazy import lazy_exports
 
-# name -> (submodule, name in it), imported on first use
+# name -> "submodule" or "submodule:name in it", imported on first use
 _LAZY = {
-    "CAMERA_PRESETS": ("camera", "PRESETS"),
-    **{n: ("camera", n) for n in ("CameraParams", "LDRCamera", "LDRFrame")},
-    **{n: ("dvs", n) for n in ("EVENT_LABELS", "NO_EVENT_US", "DVSEmulator", "emulate", "emulate_source")},
-    **{n: ("events", n) for n in ("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index",
-                                  "is_sorted", "make_events", "slice_time", "validate_events")},
+    "CAMERA_PRESETS": "camera:PRESETS",
+    **dict.fromkeys(("CameraParams", "LDRCamera", "LDRFrame"), "camera"),
+    **dict.fromkeys(("EVENT_LABELS", "NO_EVENT_US", "DVSEmulator", "emulate", "emulate_source"), "dvs"),
+    **dict.fromkeys(("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index", "is_sorted", "make_events",
+                     "slice_time", "validate_events"), "events"),
 }
 __all__ = ["DVS_PRESETS", "DVSParams", "EvsimInputError", "InvalidParameterError", "TimeOrderError",
            "UnsortedEventsError", *_LAZY]
-
-
-def __getattr__(name: str):
-    if name not in _LAZY:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    module, attr = _LAZY[name]
-    value = getattr(importlib.import_module(f".{module}", __name__), attr)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())
