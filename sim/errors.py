@@ -36,13 +36,12 @@ def check_number(name: str, value: object, *, positive: bool) -> float:
     """`value` as a float; InvalidParameterError unless it is a finite real number (an int, float or numpy number;
     not a bool, string or complex), > 0 when `positive`, else >= 0. `name` is the parameter's name, quoted in the
     message."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise InvalidParameterError(f"{name} must be a finite number, got {_kind(value)}")
-    if positive and value <= 0:
+    v = check_real(name, value)
+    if positive and v <= 0:
         raise InvalidParameterError(f"{name} must be > 0, got {value}")
-    if value < 0:
+    if v < 0:
         raise InvalidParameterError(f"{name} must be >= 0, got {value}")
-    return float(value)
+    return v
 
 
 def check_real(name: str, value: object) -> float:
