@@ -390,6 +390,25 @@ def akf_publish(t, S, C, w, strong, i0, out_i, out_p, out_k, a, b):
             out_k[i] = P / r_at(t, S[i, SRA], S[i, SRB], S[i, SRC], w[W_TAU_A], w[W_TAU_B], w[W_TAU_C])
 
 
+@njit(cache=True, nogil=True, fastmath=FAST)
+def akf_frame_update(S, z, r, a, b):
+    """Discrete Kalman update (Kalman 1960) of pixels [a, b), once akf_publish committed them to a frame's
+    mid-exposure time, with the frame's log z and variance r (log^2; r <= 0 where the frame is clipped: no update).
+    The prior variance is matched to the innovation nu = z - L (covariance matching, Mehra 1972): P_prior =
+    max(P, nu^2 - r), since a P smaller than nu^2 - r is inconsistent with the frame (the filter's P shrinks under
+    the continuous measurement between frames as if its errors were white). Then K = P_prior / (P_prior + r),
+    L <- L + K nu, P <- P_prior r / (P_prior + r): where nu^2 > r the residual |(1 - K) nu| = r / |nu| is below
+    sqrt(r), so the state ends within the frame's noise of the frame."""
+    for i in range(a, b):
+        ri = r[i]
+        if ri > 0.0:
+            nu = z[i] - S[i, SL]
+            P = max(S[i, SP], nu * nu - ri)
+            k = P / (P + ri)
+            S[i, SL] += k * nu
+            S[i, SP] = P * ri / (P + ri)
+
+
 @njit(cache=True, nogil=True)
 def akf_rotate(S, C, m_new, on_new, off_new, side_new, r_next, a, b):
     """Frame-window switch of pixels [a, b), once akf_publish committed them to the switch time s_k: rotate the

@@ -47,6 +47,15 @@ class AKFParams:
             the truth lies beyond the clip level, so a shift toward the middle only adds bias).
     Filter:
         p0: initial state variance P (log^2) at the start of the first exposure.
+        frame_update: at each frame's mid-exposure time tau_k, a discrete Kalman update (Kalman 1960) of every pixel
+            the frame measures (not clipped) with the frame's bias-corrected log z and variance R, its prior
+            variance matched to the innovation (covariance matching, Mehra 1972: P_prior = max(P, (z - L)^2 - R)),
+            which the paper does not do. The paper's continuous measurement alone (eqs. 16-20) integrates R(t),
+            interpolated between a clipped frame's saturated variance and a well-exposed frame's small one (eq. 7),
+            and its P shrinks between frames as if the augmented frame's errors were white, so a pixel that becomes
+            well exposed (or whose event-interpolated curve is off) is barely corrected by the time of the frame.
+            With the update the state ends each frame within sqrt(R) of the frame (see akf.kernels.
+            akf_frame_update). False: the paper's filter.
     Frame augmentation (section 4.1):
         deblur: EDI-deblur each frame to the start and end of its exposure (else the blurred frame is used as is).
         calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
@@ -75,6 +84,7 @@ class AKFParams:
     i0: float = 1e-3
     bias_max_variance: float = 0.1
     p0: float = 0.09
+    frame_update: bool = True
     deblur: bool = True
     calibrate: bool = True
     calib_min_events: int = 2
@@ -83,7 +93,7 @@ class AKFParams:
 
     def __post_init__(self) -> None:
         """Check every field once, here (the boundary): each error names the field."""
-        for name in ("deblur", "calibrate"):
+        for name in ("deblur", "calibrate", "frame_update"):
             if not isinstance(getattr(self, name), bool):
                 raise InvalidParameterError(f"AKFParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name in ("rho_bar_us", "calib_min_events"):
