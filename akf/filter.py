@@ -31,6 +31,7 @@ from .augmentation import ContrastCalibration, edi_deblur, event_change, interva
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
+from .smoothing import smooth_uncertain
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -292,6 +293,10 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     the frame measures gets a discrete Kalman update with the frame, its prior variance matched to the innovation
     (akf.kernels.akf_frame_update), so at frame times the estimate is within the frame's noise of a well-exposed
     frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
+    Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
+    bilateral-filtered where the state is uncertain, weighted by its variance P against the variance of the last frame
+    that measured the pixel (akf.smoothing), which averages the event speckle of pixels no frame measures and leaves
+    the pixels a well-exposed frame has set bit for bit.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
@@ -337,7 +342,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     mid0 = fr.at_mid(0)
 
     def run(ahead):
-        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params.i0, out_i, out_p, out_k, mid0)
+        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params, out_i, out_p, out_k, mid0)
 
     if numba.get_num_threads() > 1:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
@@ -373,19 +378,31 @@ def _next_interval(fr: _Frames, k: int) -> tuple[_Interval, np.ndarray | None, t
     return iv, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None), fr.at_mid(k)
 
 
-def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, i0, out_i, out_p, out_k, mid):
+def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, params: AKFParams, out_i, out_p,
+            out_k, mid):
     """The filter's window loop (see reconstruct). The frame work of the next interval (deblurring, calibration)
     does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr from now
     on) while this one processes the events, filling the cores left idle by the serial parts."""
     nf, w = inp.frames.shape[0], inp.shape[1]
     nt = inp.out_t.shape[0]
     none = np.empty(0, np.float32)
+    i0 = params.i0
+    smooth = params.smooth_range > 0
+    # the smoothing floor of each pixel: the variance R of the last frame update that measured it (it keeps the
+    # frame's value until events make it less certain), smooth_variance where the frame was clipped or none came
+    floor = np.full(S.shape[0], params.smooth_variance, np.float32)
+    scratch_p = np.empty(S.shape[0], np.float32) if smooth and out_p is None else None
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
 
     def publish(t, win, oi, op, ok):  # output images (flat) at t (us)
+        if smooth and op.shape[0] == 0:
+            op = scratch_p
         blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
+        if smooth:
+            smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, params.smooth_range,
+                             floor.reshape(inp.shape))
 
     def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
         on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)
@@ -400,6 +417,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
             kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to t
             kernels.akf_frame_update(S, z, r, y0 * w, y1 * w)
         blocks.run(part)
+        np.maximum(r, params.smooth_variance, out=floor)
 
     tau = inp.tau
     j = 0  # next output index

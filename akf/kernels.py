@@ -29,6 +29,10 @@ References (full citations also in docs/models/references.md):
   arXiv:1811.10180
 - Scheerlinck C, Barnes N, Mahony R (2018). Continuous-time intensity estimation using event cameras. Asian
   Conference on Computer Vision (ACCV), Lecture Notes in Computer Science 11365, 308-324. arXiv:1811.00386
+- Mehra RK (1972). Approaches to adaptive filtering. IEEE Transactions on Automatic Control 17(5):693-698.
+  (Covariance matching of the frame update's prior.)
+- Kalman RE (1960). A new approach to linear filtering and prediction problems. Journal of Basic Engineering
+  82(1):35-45.
 - Allik B, Miller C, Piovoso MJ, Zurakowski R (2016). The Tobit Kalman filter: an estimator for censored
   measurements. IEEE Transactions on Control Systems Technology 24(1):365-371. (Related; evsim's one-sided
   rule is simpler.)

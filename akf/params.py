@@ -56,6 +56,12 @@ class AKFParams:
             well exposed (or whose event-interpolated curve is off) is barely corrected by the time of the frame.
             With the update the state ends each frame within sqrt(R) of the frame (see akf.kernels.
             akf_frame_update). False: the paper's filter.
+    Output smoothing (not in the paper; akf.smoothing):
+        smooth_range: range sigma (log) of the bilateral filter of each published log image; 0 disables it. Each
+            pixel takes the filtered value with the weight max(0, 1 - smooth_variance / P), so the event speckle of
+            pixels no frame measures is averaged while pixels a well-exposed frame has set keep their value.
+        smooth_variance: the state variance P (log^2) up to which a pixel is not smoothed at all (half at twice
+            it); 3e-5 is about the frame variance R of a well-exposed 8-bit pixel of the AHDR window CRF.
     Frame augmentation (section 4.1):
         deblur: EDI-deblur each frame to the start and end of its exposure (else the blurred frame is used as is).
         calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
@@ -85,6 +91,8 @@ class AKFParams:
     bias_max_variance: float = 0.1
     p0: float = 0.09
     frame_update: bool = True
+    smooth_range: float = 1.0
+    smooth_variance: float = 3e-5
     deblur: bool = True
     calibrate: bool = True
     calib_min_events: int = 2
@@ -101,7 +109,7 @@ class AKFParams:
                       unit="microseconds" if name == "rho_bar_us" else "")
         for name in POSITIVE_FIELDS:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
-        for name in ("bias_max_variance", "calib_prior"):
+        for name in ("bias_max_variance", "calib_prior", "smooth_range"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range
         if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
@@ -118,4 +126,5 @@ class AKFParams:
 
 #: the AKFParams fields that must be > 0: every noise variance (a zero variance claims noise-free events or frames:
 #: the state variance then never grows between frames, or a frame is taken as exact), i0 (log(I + i0) at I = 0)
-POSITIVE_FIELDS = ("sigma_proc2", "sigma_iso2", "sigma_ref2", "sigma_im2", "max_variance", "i0", "p0")
+POSITIVE_FIELDS = ("sigma_proc2", "sigma_iso2", "sigma_ref2", "sigma_im2", "max_variance", "i0", "p0",
+                   "smooth_variance")
