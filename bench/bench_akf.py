@@ -7,9 +7,10 @@ at the requested rate, and 8-bit frames of a smooth pattern through the AHDR win
 
     python bench/bench_akf.py [--rate 10e6] [--seconds 1.0] [--threads N] [--repeat 3] [--json FILE]
 
-Prints throughput (events/s, excluding the one-off numba compilation) against wall-clock and against the process's
-CPU time (the fairer figure on a shared machine: with N threads it is the work, not the elapsed time), the best of
---repeat timed runs each, and peak memory; it is not a test.
+AKF-paper is the AKF without the frame update and the output smoothing (AKFParams(frame_update=False,
+smooth_range=0)), for their cost as a ratio. Prints throughput (events/s, excluding the one-off numba compilation)
+against wall-clock and against the process's CPU time (the fairer figure on a shared machine: with N threads it is
+the work, not the elapsed time), the best of --repeat timed runs each, and peak memory; it is not a test.
 """
 
 from __future__ import annotations
@@ -78,7 +79,9 @@ def main() -> None:
     out_t = np.arange(int(ts[0]) + 1, int(args.seconds * 1e6), 33_333)  # 30 Hz publishing
     print(f"{events.size:,} events over {args.seconds:g} s at {W}x{H}, {len(frames)} frames, "
           f"{len(out_t)} published images, {threads} thread(s), AKF leak_rate_hz {args.leak_hz:g}")
+    paper = akf.AKFParams(frame_update=False, smooth_range=0.0)  # the paper's filter: no frame update, no smoothing
     methods = (("AKF", functools.partial(akf.reconstruct, leak_rate_hz=args.leak_hz)),
+               ("AKF-paper", functools.partial(akf.reconstruct, leak_rate_hz=args.leak_hz, params=paper)),
                ("CF", akf.complementary_filter))
     # warm-up on the first 3 frames, with events between them and 2 published images: every kernel the timed run
     # uses is compiled (or loaded from the numba cache) here, not timed
@@ -97,7 +100,7 @@ def main() -> None:
         fn(events, frames, ts, te, crf, out_t)
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
-        print(f"{name:4s} {events.size / dt / 1e6:7.2f} M events/s wall ({dt:.3f} s, best of {args.repeat}), "
+        print(f"{name:9s} {events.size / dt / 1e6:7.2f} M events/s wall ({dt:.3f} s, best of {args.repeat}), "
               f"{events.size / cpu / 1e6:7.2f} M events/s of CPU time ({cpu:.3f} s)  "
               f"peak traced memory {peak / 2**20:.1f} MiB (output {len(out_t) * H * W * 4 / 2**20:.1f} MiB)")
         results["methods"][name] = {"wall_s": dt, "cpu_s": cpu, "events_per_s": events.size / dt,
