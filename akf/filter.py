@@ -131,16 +131,16 @@ class _Frames:
                 self._deb[k] = _Deblurred(log, log)
         return self._deb[k]
 
-    def at_mid(self, k) -> tuple[np.ndarray, np.ndarray] | None:
+    def at_mid(self, k) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """Frame k as a measurement at its mid-exposure time tau_k for the discrete frame update (flat): its
         bias-corrected log (the mean of the radiance over the exposure equals the radiance at mid-exposure up to
         second order in the change over the exposure, with no event quantisation, unlike the EDI-deblurred value)
-        and its log variance R, 0 where the frame is clipped (no update there). None when params.frame_update is
-        off."""
+        and its log variance R, 0 where the frame is clipped (no update there), and its clip side (+1 / -1 / 0).
+        None when params.frame_update is off."""
         if not self.params.frame_update:
             return None
         m = self.measurement(k)
-        return m.log.ravel(), np.where(m.clipped, 0.0, m.r).ravel()
+        return m.log.ravel(), np.where(m.clipped, 0.0, m.r).ravel(), m.side.ravel()
 
     def interval(self, j) -> _Interval:
         """The interval from frame j to frame j + 1. The last frame's interval is open-ended: forward integration
@@ -388,9 +388,12 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     none = np.empty(0, np.float32)
     i0 = params.i0
     smooth = params.smooth_range > 0
-    # the smoothing floor of each pixel: the variance R of the last frame update that measured it (it keeps the
-    # frame's value until events make it less certain), smooth_variance where the frame was clipped or none came
+    # the smoothing floor of each pixel: infinite (no smoothing) where the last frame measured it, smooth_variance
+    # where it was clipped or before the first frame; and the bounds (log) the smoothing may not cross: a pixel the
+    # last frame clipped high (low) stays at or above (below) that frame's level, the one-sided rule of the filter
     floor = np.full(S.shape[0], params.smooth_variance, np.float32)
+    low = np.full(S.shape[0], -np.inf, np.float32)
+    high = np.full(S.shape[0], np.inf, np.float32)
     scratch_p = np.empty(S.shape[0], np.float32) if smooth and out_p is None else None
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
@@ -402,7 +405,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
         blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
         if smooth:
             smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, params.smooth_range,
-                             floor.reshape(inp.shape))
+                             floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
 
     def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
         on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)
@@ -412,12 +415,14 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
             kernels.akf_rotate(S, C, iv.start, on_new, off_new, side_new, r_next, y0 * w, y1 * w)
         blocks.run(part)
 
-    def frame_update(t, win, z, r):  # bring every pixel to t = tau_k, then the discrete update with frame k
+    def frame_update(t, win, z, r, side):  # bring every pixel to t = tau_k, then the discrete update with frame k
         def part(q, y0, y1):
             kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to t
             kernels.akf_frame_update(S, z, r, y0 * w, y1 * w)
         blocks.run(part)
-        np.maximum(r, params.smooth_variance, out=floor)
+        floor[:] = np.where(r > 0, np.inf, params.smooth_variance)
+        low[:] = np.where(side > 0, z, -np.inf)
+        high[:] = np.where(side < 0, z, np.inf)
 
     tau = inp.tau
     j = 0  # next output index

@@ -5,9 +5,9 @@ pixels of a flat surface disagree by up to a contrast threshold or more (each pi
 own phase within a threshold, and bandwidth-limited or mismatched pixels under- or over-report): event speckle.
 A bilateral filter (Tomasi and Manduchi 1998) of the log image with a range sigma of a few thresholds averages
 that speckle while keeping edges larger than it; each pixel takes the filtered value with the weight
-max(0, 1 - floor / P), P its state variance (log^2), the floor the variance R of the last frame that measured the
-pixel (akf.reconstruct): a pixel a well-exposed frame has measured keeps its value exactly (the frame update leaves
-P below R, and P only shrinks until an event), an uncertain one takes its neighbourhood's.
+max(0, 1 - floor / P), P its state variance (log^2), the floor infinite where the last frame measured the pixel
+(akf.reconstruct): a pixel a well-exposed frame has measured keeps its value exactly, an uncertain pixel no frame
+measures takes its neighbourhood's, never crossing the level of the clipped frame (the truth lies beyond it).
 
 References (full citations also in docs/models/references.md):
 
@@ -30,14 +30,17 @@ SPATIAL_SIGMA = 1.5  # pixels: the bilateral filter's spatial Gaussian
 
 
 def smooth_uncertain(intensity: npt.NDArray[np.float32], variance: npt.NDArray[np.float32], i0: float,
-                     range_sigma: float, variance_floor: npt.NDArray[np.float32]) -> None:
+                     range_sigma: float, variance_floor: npt.NDArray[np.float32], low: npt.NDArray[np.float32],
+                     high: npt.NDArray[np.float32]) -> None:
     """In place, for an (H, W) image I = exp(L) - i0 (x units) with state variance P (log^2): L <- L + w (B(L) - L),
     B the bilateral filter of L (range_sigma in log units, DIAMETER x DIAMETER window, SPATIAL_SIGMA pixels), w =
-    max(0, 1 - variance_floor / P) (variance_floor: (H, W) log^2, > 0)."""
+    max(0, 1 - variance_floor / P) (variance_floor: (H, W) log^2, > 0, inf: never smoothed), the result kept within
+    [min(low, L), max(high, L)] (log; the levels of clipped frames the truth lies beyond)."""
     import cv2
 
     log = np.log(np.maximum(intensity + i0, i0 * 1e-3)).astype(np.float32)
     smooth = cv2.bilateralFilter(log, DIAMETER, float(range_sigma), SPATIAL_SIGMA, borderType=cv2.BORDER_REFLECT)
     w = np.maximum(np.float32(1) - variance_floor / np.maximum(variance, np.float32(1e-30)), np.float32(0))
     on = w > 0  # the other pixels keep their value bit for bit
-    intensity[on] = np.exp(log[on] + w[on] * (smooth[on] - log[on])) - np.float32(i0)
+    lo, hi = np.minimum(low[on], log[on]), np.maximum(high[on], log[on])
+    intensity[on] = np.exp(np.clip(log[on] + w[on] * (smooth[on] - log[on]), lo, hi)) - np.float32(i0)
