@@ -294,9 +294,9 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     (akf.kernels.akf_frame_update), so at frame times the estimate is within the frame's noise of a well-exposed
     frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
     Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
-    bilateral-filtered where the state is uncertain, weighted by its variance P against the variance of the last frame
-    that measured the pixel (akf.smoothing), which averages the event speckle of pixels no frame measures and leaves
-    the pixels a well-exposed frame has set bit for bit.
+    bilateral-filtered where the last frame did not measure the pixel (clipped) and the state is uncertain, weighted
+    by its variance P and never past the clipped frame's level (akf.smoothing); this averages the event speckle of
+    pixels no frame measures and leaves the pixels the last frame measured bit for bit.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs

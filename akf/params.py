@@ -58,8 +58,9 @@ class AKFParams:
             akf_frame_update). False: the paper's filter.
     Output smoothing (not in the paper; akf.smoothing):
         smooth_range: range sigma (log) of the bilateral filter of each published log image; 0 disables it. Each
-            pixel takes the filtered value with the weight max(0, 1 - smooth_variance / P), so the event speckle of
-            pixels no frame measures is averaged while pixels a well-exposed frame has set keep their value.
+            pixel the last frame did not measure (clipped) takes the filtered value with the weight
+            max(0, 1 - smooth_variance / P), never past that frame's clip level, so the event speckle of pixels no
+            frame measures is averaged while pixels the last frame measured keep their value bit for bit.
         smooth_variance: the state variance P (log^2) up to which a pixel is not smoothed at all (half at twice
             it); 3e-5 is about the frame variance R of a well-exposed 8-bit pixel of the AHDR window CRF.
     Frame augmentation (section 4.1):
