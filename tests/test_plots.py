@@ -107,7 +107,7 @@ def test_pixel_figure_data_against_ground_truth(prep, tmp_path):
         # the 3x3-block reconstruction is exactly the full-frame one at this pixel (same output times) without
         # the contrast calibration, whose carried per-pixel scale shrinks toward a calibration pooled over the
         # image: the block's pool is not the frame's (up to 0.11 log apart at (10, 10) with calibration)
-        plain = akf.AKFParams(calibrate=False)
+        plain = akf.AKFParams(calibrate=False, smooth_range=0.0)  # the pixel plot shows the unsmoothed filter
         block = pixel_series(prep, x, y, n_times=400, params=plain)
         full = akf.reconstruct(*prep.reconstruct_args(), block.t_us, contrast=prep.contrast,
                                bit_depth=rec.frame_bit_depth, params=plain)

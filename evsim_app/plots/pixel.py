@@ -12,10 +12,13 @@ Every curve is in the filter's log space L = log(x + I0), x the CRF's scaled irr
 - AKF estimate with a +-2 sqrt(P) band, and the complementary-filter estimate, at dense times.
 The reconstructions run on the 3x3 neighbourhood of the pixel only: that is exact for the centre pixel (each pixel's
 filter depends on its own events and frames and on its 8 neighbours' event times) and makes dense sampling cheap.
+The AKF curve is the filter's own estimate, without the output smoothing of the published images (akf.smoothing:
+smooth_range 0), which mixes a wider neighbourhood.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -93,7 +96,7 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
 
     rec = prep.rec
     check_pixel(rec, x, y)
-    params = params or akf.AKFParams()
+    params = dataclasses.replace(params or akf.AKFParams(), smooth_range=0.0)
     i0 = params.i0
     events, frames, (lx, ly) = _neighbourhood(prep, x, y)
     bw = frames.shape[2]
