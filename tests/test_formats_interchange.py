@@ -271,7 +271,9 @@ def test_prophesee_bad_files_are_clear_errors(tmp_path):
 # -- AEDAT4 -------------------------------------------------------------------------------------------------------
 def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_recording):
     # iniVation's convention (dv-processing's dv::Frame): a frame's timestamp is its exposure start and exposure
-    # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t.
+    # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t, and the start and end of
+    # frame readout (frame.fbs timestampStartOfFrame / EndOfFrame) as begin_t / end_t: the camera model's exposure
+    # window too, as it has no readout time.
     dv = pytest.importorskip("dv_processing")
     aedat = pytest.importorskip("aedat")
     rec = tiny_recording
@@ -300,6 +302,13 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_reco
     fr = [p["frame"] for p in packets if "frame" in p]
     np.testing.assert_array_equal([f["exposure_begin_t"] for f in fr], rec.frame_t_start_us)
     np.testing.assert_array_equal([f["exposure_end_t"] for f in fr], rec.frame_t_end_us)
+    np.testing.assert_array_equal([f["t"] for f in fr], rec.frame_t_start_us)
+    np.testing.assert_array_equal([f["begin_t"] for f in fr], rec.frame_t_start_us)
+    np.testing.assert_array_equal([f["end_t"] for f in fr], rec.frame_t_end_us)
+    np.testing.assert_array_equal(np.stack([f["pixels"] for f in fr]), rec.frames)
+    # packets in time order: each frame before the events that follow its exposure start
+    order = [("frame", p["frame"]["t"]) if "frame" in p else ("events", p["events"]["t"][0]) for p in packets]
+    assert [t for _, t in order] == sorted(t for _, t in order)
     back = load(tmp_path / "r.aedat4")
     np.testing.assert_array_equal(back.events, rec.events)
     np.testing.assert_array_equal(back.frames, rec.frames)
