@@ -306,6 +306,7 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_reco
     np.testing.assert_array_equal([f["begin_t"] for f in fr], rec.frame_t_start_us)
     np.testing.assert_array_equal([f["end_t"] for f in fr], rec.frame_t_end_us)
     np.testing.assert_array_equal(np.stack([f["pixels"] for f in fr]), rec.frames)
+    _assert_same(_faery_events(tmp_path / "r.aedat4"), rec.events)  # faery reads the event stream too
     # packets in time order: each frame before the events that follow its exposure start
     order = [("frame", p["frame"]["t"]) if "frame" in p else ("events", p["events"]["t"][0]) for p in packets]
     assert [t for _, t in order] == sorted(t for _, t in order)
