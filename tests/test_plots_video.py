@@ -69,6 +69,20 @@ def test_gif_has_one_frame_per_interval_and_the_colours_of_its_events(native, tm
     assert (frames[70] == 255).all() and not (frames[100] == 255).all()
 
 
+@pytest.mark.parametrize("fmt,name", [("dat", "e.dat"), ("aedat2", "e.aedat2"), ("e2vid-txt", "e.txt")])
+def test_every_readable_layout_gives_the_same_video(native, tmp_path, fmt, name):
+    # .dat and .aedat2 are streamed chunk by chunk like native files; E2VID text is loaded whole
+    from generators.formats import export
+    from generators.formats.streaming import open_event_stream
+
+    path, ev = native
+    export(path, tmp_path / name, fmt)
+    assert open_event_stream(tmp_path / name).streamed == (fmt != "e2vid-txt")
+    write_video(path, tmp_path / "a.gif", frame_ms=7, progress=False)
+    write_video(tmp_path / name, tmp_path / "b.gif", frame_ms=7, progress=False)
+    assert (tmp_path / "a.gif").read_bytes() == (tmp_path / "b.gif").read_bytes()
+
+
 def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
     cv2 = pytest.importorskip("cv2")
     path, ev = native

@@ -224,6 +224,12 @@ def read_header(path: str | Path) -> tuple[list[str], int]:
     return lines, pos
 
 
+def sensor_size(path: str | Path) -> tuple[int, int]:
+    """(height, width) of an AEDAT 2.0 file, from its header (see _geometry)."""
+    lines, _ = read_header(path)
+    return _geometry(Path(path), _keys(lines))
+
+
 def _keys(lines: list[str]) -> dict[str, str]:
     keys = {}
     for line in lines:
@@ -328,7 +334,7 @@ def read_aedat2(path: str | Path) -> Recording:
     chunks = list(iter_aedat2_events(path, counts=counts))
     events = np.concatenate(chunks) if chunks else events_from_columns(path, [], [], [], [])
     lines, _ = read_header(path)
-    h, w = _geometry(path, _keys(lines))
+    h, w = sensor_size(path)
     return Recording(events=events, height=h, width=w,
                      metadata={"source": {"format": "aedat2", "path": str(path), "header": lines,
                                           "skipped_words": counts}})
