@@ -103,6 +103,20 @@ def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
         assert np.median(err) <= 4 and err.max() <= 40, (k, np.median(err), err.max())
 
 
+def test_mp4_of_an_odd_sized_sensor_keeps_its_last_row_and_column(tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    ev = np.zeros(2, EVENT_DTYPE)
+    ev["t"], ev["x"], ev["y"], ev["p"] = [0, 1], [32, 0], [24, 0], [1, -1]  # the far corner, then the near one
+    write_native(Recording(events=ev, height=25, width=33), tmp_path / "odd.h5")
+    write_video(tmp_path / "odd.h5", tmp_path / "odd.mp4", full_scale=1, scale=3, progress=False)  # 99 x 75
+    ok, bgr = cv2.VideoCapture(str(tmp_path / "odd.mp4")).read()
+    assert ok and bgr.shape == (76, 100, 3)  # one blank row and column added: MPEG-4 frames have even sides
+    rgb = bgr[..., ::-1].astype(int)
+    assert rgb[73, 97, 0] > rgb[73, 97, 2] + 60  # the ON event at the far corner (its 3x3 block's centre) is red
+    assert rgb[1, 1, 2] > rgb[1, 1, 0] + 60  # the OFF event is blue
+    assert (rgb[75, :90] > 200).all() and (rgb[:66, 99] > 200).all()  # the padding is blank
+
+
 def test_frames_stream_memory_does_not_grow_with_the_number_of_frames():
     def peak(n_frames):
         def chunks():
