@@ -23,6 +23,7 @@ from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, U
 from generators.runner import TasksFailed, raise_failures
 
 from .plots.cli import add_plot_parser
+from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
 
@@ -251,6 +252,10 @@ def _cmd_evaluate(args) -> int:
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
+    if args.task == "realism":
+        from .realism_command import evaluate_realism
+
+        return evaluate_realism(args)
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
@@ -519,15 +524,17 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
-    dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",
+    dn.add_argument("--task", choices=("reconstruction", "denoise", "realism"), default="reconstruction",
                     help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
                          "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
                          "methods on events denoised at each filter's default (needs files written with --labels; "
-                         "--json then writes the result of evsim_eval.denoisers)")
+                         "--json then writes the result of evsim_eval.denoisers); realism: how real the events of "
+                         "--against SIM are against those of DATASET (see below)")
     dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
     dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
+    add_realism_flags(ev)
     _add_run_flags(ev, resume=False)
     ev.set_defaults(func=_cmd_evaluate)
 

@@ -167,10 +167,14 @@ def _num(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}g}"
 
 
+def _seconds(t_us: int) -> str:
+    return f"{t_us / 1e6:.3f}".rstrip("0").rstrip(".")
+
+
 def table_rows(c: Comparison) -> list[tuple[str, str, str, str]]:
     """(statistic, real, simulated, score) rows of the realism table."""
     r, s, k = c.real, c.sim, c.scores
-    span = ", ".join(f"{(a - r.origin_us) / 1e6:.3g}-{(b - r.origin_us) / 1e6:.3g}" for a, b in r.windows_us[:3])
+    span = ", ".join(f"{_seconds(a - r.origin_us)}-{_seconds(b - r.origin_us)}" for a, b in r.windows_us[:3])
     span += ", ..." if len(r.windows_us) > 3 else ""
     def ratio(text: str) -> str:
         return text if text == "-" else f"x{text}"
