@@ -24,16 +24,6 @@ def add_realism_flags(parser: argparse.ArgumentParser) -> None:
                         "exposure time, else its first event; default: the real recording's whole event stream)")
 
 
-def _single_recording(path: Path, flag: str) -> object:
-    from evsim_eval.protocols import dataset_sequences
-    from generators.formats import load
-
-    sequences = dataset_sequences(path)
-    if len(sequences) != 1:
-        raise sim.EvsimInputError(f"{flag} {path} holds {len(sequences)} sequences: give one recording")
-    return load(sequences[0][1])
-
-
 def check_realism_args(args: argparse.Namespace) -> None:
     """EvsimInputError for flags of the other tasks, a missing --against or a bad --window."""
     if args.against is None:
@@ -47,11 +37,11 @@ def check_realism_args(args: argparse.Namespace) -> None:
 
 def evaluate_realism(args: argparse.Namespace) -> int:
     """Print the realism table of --against against DATASET and write --json."""
-    from evsim_eval.realism import format_comparison, score_recordings, write_comparison_json
+    from evsim_eval.realism import format_comparison, load_one, score_recordings, write_comparison_json
 
     check_realism_args(args)
-    real = _single_recording(args.dataset, "DATASET")
-    simulated = _single_recording(args.against, "--against")
+    real = load_one(args.dataset, "DATASET")
+    simulated = load_one(args.against, "--against")
     comparison = score_recordings(real, simulated, None if args.window is None else tuple(args.window))
     print(format_comparison(comparison, "real", "simulated"))
     if args.json is not None:

@@ -214,3 +214,17 @@ def test_cli_prints_the_table_and_writes_json(tmp_path, sims, capsys):
     assert abs(result["scores"]["quiet_on_ratio"] - 2) < 0.5 and result["real"]["windows_s"] == [[0.1, 0.9]]
     assert main(["evaluate", str(tmp_path / "real.h5"), "--task", "realism"]) == 2
     assert "--against" in capsys.readouterr().err
+
+
+def test_plot_realism_draws_both_recordings(tmp_path, sims):
+    pytest.importorskip("matplotlib")
+    from evsim_app.plots.realism import plot_realism
+
+    real, double = sims["a"], sims["double"]
+    c = score_recordings(real, double, (0.0, 1.0))
+    out = tmp_path / "realism.png"
+    res = plot_realism(c, real, double, out, at_s=0.5, window_ms=20)
+    assert out.stat().st_size > 10_000
+    for rec, frame in zip((real, double), res["frames"]):  # the event frames hold the events of 0.49-0.51 s
+        t = rec.events["t"]
+        assert frame.sum() == np.count_nonzero((t >= 490_000) & (t < 510_000))

@@ -1,4 +1,5 @@
-"""`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
+"""`evsim plot pixel|events|compare|sweep|roc|realism`: registered on the evsim command line by
+add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
 this includes a missing matplotlib (evsim_app.plots.common.PlotDependencyError, with the pip command to fix it).
@@ -159,4 +160,8 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                                                 "all in the JSON)")
     r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
     r.set_defaults(func=_cmd_roc)
+
+    from .realism import add_realism_plot_parser
+
+    add_realism_plot_parser(psub, PLOT_EPILOG)
     return plot
