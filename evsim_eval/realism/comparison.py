@@ -38,6 +38,7 @@ from sim import EvsimInputError
 from .stats import RealismStats
 
 BLUR_PX = 5  # side of the box blur of the blurred per-pixel correlation (pixels)
+#: the value of every score for a simulation whose statistics equal the real recording's
 PERFECT = {"count_ratio": 1.0, "on_ratio": 1.0, "off_ratio": 1.0, "quiet_on_ratio": 1.0, "quiet_off_ratio": 1.0,
            "dark_on_ratio": 1.0, "dark_off_ratio": 1.0, "count_corr": 1.0, "count_corr_blurred": 1.0,
            "rate_corr": 1.0, "rate_rel_rmse": 0.0, "interval_l1": 0.0, "passage_median_diff": 0.0}

@@ -34,6 +34,7 @@ INTERVAL_DECADES = (0, 7)  # interval histogram from 10**0 to 10**7 us (1 us .. 
 BINS_PER_DECADE = 10
 BUSY_EVENTS_PER_BIN = 20
 GAP_CONTEXT_BINS = 5
+#: edges (us) of the log bins of the same-pixel inter-event-interval histogram, BINS_PER_DECADE per decade
 INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] + 1e-9, 1 / BINS_PER_DECADE)
 
 
