@@ -30,8 +30,8 @@ values (DN: 0..255 for 8-bit video and images, 0..65535 for 16-bit), before any 
   median, so a uniform change (a light switched on) is not taken for noise.
 
 The filter holds one frame of state (height x width float32) and is deterministic: reset() and the same frames give
-the same output. describe() states the settings and what was measured (noise estimate, key frames found, the
-fraction of pixel updates held in the band).
+the same output. describe() states the settings; stats() what was measured (noise estimate, key frames found,
+the fraction of pixel updates held in the band).
 """
 
 from __future__ import annotations
@@ -179,16 +179,17 @@ class InputConditioner:
         return sigma, None
 
     def describe(self) -> dict:
-        """The settings and what was measured over the frames so far (JSON-serialisable)."""
+        """The settings (JSON-serialisable; the same before and after frames are processed)."""
         p = self.params
         if p.mode == "off":
             return {"mode": "off"}
-        d = {**asdict(p), "domain": "input code values (DN), per pixel, before interpolation",
-             "method": "hold band of +-threshold_sigmas x noise rms (play operator), tracking a fraction `track` "
-                       "of the in-band difference per frame; key frames (noise estimate > key_frame_ratio x its "
-                       "running median) use their own noise estimate"}
-        if self._sigmas:
-            d["measured"] = {"frames": self.n_frames, "noise_dn_median": float(np.median(self._sigmas)),
-                             "key_frames": len(self.key_frames), "first_key_frames": self.key_frames[:8],
-                             "held_fraction": self._held / max(self._updates, 1)}
-        return d
+        return {**asdict(p), "domain": "input code values (DN), per pixel, before interpolation",
+                "method": "hold band of +-threshold_sigmas x noise rms (play operator); key frames (noise-like "
+                          "changes > key_frame_ratio x the running median) absorbed into a per-pixel codec bias"}
+
+    def stats(self) -> dict:
+        """What was measured over the frames so far: frames, median noise rms used (DN), key frames found (count
+        and the first 8 frame indices), the fraction of pixel updates held in the band."""
+        return {"frames": self.n_frames, "noise_dn_median": float(np.median(self._sigmas)) if self._sigmas else None,
+                "key_frames": len(self.key_frames), "first_key_frames": self.key_frames[:8],
+                "held_fraction": self._held / max(self._updates, 1)}

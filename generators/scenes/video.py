@@ -334,6 +334,19 @@ def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str |
     return _VideoFile(path, fps, timestamps, stop_us, slowmo)
 
 
+def _conditioning_for(option: ConditioningParams | dict | str | None, kind: str) -> ConditioningParams:
+    """The conditioning of an input kind: by default temporal with key frames for video files and off for image
+    folders and stacks (taken as clean); a mode or table without key_frames gets key frames for video files
+    only (a camera's frames have no codec)."""
+    if option is None:
+        option = "temporal" if kind == "video" else "off"
+    if isinstance(option, str):
+        option = {"mode": option}
+    if isinstance(option, dict) and "key_frames" not in option:
+        option = {**option, "key_frames": kind == "video"}
+    return ConditioningParams.from_option(option)
+
+
 def input_size(path: str | Path) -> tuple[int, int]:
     """(height, width) of an input's frames, read cheaply (no decoding of the whole input)."""
     path = Path(path)
@@ -392,8 +405,7 @@ class VideoScene(Scene):
             raise InvalidParameterError(f"VideoScene: start_s={start_s} must come before stop_s={stop_s}")
         self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us, slowmo=slowmo)
         self.path = Path(path)
-        self._conditioner = InputConditioner(conditioning if conditioning is not None else
-                                             "temporal" if self._input.kind == "video" else "off")
+        self._conditioner = InputConditioner(_conditioning_for(conditioning, self._input.kind))
         t = self._input.times_us
         keep = np.flatnonzero((t >= start_us) & (t <= (t[-1] if stop_us is None else stop_us)))
         if keep.size < 2:
