@@ -193,12 +193,22 @@ def _cmd_convert(args) -> int:
                     overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
                     stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
                     flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
-                    input_crf=args.input_crf, **_run_options(args))
+                    input_crf=args.input_crf, slowmo=args.slowmo, resize=args.resize,
+                    conditioning=_conditioning_option(args), **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
     print(f"converted {n} clip(s) to {index.parent} (index: {index.name})")
     return 0
+
+
+def _conditioning_option(args) -> str | dict | None:
+    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn."""
+    if args.input_noise_dn is None:
+        return args.input_conditioning
+    if args.input_conditioning == "off":
+        raise sim.EvsimInputError("--input-noise-dn sets the conditioning's noise: drop --input-conditioning off")
+    return {"mode": "temporal", "noise_dn": args.input_noise_dn}
 
 
 def _cmd_info(args) -> int:
@@ -381,11 +391,11 @@ def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
-def _add_sensor_flags(g) -> None:
+def _add_sensor_flags(g, crf_default: str = "window") -> None:
     """The LDR camera, CRF, DVS sampling and output flags shared by generate and convert (read by
     _settings_from_flags, with the camera's --fps)."""
     g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
-    g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
+    g.add_argument("--crf", help=f"camera response function name from crf_models (default: {crf_default})")
     g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
     g.add_argument("--sampling-quantile", type=float,
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
@@ -430,12 +440,28 @@ def _add_convert_parser(sub) -> None:
                    help="start of the clip in seconds from the input's first frame (default 0)")
     g.add_argument("--stop-s", type=_non_negative(float), default=None,
                    help="end of the clip in seconds (default: the input's last frame)")
-    g.add_argument("--fps", type=float, help="input frame rate in frames per second (image folders and .npy "
-                                             "stacks; overrides a video container's rate)")
+    g.add_argument("--input-fps", "--fps", dest="fps", type=float,
+                   help="the rate the input frames were captured at, frames per second (default: a video's "
+                        "capture-rate metadata, else its container rate; image folders and .npy stacks need it or "
+                        "timestamps)")
+    g.add_argument("--slowmo", type=float, metavar="FACTOR",
+                   help="a slow-motion video: captured FACTOR times faster than its container rate (e.g. 32 for "
+                        "960 fps stored at 30); phones' capture-rate metadata is read without it")
+    g.add_argument("--resize", choices=("crop", "pad", "stretch"), default="crop",
+                   help="when the sensor's aspect ratio differs from the input's: crop (fill the sensor, centred; "
+                        "default), pad (the whole input, black bars) or stretch (the whole input, distorted)")
+    g.add_argument("--input-conditioning", choices=("temporal", "off"),
+                   help="per-pixel temporal filter of the input before the DVS, against codec artefacts (key "
+                        "frames, flicker) and read noise on static pixels (default: temporal for video files, off "
+                        "for image folders and stacks)")
+    g.add_argument("--input-noise-dn", type=_non_negative(float), metavar="DN",
+                   help="temporal noise rms of the input in its code values (e.g. a camera's read noise); turns "
+                        "the conditioning on (default: estimated from a video)")
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
-    g.add_argument("--input-crf", default="srgb", help="crf_models curve whose inverse linearises 8/16-bit "
-                                                       "input (default srgb; float input is taken as linear)")
+    g.add_argument("--input-crf", default="srgb", help="linearisation: crf_models curve whose inverse maps 8/16-bit "
+                                                       "input to linear radiance (default srgb; float input is "
+                                                       "taken as linear; the output's metadata states it)")
     g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
@@ -445,11 +471,10 @@ def _add_convert_parser(sub) -> None:
                                                     "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
     s.add_argument("--height", type=int, help="sensor height in pixels (default: the input's; alone, it keeps "
-                                              "the aspect ratio; the input is cropped to the sensor's aspect ratio "
-                                              "and area-resized)")
+                                              "the aspect ratio; see --resize; the input is area-resized)")
     s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
     s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
-    _add_sensor_flags(s)
+    _add_sensor_flags(s, crf_default="srgb")
     conv.add_argument("--sensor", metavar="NAME|FILE", help=f"{SENSOR_HELP} (default davis346)")
     _add_output_flags(conv, "evsim_convert")
     _add_run_flags(conv)

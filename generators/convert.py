@@ -3,8 +3,10 @@
 
 convert(inputs, out_dir, ...) takes video files, image folders and .npy stacks (generators.scenes.video), or
 folders of video files, and writes one sequence per clip. Each sequence's metadata (its "scene") records the
-input's path and sha256, its frame rate or timestamps, the part used, the linearisation, the luminance weighting,
-the crop and resize and the upsampling.
+input's path and sha256, the capture rate used and where it comes from (timestamps, --input-fps, --slowmo, the
+container's capture-rate metadata or its rate), the part used, the linearisation, the luminance weighting, the
+resize policy, the input conditioning and the upsampling. The synthetic LDR frames use the sRGB CRF unless the
+settings name another.
 """
 
 from __future__ import annotations
@@ -22,8 +24,11 @@ from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES
 __all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS"]
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
-SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")
+SCENE_OPTIONS = ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning")
+#: the LDR camera's CRF when the settings name none: ordinary video looks as it did (the AHDR `window` CRF of
+#: `generate` maps all but a narrow band of radiance to black or white)
+DEFAULT_CRF = {"name": "srgb", "params": {}}
 
 
 def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
@@ -64,7 +69,8 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                    **scene_options: Any) -> DatasetConfig:
     """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
 
-    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output); height,
+    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; the crf is
+    DEFAULT_CRF, sRGB, unless given); height,
     width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
     VideoScene default).
     """
@@ -85,7 +91,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
         h, w = _sensor_size(path, height, width)
         sequences.append({"name": name, "height": h, "width": w,
                           "scene": {"type": "video", "path": str(path.resolve()), **options}})
-    return parse_config({"seed": seed, "defaults": dict(settings or {}), "sequence": sequences},
+    return parse_config({"seed": seed, "defaults": {"crf": DEFAULT_CRF, **(settings or {})}, "sequence": sequences},
                         source="<convert>")
 
 
