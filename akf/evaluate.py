@@ -106,7 +106,7 @@ class Case:
 
     @property
     def scoring(self) -> str:
-        """"exposure-matched" or "point-in-time": how run() compares reconstructions with the truth."""
+        """How run() compares reconstructions with the truth: exposure-matched or point-in-time."""
         return "exposure-matched" if self.windows is not None and self.exposure_matched else "point-in-time"
 
     def run(self, method: str, sel: slice | np.ndarray = slice(None),

@@ -30,9 +30,9 @@ if TYPE_CHECKING:
 
 __all__ = ["MIN_SAMPLES", "MAX_SAMPLES", "SAMPLES_PER_EVENT", "sample_count", "sample_times", "exposure_average"]
 
-MIN_SAMPLES = 8
-MAX_SAMPLES = 64
-SAMPLES_PER_EVENT = 4
+MIN_SAMPLES = 8  # samples per window at least (few events: the output changes smoothly)
+MAX_SAMPLES = 64  # samples per window at most (each is a reconstruction)
+SAMPLES_PER_EVENT = 4  # per event of the busiest pixels: each step placed within 1/8 of its share of the window
 _CHUNK_SAMPLES = 512  # reconstructions per method call (memory: this many (H, W) float32 images)
 
 

@@ -37,9 +37,9 @@ if TYPE_CHECKING:
 __all__ = ["PIXEL_CLASSES", "TIME_CLASSES", "CLASSES", "CLIP_MARGIN_DN", "FLAT_STD", "nearest_frames",
            "pixel_classes", "time_classes", "valid_region"]
 
-PIXEL_CLASSES = ("well", "high", "low", "flat", "textured")
-TIME_CLASSES = ("at_frames", "between")
-CLASSES = PIXEL_CLASSES + TIME_CLASSES
+PIXEL_CLASSES = ("well", "high", "low", "flat", "textured")  # well/high/low partition; flat/textured too
+TIME_CLASSES = ("at_frames", "between")  # scored times inside / outside an input frame's exposure
+CLASSES = PIXEL_CLASSES + TIME_CLASSES  # every class a score is split by
 CLIP_MARGIN_DN = 2  # a response this close to an end of the CRF's range counts as clipped (noise, quantisation)
 FLAT_STD = 0.02  # local standard deviation of the [0, 1] truth below which it is flat
 
@@ -71,7 +71,7 @@ def pixel_classes(before: npt.ArrayLike, after: npt.ArrayLike, crf: CRF, bit_dep
 
 
 def time_classes(t_us: int, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> str:
-    """"at_frames" when t_us lies inside an input frame's exposure window, else "between"."""
+    """The time class of t_us: at_frames when it lies inside an input frame's exposure window, else between."""
     inside = (np.asarray(frame_t_start_us) <= t_us) & (t_us <= np.asarray(frame_t_end_us))
     return "at_frames" if inside.any() else "between"
 

@@ -13,10 +13,14 @@ their max_intensity, default 1: what the camera can represent). Scores are compu
   time, as x = CRF^-1(response) * T_0 / T_k. A frame only measures x inside the CRF's range
   [CRF^-1(0), CRF^-1(1)], so reconstructions are clipped to that range (of the held-out frame's exposure) before
   scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
-  assumed linear (x = response).
+  assumed linear (x = response). The held-out frame integrated the scene over its exposure window, so by default
+  (exposure_matched) each reconstruction is averaged over that window before the clip (akf.exposure, Case.windows);
+  exposure_matched=False scores the reconstruction at mid-exposure (point-in-time).
 Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
-The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 the recorded reference_white_radiance (reference
-protocol; else the reference's 98th percentile, with a note) or CRF^-1(1) (interleave: a held-out frame's white).
+The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 (reference protocol) a white the methods can
+reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the recorded
+reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a held-out
+frame's white).
 Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), the
 thresholds estimated from its events and the fed frames (akf.estimate_contrast; never the held-out frames); the
 AKF also gets its DVS leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see
