@@ -3,6 +3,7 @@
 method can reach, the pixel/time classes on a hand-made case, and scores between frames."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,6 +100,23 @@ def test_point_scoring_flag_and_the_table_and_json_say_which(blurred, tmp_path, 
         assert ("scoring: exposure-matched" in text) == (not flag)
         assert out[bool(flag)]["scoring"]["exposure_matched"] == (not flag)
     assert out[True]["frames"]["edge"]["mse01"] != out[False]["frames"]["edge"]["mse01"]
+
+
+ROAD = Path(__file__).resolve().parents[2] / "shared" / "data" / "events" / "davis346_road"
+
+
+def test_real_ijrr_export_carries_the_aedat4_exposure_windows():
+    """The shared DAVIS346 recording's IJRR export lists its exposures in frame_exposures.txt (times from t0)."""
+    pytest.importorskip("aedat", reason="the optional 'aedat' package reads AEDAT4")
+    if not (ROAD / "ijrr" / "frame_exposures.txt").is_file():
+        pytest.skip(f"real data absent: {ROAD}")
+    ijrr, aedat4 = load(ROAD / "ijrr"), load(ROAD / "davis346_road.aedat4")
+    t0 = int((ROAD / "ijrr" / "t0_us.txt").read_text())
+    np.testing.assert_array_equal(ijrr.frame_t_end_us - ijrr.frame_t_start_us, 500)  # README: a fixed 500 us
+    np.testing.assert_array_equal(ijrr.frame_t_start_us + t0, aedat4.frame_t_start_us)
+    np.testing.assert_array_equal(ijrr.frame_t_end_us + t0, aedat4.frame_t_end_us)
+    case, _ = recording_case(ijrr, "interleave")
+    np.testing.assert_array_equal(case.windows[:, 1] - case.windows[:, 0], 500)
 
 
 # ----- the white point ---------------------------------------------------------------------------------------------
