@@ -261,7 +261,7 @@ def _cmd_demo(args) -> int:
 
 def _cmd_evaluate(args) -> int:
     from evsim_eval.evaluate import evaluate_dataset
-    from evsim_eval.tables import format_table, write_json
+    from evsim_eval.tables import format_table, scoring_record, write_json
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
@@ -269,17 +269,19 @@ def _cmd_evaluate(args) -> int:
         from .realism_command import evaluate_realism
 
         return evaluate_realism(args)
+    matched = not args.point_scoring
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
-                              progress=False if args.no_progress else None, strict=False, **_run_options(args))
+                              progress=False if args.no_progress else None, strict=False, exposure_matched=matched,
+                              **_run_options(args))
     scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
-        print(format_table(scores.table, args.protocol, scores.notes))
+        print(format_table(scores.table, args.protocol, scores.notes, matched))
     raise_failures("sequences", scores.failures, len(scores.failures) + len(scored),
                    "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
     if args.json is not None:
-        write_json(scores.table, args.json, scores.tuning)
+        write_json(scores.table, args.json, scores.tuning, scoring_record(args.protocol, matched, scores.notes))
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -539,8 +541,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
-    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
-                                              "tuning: {method: setting} with --tune)")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (with "
+                                              "per-class scores metric@class, share@class; scoring: what the "
+                                              "scores compare; tuning: {method: setting} with --tune)")
+    ev.add_argument("--point-scoring", action="store_true",
+                    help="interleave: score each reconstruction at the held-out frame's mid-exposure time instead "
+                         "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
                          "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
