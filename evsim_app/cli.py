@@ -46,6 +46,8 @@ def _settings_from_flags(args) -> dict:
     if args.sampling_quantile is not None:
         s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
     s["output"] = {"labels": args.labels}
+    if args.outputs is not None:
+        s["output"]["outputs"] = args.outputs
     if args.reference_rate_hz is not None:
         s["output"]["reference_rate_hz"] = args.reference_rate_hz
     return s
@@ -69,7 +71,7 @@ def _scene_sequences(args) -> list[dict]:
 
 
 _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
-                "reference_rate_hz", "sampling")
+                "reference_rate_hz", "sampling", "outputs")
 
 
 def _dataset_config(args):
@@ -383,6 +385,9 @@ def _add_sensor_flags(g) -> None:
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+                   help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
+                        "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
 
@@ -411,7 +416,8 @@ def _add_scene_flags(p) -> None:
 
 
 def _add_convert_parser(sub) -> None:
-    conv = sub.add_parser("convert", help="video(s) -> events + LDR frames + HDR reference, one sequence per clip",
+    conv = sub.add_parser("convert", help="video(s) -> events (+ LDR frames + HDR reference with --outputs), one "
+                          "sequence per clip",
                           epilog=EPILOG)
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
