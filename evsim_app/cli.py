@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 import sim
@@ -22,6 +23,7 @@ from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
+from . import export_command
 from .plots.cli import add_plot_parser
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
@@ -551,7 +553,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
+    export_command.add_parser(sub, EPILOG)
     return parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning whose category says evsim_note as "evsim: note: ...", others as Python does."""
+    if getattr(category, "evsim_note", False):
+        print(f"evsim: note: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 class Terminated(BaseException):
@@ -576,7 +587,9 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         _check_paths(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
+            return args.func(args)
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)
         return 2
