@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+from generators.choices import INDEX_FILE
+from generators.exports import folder_sequences
 from generators.formats import detect, load
 from generators.formats.common import json_attr, open_h5
-from generators.dataset import INDEX_FILE
-from generators.exports import folder_sequences
 from generators.formats.native import event_summary, iter_native_events, recording_event_chunks
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")

@@ -20,6 +20,7 @@ import importlib.metadata
 import math
 import platform
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -116,7 +117,7 @@ class AHDRConfig:
         return _jsonable(dataclasses.asdict(self))
 
 
-def check_outputs(outputs) -> tuple[str, ...]:
+def check_outputs(outputs: Iterable[str]) -> tuple[str, ...]:
     """outputs as a tuple in OUTPUTS order: names of OUTPUTS, "events" among them; InvalidParameterError naming
     an unknown one."""
     if isinstance(outputs, str) or not all(isinstance(o, str) for o in outputs):

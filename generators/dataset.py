@@ -44,6 +44,7 @@ from sim import EvsimInputError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
+from .choices import INDEX_FILE
 from .config import DatasetConfig, build_scene, check_sequence_name, to_ahdr_config
 from .formats import HOLDS, ExportDropWarning, export
 from .formats.atomic import discard, write_text_atomic
@@ -56,7 +57,6 @@ if TYPE_CHECKING:
 
     from .scenes import Scene
 
-INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
                  "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 MANIFEST_SUFFIX = ".manifest.json"

@@ -16,11 +16,11 @@ import json
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from sim import EvsimInputError
 
-from .choices import FORMATS
-from .dataset import EXPORT_SUFFIX, INDEX_FILE
+from .choices import FORMATS, INDEX_FILE
 from .formats import HOLDS, DatasetFormatError, ExportDropWarning, detect, export
 from .formats.atomic import atomic_path, discard
 
@@ -40,6 +40,8 @@ class ExportedSequence:
 
 def export_suffix(fmt: str) -> str:
     """The name suffix of a sequence's export in format fmt ("<name><suffix>"), as `generate --format` names it."""
+    from .dataset import EXPORT_SUFFIX  # (not at the top: `evsim info` needs none of the generation modules)
+
     return ".h5" if fmt == "native" else EXPORT_SUFFIX.get(fmt, "_exr" if fmt == "exr" else f".{fmt}")
 
 
@@ -79,7 +81,7 @@ def folder_sequences(folder: str | Path) -> list[tuple[str, Path]] | None:
 
 
 def export_path(source: str | Path, dst: str | Path, fmt: str, *, overwrite: bool = False,
-                progress: bool = False, **options) -> list[ExportedSequence]:
+                progress: bool = False, **options: Any) -> list[ExportedSequence]:
     """Export `source` (a readable file or folder, or a folder of sequences: see the module docstring) to `dst` in
     format `fmt` (one of generators.choices.FORMATS); return what was written. The drop warnings of the single
     exports are gathered into one ExportDropWarning for the whole call. options: as for generators.formats.export.

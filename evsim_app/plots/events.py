@@ -14,7 +14,7 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -56,9 +56,10 @@ def time_surface(events: np.ndarray, height: int, width: int, t_us: int, tau_us:
     return out.reshape(height, width)
 
 
-def event_rate(events: np.ndarray, bin_us: int, t_start_us: int | None = None,
+def event_rate(events: np.ndarray | Mapping[str, np.ndarray], bin_us: int, t_start_us: int | None = None,
                t_end_us: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds."""
+    """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds.
+    events: an event array, or a mapping of its "t" and "p" columns."""
     if bin_us < 1:
         raise EvsimInputError(f"rate bin must be >= 1 us, got {bin_us}")
     t = events["t"]
@@ -115,7 +116,7 @@ class EventSource:
     t_first_us: int | None
     t_last_us: int | None
     window: Callable[[int, int], np.ndarray]
-    chunks: Callable[[], Iterator[np.ndarray]]
+    chunks: Callable[[], Iterator[np.ndarray | dict[str, np.ndarray]]]
 
     @classmethod
     def of_array(cls, events: np.ndarray, height: int, width: int) -> EventSource:
@@ -126,7 +127,12 @@ class EventSource:
     @classmethod
     def of_native(cls, path: str | Path) -> EventSource:
         from generators.formats.common import open_h5
-        from generators.formats.native import event_summary, iter_native_events, read_native_window
+        from generators.formats.native import (
+            event_summary,
+            iter_native_columns,
+            iter_native_events,
+            read_native_window,
+        )
 
         summary = event_summary(path)
         if summary is None:  # (a file without a summary: count and span from one pass)
@@ -140,7 +146,7 @@ class EventSource:
             h, w = int(f.attrs["height"]), int(f.attrs["width"])
         return cls(h, w, n, first if n else None, last if n else None,
                    lambda t0, t1: read_native_window(path, t0, t1),
-                   lambda: (ev for ev, _ in iter_native_events(path)))
+                   lambda: iter_native_columns(path, ("t", "p")))
 
 
 def plot_events(rec: Recording | EventSource, out: str | Path, *, at_ms: Sequence[float] | None = None,

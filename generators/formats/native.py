@@ -450,6 +450,31 @@ def event_summary(path: str | Path) -> dict | None:
     return summary
 
 
+def iter_native_columns(path: str | Path, names: tuple[str, ...] = ("t", "p"),
+                        size: int = EVENT_CHUNK) -> Iterator[dict[str, np.ndarray]]:
+    """Stream some event columns of a native file in chunks, {name: array}: t absolute int64 microseconds, x and
+    y uint16, p int8 -1/+1, label uint8. Lighter than iter_native_events (which builds and checks whole events)
+    for a pass that needs a few columns, e.g. an event rate from t and p; times are checked to be sorted."""
+    with open_h5(path) as f:
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, [f"events/{n}" for n in names])
+            ev, offset, version = f["events"], _t_offset(f), _layout_version(f)
+            n = ev["t"].shape[0]
+        t_last = None
+        for i in range(0, n, size):
+            with reading(path):
+                chunk = {name: ev[name][i : i + size] for name in names}
+                if "t" in chunk:
+                    t = chunk["t"] = add_offset(path, chunk["t"], offset)
+                    if t.size and ((t_last is not None and t[0] < t_last) or np.any(np.diff(t) < 0)):
+                        raise fail(path, f"events are not sorted by time (in events {i}..{i + t.size})")
+                    t_last = int(t[-1]) if t.size else t_last
+                if "p" in chunk:
+                    chunk["p"] = _decode_polarity(path, chunk["p"], version)
+            yield chunk
+
+
 def read_native_window(path: str | Path, t_start_us: int, t_end_us: int) -> np.ndarray:
     """The events with t_start_us <= t < t_end_us (absolute microseconds) of a native file, read through its
     ms_to_idx index (only the milliseconds that overlap the window are read; a file without the index is
