@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 import sim
@@ -22,6 +23,7 @@ from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
+from . import export_command
 from .plots.cli import add_plot_parser
 from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
@@ -49,6 +51,8 @@ def _settings_from_flags(args) -> dict:
     if args.sampling_quantile is not None:
         s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
     s["output"] = {"labels": args.labels}
+    if args.outputs is not None:
+        s["output"]["outputs"] = args.outputs
     if args.reference_rate_hz is not None:
         s["output"]["reference_rate_hz"] = args.reference_rate_hz
     return s
@@ -72,7 +76,7 @@ def _scene_sequences(args) -> list[dict]:
 
 
 _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
-                "reference_rate_hz", "sampling")
+                "reference_rate_hz", "sampling", "outputs")
 
 
 def _dataset_config(args):
@@ -403,6 +407,9 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+                   help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
+                        "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
 
@@ -431,7 +438,8 @@ def _add_scene_flags(p) -> None:
 
 
 def _add_convert_parser(sub) -> None:
-    conv = sub.add_parser("convert", help="video(s) -> events + LDR frames + HDR reference, one sequence per clip",
+    conv = sub.add_parser("convert", help="video(s) -> events (+ LDR frames + HDR reference with --outputs), one "
+                          "sequence per clip",
                           epilog=EPILOG)
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
@@ -586,7 +594,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
+    export_command.add_parser(sub, EPILOG)
     return parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning whose category says evsim_note as "evsim: note: ...", others as Python does."""
+    if getattr(category, "evsim_note", False):
+        print(f"evsim: note: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 class Terminated(BaseException):
@@ -611,7 +628,9 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         _check_paths(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
+            return args.func(args)
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)
         return 2

@@ -43,14 +43,18 @@ def _cmd_pixel(args) -> int:
 
 
 def _cmd_events(args) -> int:
-    from .common import load_recording, prepare
-    from .events import plot_events
+    from generators.formats import detect
 
-    rec = load_recording(args.dataset)
+    from .common import load_recording, prepare
+    from .events import EventSource, plot_events
+
     if args.animate is not None:
         from .animate import check_output
 
         check_output(args.animate)
+    # a native file is read window by window (memory stays flat); other layouts, and an animation, load it
+    native = args.animate is None and Path(args.dataset).is_file() and detect(args.dataset) == "native"
+    rec = EventSource.of_native(args.dataset) if native else load_recording(args.dataset)
     out = args.out or _default_out(args.dataset, "events")
     res = plot_events(rec, out, at_ms=args.at_ms, window_ms=args.window_ms, bin_ms=args.bin_ms)
     print(f"wrote {out} (windows ending at {', '.join(f'{t / 1e3:g}' for t in res['times_us'])} ms)")
