@@ -1,4 +1,5 @@
-"""`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
+"""`evsim plot pixel|events|compare|sweep|roc|realism`: registered on the evsim command line by
+add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
 this includes a missing matplotlib (evsim_app.plots.common.PlotDependencyError, with the pip command to fix it).
@@ -44,8 +45,10 @@ def _cmd_pixel(args) -> int:
 
 
 def _cmd_events(args) -> int:
+    from generators.formats import detect
+
     from .common import load_recording, prepare
-    from .events import plot_events
+    from .events import EventSource, plot_events
 
     if args.video is not None:
         from .video import check_video_options, write_video
@@ -59,11 +62,13 @@ def _cmd_events(args) -> int:
               f"played at {args.video_fps:g} fps)")
         if args.out is None and args.animate is None:
             return 0
-    rec = load_recording(args.dataset)
     if args.animate is not None:
         from .animate import check_output
 
         check_output(args.animate)
+    # a native file is read window by window (memory stays flat); other layouts, and an animation, load it
+    native = args.animate is None and Path(args.dataset).is_file() and detect(args.dataset) == "native"
+    rec = EventSource.of_native(args.dataset) if native else load_recording(args.dataset)
     out = args.out or _default_out(args.dataset, "events")
     res = plot_events(rec, out, at_ms=args.at_ms, window_ms=args.window_ms, bin_ms=args.bin_ms)
     print(f"wrote {out} (windows ending at {', '.join(f'{t / 1e3:g}' for t in res['times_us'])} ms)")
@@ -184,4 +189,8 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                                                 "all in the JSON)")
     r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
     r.set_defaults(func=_cmd_roc)
+
+    from .realism import add_realism_plot_parser
+
+    add_realism_plot_parser(psub, PLOT_EPILOG)
     return plot

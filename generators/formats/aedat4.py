@@ -262,6 +262,7 @@ class _DvWriter:
             pass
         code = self._proc.wait()
         self._drain.join()
+        self._proc.stderr.close()
         if code != 0 or not done:
             text = b"".join(self._err).decode(errors="replace")
             lines = [ln.strip() for ln in text.splitlines() if "rror" in ln] or [text.strip() or "no message"]
@@ -278,3 +279,9 @@ class _DvWriter:
         if self._proc.poll() is None:  # an error here, or SIGTERM/Ctrl-C: the child goes without finishing
             self._proc.kill()
         self._proc.wait()
+        self._drain.join(timeout=1.0)
+        for pipe in (self._proc.stdin, self._proc.stderr):
+            try:
+                pipe.close()
+            except OSError:  # (a broken pipe)
+                pass
