@@ -154,3 +154,22 @@ def test_cli_writes_the_video_and_refuses_bad_options(native, tmp_path, capsys):
     with pytest.raises(EvsimInputError, match="no events to draw"):
         write_video(empty, tmp_path / "e.gif", progress=False)
     assert not (tmp_path / "e.gif").exists()
+
+
+def test_writing_a_gif_keeps_memory_flat_in_the_number_of_frames(tmp_path):
+    # Pillow's own multi-frame GIF writer keeps every frame; evsim's joins one-frame files as it goes
+    def peak(n_frames):
+        ev = np.zeros(n_frames, EVENT_DTYPE)  # one event a frame
+        ev["t"] = np.arange(n_frames) * 1000
+        ev["x"], ev["y"], ev["p"] = np.arange(n_frames) % W, np.arange(n_frames) % H, 1
+        write_native(Recording(events=ev, height=H * 4, width=W * 4), tmp_path / f"s{n_frames}.h5")
+        tracemalloc.start()
+        r = write_video(tmp_path / f"s{n_frames}.h5", tmp_path / f"v{n_frames}.gif", frame_ms=1, scale=4,
+                        progress=False)
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        assert r["frames"] == n_frames
+        return top
+
+    short, long = peak(500), peak(2000)
+    assert long < 1.3 * short, (short, long)
