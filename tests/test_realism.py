@@ -228,3 +228,13 @@ def test_plot_realism_draws_both_recordings(tmp_path, sims):
     for rec, frame in zip((real, double), res["frames"]):  # the event frames hold the events of 0.49-0.51 s
         t = rec.events["t"]
         assert frame.sum() == np.count_nonzero((t >= 490_000) & (t < 510_000))
+
+
+def test_measure_refuses_events_it_cannot_score(real_stats, sims):
+    events = sims["b"].events
+    with pytest.raises(sim.EvsimInputError, match="sorted"):
+        measure(events[::-1], like=real_stats)
+    with pytest.raises(sim.EvsimInputError, match="outside the 32x48 sensor"):
+        measure(events, (0, 10_000), height=H, width=32)
+    with pytest.raises(sim.EvsimInputError, match="EVENT_DTYPE"):
+        measure(np.zeros(3), like=real_stats)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim import EvsimInputError
+from sim import EvsimInputError, validate_events
 
 from .kernels import pixel_runs
 from .masks import FrameMasks, frame_masks
@@ -186,6 +186,14 @@ def _describe_gaps(gaps_us: np.ndarray, windows_us: np.ndarray) -> str:
             f"bins without events in a busy stream ({listed} s, times as in the file) are not scored")
 
 
+def _check_events(events: np.ndarray, height: int, width: int) -> None:
+    """EvsimInputError unless events are sim.EVENT_DTYPE, sorted by time and inside the height x width sensor."""
+    validate_events(events)
+    if events.size and (int(events["x"].max()) >= width or int(events["y"].max()) >= height):
+        raise EvsimInputError(f"events outside the {width}x{height} sensor (max x {int(events['x'].max())}, max y "
+                              f"{int(events['y'].max())}): simulate at the real sensor's size")
+
+
 def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = None, *, height: int | None = None,
             width: int | None = None, masks: FrameMasks | None = None, like: RealismStats | None = None,
             detect_gaps: bool = False) -> RealismStats:
@@ -207,6 +215,7 @@ def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = N
     else:
         origin = 0
     windows = as_windows(windows_us)
+    _check_events(events, height, width)
     t = events["t"]
     gaps = np.zeros((0, 2), np.int64)
     notes = []
