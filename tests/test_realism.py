@@ -238,3 +238,20 @@ def test_measure_refuses_events_it_cannot_score(real_stats, sims):
         measure(events, (0, 10_000), height=H, width=32)
     with pytest.raises(sim.EvsimInputError, match="EVENT_DTYPE"):
         measure(np.zeros(3), like=real_stats)
+
+
+def test_cli_refuses_bad_realism_requests(tmp_path, sims, capsys):
+    from evsim_app.cli import main
+    from generators.formats import export
+
+    export(sims["a"], tmp_path / "real.h5", "native")
+    small = Recording(sims["b"].events[sims["b"].events["x"] < 32], H, 32)
+    export(small, tmp_path / "small.h5", "native")
+    base = ["evaluate", str(tmp_path / "real.h5"), "--task", "realism"]
+    for extra, message in ((["--against", str(tmp_path / "real.h5"), "--window", "0.5", "0.2"], "START_S < END_S"),
+                           (["--against", str(tmp_path / "small.h5")], "simulate at the real sensor's size"),
+                           (["--against", str(tmp_path / "real.h5"), "--workers", "2"], "drop --workers"),
+                           (["--against", str(tmp_path / "missing.h5")], "missing.h5")):
+        assert main(base + extra) == 2, extra
+        err = capsys.readouterr().err
+        assert err.startswith("evsim: error:") and message in err and "Traceback" not in err, err

@@ -151,8 +151,8 @@ def compare(real: RealismStats, sim: RealismStats) -> Comparison:
         "passage_median_diff": sim.passage_median - real.passage_median,
     }
     notes = [f"real: {n}" for n in real.notes] + [f"simulation: {n}" for n in sim.notes]
-    if real.masks is None:
-        notes.append("the real recording has no frames: noise rates and passages are not scored")
+    if real.masks is None and not real.notes:
+        notes.append("no pixel classes (measured without frames): noise rates and passages are not scored")
     return Comparison(real, sim, scores, _seed_noise(real, sim), notes)
 
 

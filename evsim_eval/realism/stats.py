@@ -293,6 +293,9 @@ def measure_recording(rec: object, window_s: tuple[float, float] | None = None, 
     Coverage gaps are cut out (detect_gaps)."""
     origin = recording_origin_us(rec)
     if like is not None:
+        if (rec.height, rec.width) != (like.height, like.width):
+            raise EvsimInputError(f"the simulation is {rec.width}x{rec.height} pixels, the real recording "
+                                  f"{like.width}x{like.height}: simulate at the real sensor's size")
         return measure(rec.events, like=shifted(like, origin), detect_gaps=detect_gaps)
     if window_s is None:
         t = rec.events["t"]
