@@ -54,8 +54,8 @@ def _params(shot_hz: float) -> sim.DVSParams:
 
 
 def _recording(seed: int, params: sim.DVSParams) -> Recording:
-    """Events of the scene (radiance = DN / 255, sampled every ms) and 25 fps 8-bit frames with read noise."""
-    times = np.arange(0, DURATION_US + 1, 1000, dtype=np.int64)
+    """Events of the scene (radiance = DN / 255, sampled every 2 ms) and 25 fps 8-bit frames with read noise."""
+    times = np.arange(0, DURATION_US + 1, 2000, dtype=np.int64)
     radiance = np.stack([_scene_dn(t) / 255.0 for t in times]).astype(np.float32)
     events = sim.emulate(radiance, times, params, seed=seed)
     rng = np.random.default_rng(seed)
