@@ -62,6 +62,8 @@ class Comparison:
 
 
 def _ratio(sim: float, real: float) -> float:
+    if math.isnan(sim) or math.isnan(real):  # not measured (no pixel classes)
+        return float("nan")
     if real > 0:
         return sim / real
     return float("nan") if sim == 0 else float("inf")

@@ -277,11 +277,10 @@ def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
 
 
 def recording_origin_us(rec: object) -> int:
-    """Time zero of a recording (us): its first frame's mid-exposure time, else its first event's time (0 without
-    events). Windows given in seconds count from it. The mid-exposure time is what every layout with frames
-    records (IJRR images.txt holds no exposure start), so one recording read from two layouts gets one origin."""
-    if getattr(rec, "frames", None) is not None and len(rec.frame_t_mid_us):
-        return int(rec.frame_t_mid_us[0])
+    """Time zero of a recording (us): its first frame's exposure start (t0 of the IJRR layout), else its first
+    event's time (0 without events). Windows given in seconds count from it."""
+    if getattr(rec, "frames", None) is not None and len(rec.frame_t_start_us):
+        return int(rec.frame_t_start_us[0])
     return int(rec.events["t"][0]) if rec.events.size else 0
 
 
