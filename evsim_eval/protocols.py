@@ -47,7 +47,7 @@ import crf_models
 import sim
 from akf.evaluate import Case
 from generators.formats import detect
-from generators.formats.recording import Recording
+from generators.formats.recording import Recording, not_generated_hint
 from sim import EvsimInputError
 
 from .choices import PROTOCOLS
@@ -147,7 +147,8 @@ def reference_to_x(rec: Recording) -> float:
 def check_frames(rec: Recording, need: int, what: str) -> None:
     n = 0 if rec.frames is None else rec.frames.shape[0]
     if n < need:
-        raise EvsimInputError(f"{what} needs at least {need} frame{'s' * (need != 1)}, the recording has {n}")
+        raise EvsimInputError(f"{what} needs at least {need} LDR frame{'s' * (need != 1)}, the recording has {n}"
+                              + (not_generated_hint(rec, "frames") if n == 0 else ""))
 
 
 # ----- the two protocols -----------------------------------------------------------------------------------------
@@ -164,7 +165,8 @@ def recording_case(rec: Recording, protocol: str = "reference",
     if protocol == "reference":
         check_frames(rec, 2, "protocol 'reference'")
         if rec.reference is None:
-            raise EvsimInputError("the recording has no HDR reference frames (use --protocol interleave)")
+            raise EvsimInputError("the recording has no HDR reference frames"
+                                  + (not_generated_hint(rec, "reference") or " (use --protocol interleave)"))
         inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
         if not inside.any():
             raise EvsimInputError("no reference frame lies between the first and the last frame")
