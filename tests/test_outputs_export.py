@@ -260,3 +260,13 @@ def test_cli_export_prints_a_note_as_one_line(tiny_dataset, tmp_path, capsys):
     assert "already exists; pass --overwrite" in capsys.readouterr().err
     assert main(["info", str(tiny_dataset)]) == 0
     assert "(dataset folder, 2 sequences, no index.json" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("value,message", [("events,frame", "unknown output 'frame'"),
+                                           ("frames,reference", "events are always written")])
+def test_cli_outputs_flag_names_the_problem(tmp_path, capsys, value, message):
+    for command in (["convert", str(tmp_path / "clip.npy")], ["generate", "ahdr"]):
+        assert main([*command, "--outputs", value, "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err
+        assert f"argument --outputs: {message}; give events[,frames,reference], got '{value}'" in err
+    assert not (tmp_path / "o").exists()
