@@ -4,8 +4,10 @@ converted clip holds its events only by default (CONVERT_OUTPUTS); the LDR frame
 
 convert(inputs, out_dir, ...) takes video files, image folders and .npy stacks (generators.scenes.video), or
 folders of video files, and writes one sequence per clip. Each sequence's metadata (its "scene") records the
-input's path and sha256, its frame rate or timestamps, the part used, the linearisation, the luminance weighting,
-the crop and resize and the upsampling.
+input's path and sha256, the capture rate used and where it comes from (timestamps, --input-fps, --slowmo, the
+container's capture-rate metadata or its rate), the part used, the linearisation, the luminance weighting, the
+resize policy, the input conditioning and the upsampling. The synthetic LDR frames use the sRGB CRF unless the
+settings name another.
 """
 
 from __future__ import annotations
@@ -26,8 +28,11 @@ __all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS", "CONVERT_OUTPU
 CONVERT_OUTPUTS = ("events",)
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
-SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")
+SCENE_OPTIONS = ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning")
+#: the LDR camera's CRF when the settings name none: ordinary video looks as it did (the AHDR `window` CRF of
+#: `generate` maps all but a narrow band of radiance to black or white)
+DEFAULT_CRF = {"name": "srgb", "params": {}}
 
 
 def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
@@ -68,9 +73,9 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                    **scene_options: Any) -> DatasetConfig:
     """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
 
-    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; output.outputs
-    defaults to CONVERT_OUTPUTS, the events only: add "frames" and "reference" for the LDR frames and the HDR
-    reference of the clip); height,
+    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; the crf is
+    DEFAULT_CRF, sRGB, unless given; output.outputs defaults to CONVERT_OUTPUTS, the events only: add "frames" and
+    "reference" for the LDR frames and the HDR reference of the clip); height,
     width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
     VideoScene default).
     """
@@ -91,7 +96,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
         h, w = _sensor_size(path, height, width)
         sequences.append({"name": name, "height": h, "width": w,
                           "scene": {"type": "video", "path": str(path.resolve()), **options}})
-    defaults = dict(settings or {})
+    defaults = {"crf": DEFAULT_CRF, **(settings or {})}
     defaults["output"] = {"outputs": list(CONVERT_OUTPUTS), **defaults.get("output", {})}
     return parse_config({"seed": seed, "defaults": defaults, "sequence": sequences}, source="<convert>")
 

@@ -58,7 +58,7 @@ if TYPE_CHECKING:
     from .scenes import Scene
 
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
-                 "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
+                 "aedat4": ".aedat4", "aedat2": ".aedat2", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 MANIFEST_SUFFIX = ".manifest.json"
 MANIFEST_VERSION = 1
 _MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one

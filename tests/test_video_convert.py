@@ -187,7 +187,7 @@ def test_video_file_and_config_scene_type(tmp_path):
     assert (scene.height, scene.width, scene.duration_us) == (24, 32, round(6e6 / 30))
     meta = scene.describe()
     assert meta["input"]["sha256"] == hashlib.sha256((tmp_path / "clip.avi").read_bytes()).hexdigest()
-    assert meta["frame_rate_hz"] == pytest.approx(30.0)
+    assert meta["capture_fps"] == pytest.approx(30.0)
     # 2 px per frame at 64 wide is 1 px per frame at 32 wide: 30 px/s
     assert scene.max_speed_px_per_s() == pytest.approx(30.0, rel=0.3)
 

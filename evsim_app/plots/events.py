@@ -85,9 +85,11 @@ def _streamed_rate(src: EventSource, bin_us: int) -> tuple[np.ndarray, np.ndarra
     return start, on, off
 
 
-def event_frame_rgb(counts: np.ndarray) -> np.ndarray:
-    """(H, W, 3) float image of a (2, H, W) event frame: white, ON towards red, OFF towards blue (see module doc)."""
-    top = max(float(np.percentile(counts[counts > 0], 99)) if np.any(counts > 0) else 1.0, 1.0)
+def event_frame_rgb(counts: np.ndarray, top: float | None = None) -> np.ndarray:
+    """(H, W, 3) float image of a (2, H, W) event frame: white, ON towards red, OFF towards blue (see module doc),
+    full colour at `top` events (default: the 99th percentile of the counts)."""
+    if top is None:
+        top = max(float(np.percentile(counts[counts > 0], 99)) if np.any(counts > 0) else 1.0, 1.0)
     on, off = (np.clip(c / top, 0, 1)[..., None] for c in counts)
     white = np.ones(3)
     to_on, to_off = (np.array(c) - white for c in (ON_COLOUR, OFF_COLOUR))

@@ -2,8 +2,9 @@
 
 FORMATS: the names export() accepts. load(path) reads any readable layout (detected from the content):
 native HDF5, E2VID HDF5, IJRR text folder (or its events.txt), E2VID text (.txt / .zip with a "width height"
-first line), AKF .mat, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, an EXR folder (reference frames only), and
-AEDAT4 when the optional `aedat` package is installed. Bad files raise DatasetFormatError.
+first line), AKF .mat, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, AEDAT 2.0 (jAER, DAVIS layout: .aedat2 or .aedat),
+an EXR folder (reference frames only), and AEDAT4 when the optional `aedat` package is installed. Bad files raise
+DatasetFormatError.
 HOLDS: what each export format can hold; export() warns (ExportDropWarning) and returns the names of the parts
 of a recording that the format cannot hold.
 """
@@ -19,6 +20,8 @@ import h5py
 from sim import EvsimInputError
 
 from ..choices import EXPORT_FORMATS, FORMATS
+from .aedat2 import SUFFIXES as AEDAT2_SUFFIXES
+from .aedat2 import is_aedat2, read_aedat2, write_aedat2
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
 from .common import DatasetFormatError, fail, open_h5, reading, validated
@@ -37,6 +40,7 @@ HOLDS = {
     "exr": ("reference",),
     "e2vid-txt": ("events",),
     "aedat4": ("events", "frames"),
+    "aedat2": ("events",),
     **{fmt: ("events",) for fmt in PROPHESEE_FORMATS},
 }
 
@@ -53,9 +57,9 @@ class ExportDropWarning(UserWarning):
 
 def detect(path: str | Path) -> str:
     """The layout of `path`: "native", "e2vid", "ijrr", "exr" (a folder of EXR frames with timestamps.txt),
-    "e2vid-txt", "akf-mat", "aedat4", "evt3", "evt2" or "dat"; DatasetFormatError when unknown. A .txt or .zip
-    file (other than an IJRR events.txt) is E2VID text, or a DatasetFormatError saying why it is not (a .zip with
-    several members, a byte-order mark, ...)."""
+    "e2vid-txt", "akf-mat", "aedat4", "aedat2", "evt3", "evt2" or "dat"; DatasetFormatError when unknown. A .txt
+    or .zip file (other than an IJRR events.txt) is E2VID text, or a DatasetFormatError saying why it is not (a .zip
+    with several members, a byte-order mark, ...)."""
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or directory")
@@ -81,6 +85,15 @@ def detect(path: str | Path) -> str:
         return "akf-mat"
     if suffix == ".aedat4":
         return "aedat4"
+    if suffix in AEDAT2_SUFFIXES and path.is_file():
+        if is_aedat2(path):
+            return "aedat2"
+        with open(path, "rb") as f:
+            first = f.readline(40).strip()
+        if first.startswith(b"#!AER-DAT4"):
+            return "aedat4"
+        raise fail(path, f"unknown layout: a {suffix} file whose first line is {first[:20]!r}, not '#!AER-DAT2.0' "
+                         "(AEDAT 2.0) or '#!AER-DAT4.0'")
     if h5py.is_hdf5(path):
         with reading(path), open_h5(path) as f:
             if is_native(f):
@@ -88,7 +101,7 @@ def detect(path: str | Path) -> str:
             if is_e2vid(f):
                 return "e2vid"
         raise fail(path, "unknown layout: HDF5 file with neither events/t (native) nor events/ts (E2VID)")
-    raise fail(path, "unknown layout: not HDF5, .mat, .aedat4, .raw, .dat, E2VID text or an IJRR folder "
+    raise fail(path, "unknown layout: not HDF5, .mat, .aedat4, .aedat2, .raw, .dat, E2VID text or an IJRR folder "
                      "(or truncated?)")
 
 
@@ -100,7 +113,7 @@ def load(path: str | Path) -> Recording:
     recording, or what h5py, zlib, json, scipy.io or numpy raise on malformed content) is a DatasetFormatError
     naming the file."""
     readers = {"native": read_native, "e2vid": read_e2vid, "ijrr": read_ijrr, "akf-mat": read_akf_mat,
-               "aedat4": read_aedat4, "e2vid-txt": read_e2vid_txt, "exr": read_exr_recording,
+               "aedat4": read_aedat4, "aedat2": read_aedat2, "e2vid-txt": read_e2vid_txt, "exr": read_exr_recording,
                **{fmt: read_prophesee for fmt in PROPHESEE_FORMATS}}
     with reading(path):  # detection reads the content too
         rec = readers[detect(path)](path)
@@ -183,5 +196,5 @@ def _write(rec: Recording, out_path, fmt: str, options: dict) -> None:
         write_prophesee(rec, out_path, fmt, **options)
         return
     writers = {"native": write_native, "e2vid": write_e2vid, "ijrr": write_ijrr, "akf-mat": write_akf_mat,
-               "e2vid-txt": write_e2vid_txt, "aedat4": write_aedat4}
+               "e2vid-txt": write_e2vid_txt, "aedat4": write_aedat4, "aedat2": write_aedat2}
     writers[fmt](rec, out_path, **options)
