@@ -65,25 +65,33 @@ class TaskOutcome:
 
 
 class TasksFailed(RuntimeError):
-    """Some tasks failed, the others completed. failures: their TaskOutcomes; n_tasks: how many were run."""
+    """Some tasks failed, the others completed. failures: their TaskOutcomes; n_tasks: how many were run;
+    cli_message: the message with cli_hint (the remedy in command-line flags) in place of hint (in keywords)."""
 
-    def __init__(self, what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = ""):
+    def __init__(self, what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "",
+                 cli_hint: str | None = None):
         self.failures, self.n_tasks = failures, n_tasks
-        lines = [f"{len(failures)} of {n_tasks} {what} failed{': ' + hint if hint else ''}"]
-        lines += [f"  {f.name}: {f.error}" for f in failures]
-        super().__init__("\n".join(lines))
+
+        def message(hint: str) -> str:
+            lines = [f"{len(failures)} of {n_tasks} {what} failed{': ' + hint if hint else ''}"]
+            return "\n".join(lines + [f"  {f.name}: {f.error}" for f in failures])
+
+        super().__init__(message(hint))
+        self.cli_message = message(hint if cli_hint is None else cli_hint)
 
 
-def raise_failures(what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "") -> None:
+def raise_failures(what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "",
+                   cli_hint: str | None = None) -> None:
     """Raise for failed tasks: EvsimInputError when every task failed on bad input (nothing was done: the input
-    is wrong, as a serial command would say), else TasksFailed. Does nothing without failures."""
+    is wrong, as a serial command would say), else TasksFailed (hint, cli_hint: the remedy in keywords and in
+    command-line flags). Does nothing without failures."""
     if not failures:
         return
     if len(failures) == n_tasks and all(f.kind == "input" for f in failures):
         messages = {f.error.split(": ", 1)[-1] for f in failures}
         if len(messages) == 1:
             raise EvsimInputError(messages.pop() if n_tasks == 1 else f"every one of the {what}: {messages.pop()}")
-    raise TasksFailed(what, failures, n_tasks, hint)
+    raise TasksFailed(what, failures, n_tasks, hint, cli_hint)
 
 
 def check_run_options(workers: int | None, scheduler: str | None) -> None:

@@ -177,12 +177,12 @@ PRESETS = {
 
 #: unit (or kind) of every CameraParams field, for messages and `evsim ... --help` (tests check it covers them all)
 FIELD_UNITS: dict[str, str] = {
-    "fps": "frames per second", "first_frame_us": "us, mid-exposure of frame 0",
-    "frame_times_us": "us, list of mid-exposure times", "exposure_us": "us, one value or a list used cyclically",
+    "fps": "frames per second", "first_frame_us": "us, exposure midpoint of frame 0",
+    "frame_times_us": "us, list of exposure midpoints", "exposure_us": "us, one value or a list used cyclically",
     "rolling_shutter_line_us": "us per row, 0 = global shutter", "reference_radiance": "radiance units",
     "reference_fill": "fraction of full well, (0, 1]", "reference_exposure_us": "us",
     "full_well_e": "electrons", "read_noise_e": "electrons rms", "dark_current_e_per_s": "electrons per second",
     "prnu_sigma": "relative gain std", "dsnu_e": "electrons std", "bit_depth": "bits, 8..16",
-    "noise": "true/false: temporal noise", "n_subframes": "sub-frames per exposure",
-    "max_px_per_subframe": "pixels", "max_subframes": "sub-frames",
+    "noise": "true/false: temporal noise", "n_subframes": "subframes per exposure",
+    "max_px_per_subframe": "pixels", "max_subframes": "subframes",
 }
