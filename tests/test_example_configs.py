@@ -27,7 +27,7 @@ def test_every_shipped_configuration_is_tested():
     assert {p.name for p in CONFIGS.glob("*.toml")} == {*SENSOR_FILES, "ahdr_dataset.toml", "convert.toml"}
 
 
-def test_the_davis346_sensor_file_is_the_preset_with_the_aps_camera(tmp_path):
+def test_the_davis346_sensor_file_is_the_preset_with_the_aps_camera(tmp_path, capsys):
     s = sim.load_sensor(CONFIGS / "davis346.toml")
     assert s.dvs == sim.DVS_PRESETS["davis346"] and s.camera == {"preset": "davis346_aps"}
     assert "not fitted" in s.provenance["status"]
@@ -44,6 +44,9 @@ def test_the_davis346_sensor_file_is_the_preset_with_the_aps_camera(tmp_path):
     cam = rec.metadata["config"]["camera"]
     assert (cam["full_well_e"], cam["read_noise_e"], cam["dsnu_e"]) == (aps.full_well_e, aps.read_noise_e, aps.dsnu_e)
     assert rec.metadata["config"]["sensor"]["file"] == str(CONFIGS / "davis346.toml")
+    capsys.readouterr()
+    assert main(["info", str(out / "moving_edge.h5")]) == 0
+    assert f"  model       davis346 ({CONFIGS / 'davis346.toml'})\n" in capsys.readouterr().out
 
 
 def test_the_v2e_noisy_sensor_file_gives_its_threshold_spread_and_no_hot_pixels(tmp_path):
