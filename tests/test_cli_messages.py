@@ -104,6 +104,27 @@ def test_an_existing_output_folder_names_the_flags_on_the_command_line_and_the_k
     assert "--" not in str(api.value)
 
 
+def test_an_option_error_in_a_sequence_reaches_the_command_line_in_flags(tmp_path, capsys):
+    """The error of a task (here: a stack without frame times) crosses the task runner with both wordings."""
+    import numpy as np
+
+    from generators.convert import convert
+
+    np.save(tmp_path / "clip.npy", np.full((3, 6, 8), 100, np.uint8))
+    err = _error(capsys, ["convert", str(tmp_path / "clip.npy"), "--out", str(tmp_path / "o"), "--no-progress"])
+    assert "no frame times: give --input-fps or --timestamps (a file of frame times)" in err
+    with pytest.raises(sim.OptionError) as api:
+        convert(tmp_path / "clip.npy", tmp_path / "o2", progress=False)
+    assert "no frame times: give fps or timestamps (a file of frame times)" in str(api.value)
+    assert "--" not in str(api.value)
+    failures = [TaskOutcome("a", error="OptionError: x=1 is wrong", kind="input", cli_error="OptionError: --x is "
+                                                                                              "wrong"),
+                TaskOutcome("b", error="RuntimeError: boom", kind="bug")]
+    with pytest.raises(TasksFailed) as e:
+        raise_failures("sequences", failures, 3)
+    assert "  a: OptionError: x=1 is wrong" in str(e.value) and "  a: OptionError: --x is wrong" in e.value.cli_message
+
+
 def test_failed_sequences_name_the_resume_flag_or_keyword():
     failures = [TaskOutcome("a", error="RuntimeError: boom", kind="bug")]
     with pytest.raises(TasksFailed) as e:
