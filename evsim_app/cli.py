@@ -502,9 +502,9 @@ def _add_convert_parser(sub) -> None:
                         "the conditioning on (default: estimated from a video)")
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
-    g.add_argument("--input-crf", help="linearisation: crf_models curve whose inverse maps 8/16-bit "
-                                                       "input to linear radiance (default srgb; float input is "
-                                                       "taken as linear; the output's metadata states it)")
+    g.add_argument("--input-crf", help="linearisation: crf_models curve whose inverse maps 8/16-bit input to linear "
+                                       "radiance (default srgb; float input is taken as linear; the output's "
+                                       "metadata states it)")
     g.add_argument("--upsample", choices=UPSAMPLE_MODES,
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")

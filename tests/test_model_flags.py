@@ -190,3 +190,14 @@ def test_bad_convert_configs_name_the_key(tmp_path, capsys, text, says):
                  str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert re.search(says, err) and str(tmp_path / "c.toml") in err, err
+
+
+@pytest.mark.slow
+def test_the_model_flags_and_sensor_files_load_no_numpy():
+    """`evsim --help` lists the fields from the parameter modules: they import no numpy (nor numba)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, evsim_app.model_flags, sim.sensor_file; "
+            "assert not {'numpy', 'numba'} & set(sys.modules), sorted({'numpy', 'numba'} & set(sys.modules))")
+    subprocess.run([sys.executable, "-c", code], check=True)
