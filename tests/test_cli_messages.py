@@ -78,10 +78,18 @@ def test_unknown_model_names_on_the_command_line_list_the_allowed_ones(capsys, t
     ({"defaults": {"sensr": "ideal"}}, r"defaults\.sensr: unknown key 'sensr' \(did you mean 'sensor'\?\)"),
     ({"defaults": {"sampling": {"quantil": 0.9}}}, r"sampling\.quantil: unknown key 'quantil' \(did you mean "
                                                    r"'quantile'\?\)"),
+    ({"format": "evt4"}, r"format: unknown format 'evt4' \(did you mean 'evt3'\?\); allowed: native, "),
+    ({"sweep": {"leak": [0.1]}}, r"sweep\.leak: unknown sweep parameter 'leak' \(did you mean 'leak_hz'\?\)"),
 ])
 def test_mistyped_configuration_keys_get_a_suggestion_and_the_allowed_names(table, says):
     with pytest.raises(sim.InvalidParameterError, match=says):
         parse_config({**table, "sequence": [{"scene": {"type": "moving_edge"}}]}, source="data.toml")
+
+
+def test_a_mistyped_scene_type_gets_a_suggestion():
+    with pytest.raises(sim.InvalidParameterError, match=r"scene\.type: unknown scene type 'moving_egde' \(did you "
+                                                        r"mean 'moving_edge'\?\); allowed: image, frames"):
+        parse_config({"sequence": [{"scene": {"type": "moving_egde"}}]})
 
 
 def test_an_existing_output_folder_names_the_flags_on_the_command_line_and_the_keywords_in_python(tmp_path, capsys):
