@@ -369,6 +369,7 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                 n_fed += len(stack)
             bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
             bar.update(duration - bar.n)
+            bar.refresh()  # the final rates, however soon after the last update
         rendered_for_dvs = src.seconds
         with tqdm(total=len(schedule) if "frames" in config.outputs else 0, unit="frame", desc="frames",
                   disable=not progress or "frames" not in config.outputs, leave=False) as bar:
