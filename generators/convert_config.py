@@ -65,7 +65,8 @@ def parse_convert_config(data: dict, *, source: str = "<convert config>", base_d
         if key not in allowed:
             raise InvalidParameterError(f"{source}: defaults.{key}: {unknown_name('key', key, allowed)}")
     resolved = resolve_settings(f"{source}: defaults", table, DEFAULTS, base_dir)
-    settings = {k: resolved[k] for k in table}
+    # only what the file sets (a table's other keys keep convert's defaults, e.g. output.outputs = events)
+    settings = {k: {kk: resolved[k][kk] for kk in table[k]} if k in _DICT_SETTINGS else resolved[k] for k in table}
     video = _table(source, "video", data.get("video", {}))
     for key in video:
         if key not in SCENE_OPTIONS:

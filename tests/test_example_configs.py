@@ -100,5 +100,6 @@ def test_the_convert_configuration_runs_a_clip_with_its_sensor_file(tmp_path):
     assert dvs == dataclasses.replace(sim.load_sensor(CONFIGS / "v2e_noisy.toml").dvs,
                                       full_illumination=dvs.full_illumination)
     assert rec.metadata["config"]["compression"] == "lzf" and rec.metadata["scene"]["upsample"]["mode"] == "flow"
+    assert rec.frames is None and rec.reference is None  # the file's output table keeps convert's events-only default
     index = json.loads((out / "index.json").read_text())
     assert index["seed"]["entropy"] == 0
