@@ -44,6 +44,8 @@ from sim import InvalidParameterError
 
 CONDITIONING_MODES = ("temporal", "off")
 _HISTORY = 64  # pairs of noise estimates kept for the running median
+_MEAN_GAIN = 0.125  # per frame: a pixel's recent mean follows with a time constant of 8 frames
+_CODE_STEP_DN = 0.5  # a change spread narrower than half a code value is rounding, whatever the ratio
 _SAMPLE = 1 << 16  # pixels sampled (evenly) for the noise estimate
 _DECILE = 90  # percentile of |frame difference| above which pixels count as moving in the noise estimate
 
@@ -68,7 +70,7 @@ class ConditioningParams:
     threshold_sigmas: float = 3.0
     track: float = 0.0
     key_frame_ratio: float = 2.0
-    min_noise_dn: float = 0.5
+    min_noise_dn: float = 1.0
     key_frames: bool = True
     max_artefact_dn: float = 16.0
 
@@ -132,28 +134,34 @@ class InputConditioner:
         if p.mode == "off":
             return c
         if self._out is None:
-            self._out, self._prev, self._bias = c.copy(), c, np.zeros_like(c)
+            self._out, self._prev, self._mean = c.copy(), c, c.copy()
+            self._bias = np.zeros_like(c)
             return self._out.copy()
-        sigma, key_sigma = self._noise(c, k)
-        if key_sigma is not None:  # a re-encoding: its in-band steps join the per-pixel codec bias
-            step = c - self._prev
-            self._bias += np.where(np.abs(step) <= np.float32(p.threshold_sigmas * key_sigma), step, 0)
+        sigma, recoding = self._noise(c, k)
+        tau = np.float32(p.threshold_sigmas * sigma)
+        if recoding:  # re-centre the band of still pixels: the codec's new error joins the bias
+            still = np.abs(self._prev - self._mean) <= tau
+            np.copyto(self._bias, np.clip(c - self._out, -p.max_artefact_dn, p.max_artefact_dn), where=still)
+        self._mean += np.float32(_MEAN_GAIN) * (c - self._mean)
         self._prev = c
         target = c - self._bias
-        tau = np.float32(p.threshold_sigmas * sigma)
         out = self._out
         if p.track:
             out += np.float32(p.track) * (target - out)  # follow within the band
         d = target - out
+        if p.key_frames:  # a change larger than any artefact: the content changed, its codec bias is stale
+            self._bias[np.abs(d) > np.float32(p.max_artefact_dn)] = 0
+            target = c - self._bias
+            d = target - out
         leave = np.abs(d) > tau
         out[leave] = target[leave] - np.sign(d[leave]) * tau  # follow with a lag of tau outside it
         self._held += int(leave.size - np.count_nonzero(leave))
         self._updates += leave.size
         return out.copy()
 
-    def _noise(self, c: np.ndarray, k: int) -> tuple[float, float | None]:
-        """(noise rms in DN for frame k: the given noise_dn or the running estimate; the spread of the frame's
-        own change if it is a key frame, else None) (module docstring)."""
+    def _noise(self, c: np.ndarray, k: int) -> tuple[float, bool]:
+        """(noise rms in DN for frame k: the given noise_dn or the running estimate; whether frame k is a key
+        frame or settles after one) (module docstring)."""
         p = self.params
         e = (c - self._prev).ravel()
         e = e[::max(1, e.size // _SAMPLE)]
@@ -164,19 +172,18 @@ class InputConditioner:
         # a re-encoding changes the picture like noise, by a few DN, with no common shift larger than its spread
         recoded = p.key_frames and spread <= p.max_artefact_dn and abs(shift) <= spread
         first = not self._spreads
-        if first:  # the first pair starts the history; it is a key frame if it stands out of min_noise_dn alone
+        if first:  # the first pair starts the history; it is a key frame if it stands out of a code step
             self._spreads.append(spread)
         typical = float(np.median(self._spreads))
         sigma = float(p.noise_dn) if p.noise_dn is not None else max(p.min_noise_dn, typical / np.sqrt(2.0))
         self._sigmas.append(sigma)
-        if recoded and spread > p.key_frame_ratio * (p.min_noise_dn if first else max(typical, p.min_noise_dn)):
+        if recoded and spread > p.key_frame_ratio * (_CODE_STEP_DN if first else max(typical, _CODE_STEP_DN)):
             self.key_frames.append(k)
-            return sigma, spread
-        if first:
-            return sigma, None
-        self._spreads.append(spread)
-        del self._spreads[:-_HISTORY]
-        return sigma, None
+            return sigma, True
+        if not first:
+            self._spreads.append(spread)
+            del self._spreads[:-_HISTORY]
+        return sigma, False
 
     def describe(self) -> dict:
         """The settings (JSON-serialisable; the same before and after frames are processed)."""
