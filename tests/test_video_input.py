@@ -212,7 +212,7 @@ def test_compressed_slow_motion_clip_gives_no_key_frame_bursts_and_clean_static_
 
 
 @pytest.mark.slow
-def test_cli_converts_a_tagged_slow_motion_clip_to_its_true_duration(slow_clip, tmp_path):
+def test_cli_converts_a_tagged_slow_motion_clip_to_its_true_duration(slow_clip, tmp_path, capsys):
     clip = _tagged(slow_clip, tmp_path / "tagged.mp4", 960.0)
     assert main(["convert", str(clip), "--out", str(tmp_path / "a"), "--upsample", "none", "--no-progress",
                  "--resize", "pad", "--height", "40", "--width", "40"]) == 0
@@ -225,6 +225,10 @@ def test_cli_converts_a_tagged_slow_motion_clip_to_its_true_duration(slow_clip, 
         assert rec.crf["name"] == "srgb"
     assert load(tmp_path / "a" / "tagged.h5").metadata["scene"]["resize"]["policy"] == "pad"
     assert json.loads((tmp_path / "a" / "index.json").read_text())["sequences"]
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "a" / "tagged.h5")]) == 0
+    assert ("captured at 960 fps (capture-rate metadata (com.android.capture.fps)), resize pad, conditioning "
+            "temporal") in capsys.readouterr().out
 
 
 @pytest.mark.slow

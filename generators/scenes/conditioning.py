@@ -13,23 +13,26 @@ values (DN: 0..255 for 8-bit video and images, 0..65535 for 16-bit), before any 
 - a hold band (the "play" or backlash operator of hysteresis models; Krasnosel'skii & Pokrovskii, "Systems with
   Hysteresis", 1989): the output stays put while the input is within +-tau of it, and follows with a lag of tau
   when the input leaves the band. A change larger than the band (a moving edge, a light switched on) passes at
-  once, less tau; noise and codec wander inside the band never reach the DVS;
-- within the band the output moves a fraction `track` of the way to the input per frame (a first-order recursive
-  filter, as in motion-adaptive temporal noise filters; Brailean, Kleihorst, Efstratiadis, Katsaggelos & Lagendijk,
-  "Noise reduction filters for dynamic image sequences: a review", Proc. IEEE 1995), so that the lag of tau decays
-  and slow true changes smaller than tau per frame are followed;
-- tau = threshold_sigmas x sigma_k, where sigma_k is the temporal noise rms in DN: `noise_dn` when given (a
-  calibrated camera), else estimated from the clip: per frame pair k, s_k is the rms of the frame difference over
-  the pixels whose |difference| is at or below its 90th percentile (moving pixels are the top decile and left
-  out), and sigma_k is the running median of s over the pairs so far over sqrt(2) (the noise of one frame), at
-  least min_noise_dn. A pair whose s_k exceeds key_frame_ratio x that median (and min_noise_dn) is a key frame (a
-  whole-frame re-encoding: one step, not the difference of two noises) when it also looks like one: a spread of at
-  most max_artefact_dn and a common shift (median change) no larger than the spread. Its changes within
-  +-threshold_sigmas x s_k join a per-pixel codec bias that is subtracted from this and later frames, so that the
-  re-encoding never reaches the DVS while larger, real changes pass. The estimates use the change around its
-  median, so a uniform change (a light switched on) is not taken for noise.
+  once, less tau; noise and codec wander inside the band never reach the DVS. Optionally (`track` > 0, default 0)
+  the output also moves that fraction of the way to the input per frame inside the band (a first-order recursive
+  filter, as in motion-adaptive temporal noise filters; Brailean, Kleihorst, Efstratiadis, Katsaggelos &
+  Lagendijk, "Noise reduction filters for dynamic image sequences: a review", Proc. IEEE 1995): slow changes
+  smaller than tau then pass as ramps, and so does codec wander;
+- tau = threshold_sigmas x sigma, where sigma is the temporal noise rms in DN: `noise_dn` when given (a calibrated
+  camera), else estimated from the clip: per frame pair, s is the rms of the change around its median over the
+  pixels at or below its 90th percentile (moving pixels are the top decile and left out; a uniform change, a light,
+  is not noise); sigma is the running median of s over the last 64 ordinary pairs over sqrt(2), at least
+  min_noise_dn;
+- key frames (`key_frames`, compressed video): a pair whose s exceeds key_frame_ratio x the running median (and half
+  a code value) and that looks like a re-encoding (s at most max_artefact_dn, a common shift no larger than s) is a
+  key frame. At a key frame, every still pixel (within tau of its recent mean, a time constant of 8 frames) is
+  re-centred: its codec bias becomes input - output (clipped to +-max_artefact_dn), and the bias is subtracted from
+  this and later frames, so that the fresh coding error never reaches the DVS and the band is centred for the
+  next group of pictures. A pixel whose content then changes by more than max_artefact_dn drops its bias (the
+  change passes whole). The price: a real change smaller than max_artefact_dn at a still pixel that coincides
+  with a key frame is taken for codec error.
 
-The filter holds one frame of state (height x width float32) and is deterministic: reset() and the same frames give
+The filter holds four frames of state (height x width float32) and is deterministic: reset() and the same frames give
 the same output. describe() states the settings; stats() what was measured (noise estimate, key frames found,
 the fraction of pixel updates held in the band).
 """
