@@ -42,6 +42,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
+from numba import njit
 
 from sim import InvalidParameterError
 
@@ -137,30 +138,18 @@ class InputConditioner:
         if p.mode == "off":
             return c
         if self._out is None:
-            self._out, self._prev, self._mean = c.copy(), c, c.copy()
+            c = np.ascontiguousarray(c)
+            self._out, self._prev, self._mean = c.copy(), c.copy(), c.copy()
             self._bias = np.zeros_like(c)
             return self._out.copy()
+        c = np.ascontiguousarray(c)
         sigma, recoding = self._noise(c, k)
-        tau = np.float32(p.threshold_sigmas * sigma)
-        if recoding:  # re-centre the band of still pixels: the codec's new error joins the bias
-            still = np.abs(self._prev - self._mean) <= tau
-            np.copyto(self._bias, np.clip(c - self._out, -p.max_artefact_dn, p.max_artefact_dn), where=still)
-        self._mean += np.float32(_MEAN_GAIN) * (c - self._mean)
-        self._prev = c
-        target = c - self._bias
-        out = self._out
-        if p.track:
-            out += np.float32(p.track) * (target - out)  # follow within the band
-        d = target - out
-        if p.key_frames:  # a change larger than any artefact: the content changed, its codec bias is stale
-            self._bias[np.abs(d) > np.float32(p.max_artefact_dn)] = 0
-            target = c - self._bias
-            d = target - out
-        leave = np.abs(d) > tau
-        out[leave] = target[leave] - np.sign(d[leave]) * tau  # follow with a lag of tau outside it
-        self._held += int(leave.size - np.count_nonzero(leave))
-        self._updates += leave.size
-        return out.copy()
+        tau = p.threshold_sigmas * sigma
+        held = _update(c.ravel(), self._prev.ravel(), self._mean.ravel(), self._bias.ravel(), self._out.ravel(),
+                       tau, recoding, p.key_frames, p.max_artefact_dn, p.track, _MEAN_GAIN)
+        self._held += held
+        self._updates += c.size
+        return self._out.copy()
 
     def _noise(self, c: np.ndarray, k: int) -> tuple[float, bool]:
         """(noise rms in DN for frame k: the given noise_dn or the running estimate; whether frame k is a key
@@ -203,3 +192,82 @@ class InputConditioner:
         return {"frames": self.n_frames, "noise_dn_median": float(np.median(self._sigmas)) if self._sigmas else None,
                 "key_frames": len(self.key_frames), "first_key_frames": self.key_frames[:8],
                 "held_fraction": self._held / max(self._updates, 1)}
+
+
+@njit(cache=True, nogil=True)
+def _update(c, prev, mean, bias, out, tau, recoding, key_frames, max_artefact, track, mean_gain):  # pragma: no cover
+    """One frame of InputConditioner on flat float32 arrays (DN), in place: at a key frame (recoding) the bias of
+    still pixels becomes input - output (clipped to +-max_artefact); the recent mean and previous frame follow the
+    input; the output follows target = input - bias through the hold band of +-tau (after `track` of the in-band
+    difference), dropping the bias where the content changed by more than max_artefact. Returns the number of
+    pixels held in the band."""
+    held = 0
+    for i in range(c.size):
+        ci = c[i]
+        if recoding and abs(prev[i] - mean[i]) <= tau:
+            bias[i] = min(max(ci - out[i], -max_artefact), max_artefact)
+        mean[i] += mean_gain * (ci - mean[i])
+        prev[i] = ci
+        o = out[i]
+        target = ci - bias[i]
+        if track > 0:
+            o += track * (target - o)
+        if key_frames and abs(target - o) > max_artefact:  # the content changed: its codec bias is stale
+            bias[i] = 0.0
+            target = ci
+        d = target - o
+        if d > tau:
+            o = target - tau
+        elif d < -tau:
+            o = target + tau
+        else:
+            held += 1
+        out[i] = o
+    return held
+
+
+@njit(cache=True, nogil=True)
+def _to_codes(y, lut, guide, scale, out):  # pragma: no cover
+    """out = the code value of each linear value of y, piecewise linear in the non-decreasing table lut (clamped at
+    its ends); guide[j] is the last index i with lut[i] <= lut[0] + j / scale, where the search starts."""
+    n = lut.size
+    lo0, top = lut[0], lut[n - 1]
+    for i in range(y.size):
+        v = y[i]
+        if v <= lo0:
+            out[i] = 0.0
+        elif v >= top:
+            out[i] = n - 1.0
+        else:
+            k = guide[min(int((v - lo0) * scale), guide.size - 1)]
+            while k < n - 2 and lut[k + 1] <= v:
+                k += 1
+            span = lut[k + 1] - lut[k]
+            out[i] = k + ((v - lut[k]) / span if span > 0 else 0.0)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _from_codes(dn, lut, out):  # pragma: no cover
+    """out = lut interpolated linearly at the (fractional) code values dn, clamped to [0, lut.size - 1]."""
+    n = lut.size
+    for i in range(dn.size):
+        v = min(max(dn[i], 0.0), n - 1.0)
+        k = min(int(v), n - 2)
+        out[i] = lut[k] + (lut[k + 1] - lut[k]) * (v - k)
+    return out
+
+
+_GUIDE_BINS = 4096
+
+
+def condition_linear(conditioner: InputConditioner, y: np.ndarray, lut: np.ndarray) -> np.ndarray:
+    """Condition a frame of linear values y (float32) whose input codes map to linear values through lut (the
+    linearisation table: lut[code], non-decreasing): to codes, through the conditioner, back to linear."""
+    lut = np.ascontiguousarray(lut, dtype=np.float32)
+    flat = np.ascontiguousarray(y, dtype=np.float32).ravel()
+    scale = _GUIDE_BINS / max(float(lut[-1] - lut[0]), 1e-30)
+    grid = lut[0] + np.arange(_GUIDE_BINS, dtype=np.float64) / scale
+    guide = np.clip(np.searchsorted(lut, grid, side="right") - 1, 0, lut.size - 2).astype(np.int64)
+    dn = conditioner(_to_codes(flat, lut, guide, scale, np.empty_like(flat)).reshape(y.shape))
+    return _from_codes(dn.ravel(), lut, np.empty_like(flat)).reshape(y.shape)

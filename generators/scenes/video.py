@@ -62,7 +62,7 @@ from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
 from .capture_rate import capture_fps
-from .conditioning import ConditioningParams, InputConditioner
+from .conditioning import ConditioningParams, InputConditioner, condition_linear
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
@@ -526,9 +526,7 @@ class VideoScene(Scene):
         (scenes.conditioning) in the input's code values when the input is integer (LDR)."""
         y = self._luminance(raw, index)
         if self._is_ldr and conditioner.params.mode != "off":
-            lut = self._luts[raw.dtype]
-            codes = np.arange(lut.size, dtype=np.float32)
-            y = np.interp(conditioner(np.interp(y, lut, codes)), codes, lut).astype(np.float32)
+            y = condition_linear(conditioner, y, self._luts[raw.dtype])
         return y, np.log(y + np.float32(self.log_eps))
 
     # ----- the sliding window --------------------------------------------------------------------------
