@@ -17,6 +17,7 @@ import pytest
 from video_clips import H, W, encode_mp4, slow_motion_frames, tag_capture_fps
 
 from evsim_app.cli import main
+from generators.config import build_scene, load_config
 from generators.convert import convert
 from generators.formats import DatasetFormatError, load
 from generators.scenes import VideoScene
@@ -249,3 +250,28 @@ def test_read_noise_of_real_davis346_frames_does_not_become_events_on_dark_stati
         rates[name] = on.sum() / dark.sum() / (ev["t"].max() / 1e6)
     assert rates["raw"] > 5.0  # Hz per pixel: read noise fires the ideal DVS
     assert rates["cond"] < 0.02 * rates["raw"]
+
+
+def test_toml_scene_keys_are_the_flags(slow_clip, tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(f"""
+[[sequence]]
+name = "slow"
+height = 40
+width = 40
+[sequence.scene]
+type = "video"
+path = "{slow_clip}"
+slowmo = 32
+upsample = "none"
+resize = "pad"
+conditioning = {{ noise_dn = 2.0, threshold_sigmas = 4.0 }}
+""")
+    spec = load_config(path).sequences[0]
+    scene = build_scene(spec.scene, 40, 40, spec.duration_us)
+    meta = scene.describe()
+    assert meta["capture_fps"] == pytest.approx(960) and meta["resize"]["policy"] == "pad"
+    assert meta["conditioning"]["noise_dn"] == 2.0 and meta["conditioning"]["key_frames"] is True
+    path.write_text(path.read_text().replace("noise_dn", "noise"))
+    with pytest.raises(EvsimInputError, match="unknown conditioning key 'noise'"):
+        build_scene(load_config(path).sequences[0].scene, 40, 40, spec.duration_us)
