@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 import sim
@@ -22,30 +23,45 @@ from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
+from . import export_command
+from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, sensor_size
 from .plots.cli import add_plot_parser
+from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
+from .suggesting_parser import SuggestingParser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
           "Exit codes: 0 success, 2 usage error, bad input or full disk, 3 some sequences failed (listed at the end; "
           "the others were done), 1 unexpected failure, 130 Ctrl-C, 143 SIGTERM.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
+SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) or a sensor file (.toml: see "
+               "docs/guide/calibrate.md)")
 
 
 # ----- building a dataset configuration from flags -----------------------------------------------------------
 
 def _settings_from_flags(args) -> dict:
     """Sequence settings (generators.config schema) from the flags that were given."""
-    s = {k: getattr(args, k) for k in ("duration_s", "height", "width", "sensor") if getattr(args, k) is not None}
-    s["camera"] = {k: getattr(args, k) for k in ("fps", "exposure_us") if getattr(args, k) is not None}
+    from generators.config import resolve_sensor
+
+    height, width = sensor_size(args)
+    s = {k: v for k, v in (("duration_s", args.duration_s), ("height", height), ("width", width)) if v is not None}
+    if args.sensor is not None:
+        s["sensor"] = resolve_sensor("--sensor", args.sensor)
+    s["dvs"] = dvs_overrides(args)
+    s["camera"] = camera_overrides(args, {getattr(args, "fps_flag", "--fps"): ("fps", args.fps),
+                                          "--exposure-us": ("exposure_us", args.exposure_us)})
     if args.crf is not None:
         s["crf"] = {"name": args.crf, "params": {}}
     if args.sampling is not None:
         s["sampling"] = {"mode": args.sampling}
     if args.sampling_quantile is not None:
         s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
-    s["output"] = {"labels": args.labels}
+    s["output"] = {"labels": True} if args.labels else {}
+    if args.outputs is not None:
+        s["output"]["outputs"] = args.outputs
     if args.reference_rate_hz is not None:
         s["output"]["reference_rate_hz"] = args.reference_rate_hz
     return s
@@ -68,12 +84,12 @@ def _scene_sequences(args) -> list[dict]:
     return [dict(by_name[args.scene])]
 
 
-_SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
-                "reference_rate_hz", "sampling")
+_SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "sensor_size", "fps", "exposure_us", "crf",
+                "labels", "reference_rate_hz", "sampling", "outputs")
 
 
 def _dataset_config(args):
-    from generators.config import load_config, parse_config
+    from generators.config import load_config, parse_config, resolve_sensor
 
     if args.config is not None:
         given = [f for f in _SCENE_FLAGS if getattr(args, f) not in (None, False)]
@@ -81,9 +97,13 @@ def _dataset_config(args):
             raise sim.EvsimInputError(f"--{given[0].replace('_', '-')} cannot be combined with --config: "
                                       "set it in the configuration file")
         cfg = load_config(args.config)
-        if args.sensor is not None:
-            for spec in cfg.sequences:
-                spec.settings["sensor"] = args.sensor
+        sensor = None if args.sensor is None else resolve_sensor("--sensor", args.sensor)
+        dvs, camera = dvs_overrides(args), camera_overrides(args)
+        for spec in cfg.sequences:  # the model flags over every sequence's settings
+            if sensor is not None:
+                spec.settings["sensor"] = sensor
+            spec.settings["dvs"] = {**spec.settings["dvs"], **dvs}
+            spec.settings["camera"] = {**spec.settings["camera"], **camera}
         return cfg
     data = {"defaults": _settings_from_flags(args), "sequence": _scene_sequences(args)}
     return parse_config(data, source="<command line>")
@@ -177,20 +197,25 @@ def _cmd_convert(args) -> int:
     from types import SimpleNamespace
 
     from generators.convert import convert
+    from generators.convert_config import load_convert_config, merge_settings
 
+    # --config's settings, the flags over them
+    cfg = load_convert_config(args.config) if args.config is not None else {"settings": {}, "video": {}}
     # the sensor flags as generate reads them, with the LDR camera's frame rate from --camera-fps
-    flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "duration_s": None, "height": None,
-                               "width": None})
-    settings = _settings_from_flags(flags)
-    if args.sensor is not None:
-        settings["sensor"] = args.sensor
-    index = convert(args.inputs, args.out, settings=settings, height=args.height, width=args.width,
-                    seed=0 if args.seed is None else args.seed, fmt=args.format or "native",
-                    overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
-                    stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
-                    flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
-                    input_crf=args.input_crf, slowmo=args.slowmo, resize=args.resize,
-                    conditioning=_conditioning_option(args), **_run_options(args))
+    flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "fps_flag": "--camera-fps",
+                               "duration_s": None, "height": None, "width": None, "sensor_size": None})
+    settings = merge_settings(cfg["settings"], _settings_from_flags(flags))
+    height, width = settings.pop("height", None), settings.pop("width", None)
+    if args.sensor_size is not None or args.height is not None or args.width is not None:
+        height, width = sensor_size(args)
+    video = {k: getattr(args, k) for k in ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow",
+                                           "flow_preset", "flow_scale", "input_crf", "resize")}
+    video["conditioning"] = _conditioning_option(args)
+    video = {k: v for k, v in video.items() if v is not None}
+    seed = args.seed if args.seed is not None else cfg.get("seed") or 0
+    index = convert(args.inputs, args.out, settings=settings, height=height, width=width, seed=seed,
+                    fmt=args.format or cfg.get("format") or "native", overwrite=args.overwrite,
+                    progress=not args.no_progress, **{**cfg["video"], **video}, **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
@@ -218,19 +243,31 @@ def _cmd_demo(args) -> int:
     import numpy as np
 
     from generators.builtin import ahdr_suite, ahdr_suite_config
-    from generators.dataset import write_sequence
+    from generators.dataset import remove_if_empty, write_sequence
 
     from .precompile import start_background_compile, wait
 
-    if args.duration_s <= 0 or args.height <= 0 or args.width <= 0:
+    height, width = sensor_size(args)
+    height, width = height or DEMO_SIZE[0], width or DEMO_SIZE[1]
+    if args.duration_s <= 0 or height <= 0 or width <= 0:
         raise sim.InvalidParameterError("--duration-s, --height and --width must be positive")
+    from generators.config import resolve_sensor
+
+    config = ahdr_suite_config(resolve_sensor("--sensor", args.sensor), dvs=dvs_overrides(args),
+                               camera=camera_overrides(args))
     # The first sequence of the built-in AHDR suite (the AKF paper's construction; needs no files).
-    name, scene = ahdr_suite(args.height, args.width, args.duration_s, include_hdr=False)[0]
+    name, scene = ahdr_suite(height, width, args.duration_s, include_hdr=False)[0]
     compiling = None if args.no_reconstruct else start_background_compile()  # on the other core meanwhile
     out = Path(args.out)
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    entry = write_sequence(out, "demo", scene, ahdr_suite_config(args.sensor), np.random.SeedSequence(args.seed),
-                           "native", progress=not args.no_progress)
+    try:
+        entry = write_sequence(out, "demo", scene, config, np.random.SeedSequence(args.seed),
+                               "native", progress=not args.no_progress)
+    except BaseException as e:
+        if created and not isinstance(e, Exception):  # interrupted: no empty folder left behind
+            remove_if_empty(out)
+        raise
     path = out / entry["file"]
     from .info import describe, format_description
 
@@ -257,21 +294,27 @@ def _cmd_demo(args) -> int:
 
 def _cmd_evaluate(args) -> int:
     from evsim_eval.evaluate import evaluate_dataset
-    from evsim_eval.tables import format_table, write_json
+    from evsim_eval.tables import format_table, scoring_record, write_json
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
+    if args.task == "realism":
+        from .realism_command import evaluate_realism
+
+        return evaluate_realism(args)
+    matched = not args.point_scoring
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
-                              progress=False if args.no_progress else None, strict=False, **_run_options(args))
+                              progress=False if args.no_progress else None, strict=False, exposure_matched=matched,
+                              **_run_options(args))
     scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
-        print(format_table(scores.table, args.protocol, scores.notes))
+        print(format_table(scores.table, args.protocol, scores.notes, matched))
     raise_failures("sequences", scores.failures, len(scores.failures) + len(scored),
                    "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
     if args.json is not None:
-        write_json(scores.table, args.json, scores.tuning)
+        write_json(scores.table, args.json, scores.tuning, scoring_record(args.protocol, matched, scores.notes))
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -393,8 +436,12 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+                   help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
+                        "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+    add_model_flags(g)
 
 
 def _add_scene_flags(p) -> None:
@@ -416,19 +463,23 @@ def _add_scene_flags(p) -> None:
     g.add_argument("--width", type=int, help="sensor width in pixels (default 240)")
     g.add_argument("--fps", type=float, help="frame rate of the LDR camera in frames per second (default 30)")
     _add_sensor_flags(g)
-    p.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS),
-                   help="DVS preset (default davis346); with --config it replaces every sequence's sensor")
+    p.add_argument("--sensor", metavar="NAME|FILE",
+                   help=f"{SENSOR_HELP} (default davis346); with --config it replaces every sequence's sensor")
 
 
 def _add_convert_parser(sub) -> None:
-    conv = sub.add_parser("convert", help="video(s) -> events + LDR frames + HDR reference, one sequence per clip",
+    conv = sub.add_parser("convert", help="video(s) -> events (+ LDR frames + HDR reference with --outputs), one "
+                          "sequence per clip",
                           epilog=EPILOG)
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
                            "(PNG/JPG/TIFF 8/16-bit, EXR/HDR float) with a timestamps.txt or --fps, a .npy stack "
                            "(N, H, W[, C]), or a folder of videos")
+    conv.add_argument("--config", help="TOML conversion configuration: seed, format, [defaults] (sensor, dvs, "
+                                       "camera, crf, ... as generate's) and [video] (start_s, upsample, ...); the "
+                                       "flags override it (see generators.convert_config)")
     g = conv.add_argument_group("input")
-    g.add_argument("--start-s", type=_non_negative(float), default=0.0,
+    g.add_argument("--start-s", type=_non_negative(float),
                    help="start of the clip in seconds from the input's first frame (default 0)")
     g.add_argument("--stop-s", type=_non_negative(float), default=None,
                    help="end of the clip in seconds (default: the input's last frame)")
@@ -439,7 +490,7 @@ def _add_convert_parser(sub) -> None:
     g.add_argument("--slowmo", type=float, metavar="FACTOR",
                    help="a slow-motion video: captured FACTOR times faster than its container rate (e.g. 32 for "
                         "960 fps stored at 30); phones' capture-rate metadata is read without it")
-    g.add_argument("--resize", choices=("crop", "pad", "stretch"), default="crop",
+    g.add_argument("--resize", choices=("crop", "pad", "stretch"),
                    help="when the sensor's aspect ratio differs from the input's: crop (fill the sensor, centred; "
                         "default), pad (the whole input, black bars) or stretch (the whole input, distorted)")
     g.add_argument("--input-conditioning", choices=("temporal", "off"),
@@ -451,14 +502,14 @@ def _add_convert_parser(sub) -> None:
                         "the conditioning on (default: estimated from a video)")
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
-    g.add_argument("--input-crf", default="srgb", help="linearisation: crf_models curve whose inverse maps 8/16-bit "
-                                                       "input to linear radiance (default srgb; float input is "
-                                                       "taken as linear; the output's metadata states it)")
-    g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
+    g.add_argument("--input-crf", help="linearisation: crf_models curve whose inverse maps 8/16-bit input to linear "
+                                       "radiance (default srgb; float input is taken as linear; the output's "
+                                       "metadata states it)")
+    g.add_argument("--upsample", choices=UPSAMPLE_MODES,
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
-    g.add_argument("--flow", choices=FLOW_METHODS, default="dis", help="optical flow (OpenCV; default dis)")
-    g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, default="medium", help="DIS preset (default medium)")
+    g.add_argument("--flow", choices=FLOW_METHODS, help="optical flow (OpenCV; default dis)")
+    g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, help="DIS preset (default medium)")
     g.add_argument("--flow-scale", type=float, help="compute the flow on the frames resized by this factor "
                                                     "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
@@ -467,15 +518,16 @@ def _add_convert_parser(sub) -> None:
     s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
     s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
     _add_sensor_flags(s, crf_default="srgb")
-    conv.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), help="DVS preset (default davis346)")
+    conv.add_argument("--sensor", metavar="NAME|FILE", help=f"{SENSOR_HELP} (default davis346)")
     _add_output_flags(conv, "evsim_convert")
     _add_run_flags(conv)
     conv.set_defaults(func=_cmd_convert)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="evsim", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
+    parser = SuggestingParser(prog="evsim", description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
+    parser.flag_hint = flag_hint  # a model field typed as a flag: --dvs FIELD=VALUE
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("demo", help="generate a short built-in AHDR sequence, reconstruct it and print metrics",
@@ -484,9 +536,10 @@ def build_parser() -> argparse.ArgumentParser:
                                                           "metrics.txt in it are replaced")
     demo.add_argument("--seed", type=_non_negative(int), default=0, help="root seed (non-negative integer; default 0)")
     demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
-    demo.add_argument("--height", type=int, default=DEMO_SIZE[0], help=f"height in pixels (default {DEMO_SIZE[0]})")
-    demo.add_argument("--width", type=int, default=DEMO_SIZE[1], help=f"width in pixels (default {DEMO_SIZE[1]})")
-    demo.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), default="davis346", help="DVS preset")
+    demo.add_argument("--height", type=int, help=f"height in pixels (default {DEMO_SIZE[0]})")
+    demo.add_argument("--width", type=int, help=f"width in pixels (default {DEMO_SIZE[1]})")
+    demo.add_argument("--sensor", metavar="NAME|FILE", default="davis346", help=f"{SENSOR_HELP} (default davis346)")
+    add_model_flags(demo)
     demo.add_argument("--no-reconstruct", action="store_true", help="only generate, do not run AKF and baselines")
     demo.add_argument("--no-progress", action="store_true", help="no progress bars")
     demo.set_defaults(func=_cmd_demo)
@@ -531,8 +584,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
-    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
-                                              "tuning: {method: setting} with --tune)")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (with "
+                                              "per-class scores metric@class, share@class; scoring: what the "
+                                              "scores compare; tuning: {method: setting} with --tune)")
+    ev.add_argument("--point-scoring", action="store_true",
+                    help="interleave: score each reconstruction at the held-out frame's mid-exposure time instead "
+                         "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
                          "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
@@ -544,15 +601,17 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
-    dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",
+    dn.add_argument("--task", choices=("reconstruction", "denoise", "realism"), default="reconstruction",
                     help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
                          "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
                          "methods on events denoised at each filter's default (needs files written with --labels; "
-                         "--json then writes the result of evsim_eval.denoisers)")
+                         "--json then writes the result of evsim_eval.denoisers); realism: how real the events of "
+                         "--against SIM are against those of DATASET (see below)")
     dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
     dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
+    add_realism_flags(ev)
     _add_run_flags(ev, resume=False)
     ev.set_defaults(func=_cmd_evaluate)
 
@@ -570,7 +629,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
+    export_command.add_parser(sub, EPILOG)
     return parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning whose category says evsim_note as "evsim: note: ...", others as Python does."""
+    if getattr(category, "evsim_note", False):
+        print(f"evsim: note: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 class Terminated(BaseException):
@@ -595,18 +663,22 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         _check_paths(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
+            return args.func(args)
     except sim.EvsimInputError as e:
-        print(f"evsim: error: {e}", file=sys.stderr)
+        print(f"evsim: error: {getattr(e, 'cli_message', e)}", file=sys.stderr)  # in flags (sim.OptionError)
         return 2
     except TasksFailed as e:
         for f in e.failures:
             if f.kind == "bug":  # show where
                 print(f"{f.name}:\n{f.traceback}", file=sys.stderr)
-        print(f"evsim: error: {e}", file=sys.stderr)
+        print(f"evsim: error: {e.cli_message}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        print("evsim: interrupted", file=sys.stderr)
+        resume = (" (Ctrl-C): the complete sequences are kept; run the same command with --resume to finish"
+                  if hasattr(args, "resume") else "")
+        print(f"evsim: interrupted{resume}", file=sys.stderr)
         return 130
     except Terminated:  # the temporary files are removed (the writers' cleanup has run)
         watchdog.reported = True

@@ -4,7 +4,9 @@ supplementary Table 2).
 evaluate_dataset tunes, when asked, in this process (the search scores every sequence for each setting), then
 scores every sequence as one task of generators.runner: serially, on local workers or on a Dask cluster, with the
 same result. The per-sequence task is evaluate_sequence_file: evaluate_recording of the loaded file. What every
-method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by akf.evaluate.Case.
+method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by akf.evaluate.Case:
+exposure-matched against held-out frames unless exposure_matched=False, and per pixel/time class
+(akf.pixel_classes) as "metric@class" beside every per-pixel metric.
 
 Tuning (tune=True, `evsim evaluate --tune`): the tuning split is the first tune_fraction of every sequence's scored
 times; akf.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean of
@@ -68,16 +70,18 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: Sequence[str] = DEFAULT_METHODS,
                        metrics: Sequence[str] = DEFAULT_METRICS,
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
-                       tune_fraction: float = TUNE_FRACTION) -> tuple[dict, str]:
+                       tune_fraction: float = TUNE_FRACTION, exposure_matched: bool = True,
+                       by_class: bool = False) -> tuple[dict, str]:
     """Score methods on one recording: ({method: {metric: value}}, notes joined by "; ").
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
-    on the times after the tuning split only.
+    on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
+    scores "metric@class" and shares "share@class" (akf.evaluate.Case.scores).
     """
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
-    case, notes = recording_case(rec, protocol, method_options)
+    case, notes = recording_case(rec, protocol, method_options, exposure_matched)
     sel = np.arange(case.times.size) if tuning is None else split_times(case.times.size, tune_fraction)[1]
-    table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics) for m in methods}
+    table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics, by_class) for m in methods}
     return table, "; ".join(notes)
 
 
@@ -86,21 +90,27 @@ def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]
     return evaluate_recording(load(file), **options)
 
 
-def add_means(result: dict, metrics: Sequence[str]) -> dict:
-    """Add {"mean": {metric: mean over the sequences}} to every method of {method: {sequence: {metric: value}}}
-    that scored any sequence; returns result."""
+def add_means(result: dict) -> dict:
+    """Add {"mean": {key: mean over the sequences}} to every method of {method: {sequence: {key: value}}} that
+    scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result."""
     for rows in result.values():
         if rows:
-            rows["mean"] = {k: float(np.mean([r[k] for r in rows.values()])) for k in metrics}
+            keys = list(next(iter(rows.values())))
+            means = {}
+            for k in keys:
+                values = [r[k] for r in rows.values() if k in r and not math.isnan(r[k])]
+                means[k] = float(np.mean(values)) if values else math.nan
+            rows["mean"] = means
     return result
 
 
 def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, methods: Iterable[str],
                  method_options: dict[str, dict[str, Any]] | None, tune_fraction: float, tune_metric: str,
-                 progress: Callable[..., object] | None = None) -> tuple[dict, list[str]]:
+                 progress: Callable[..., object] | None = None, exposure_matched: bool = True
+                 ) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
-    ((name, file) pairs), in this process."""
-    cases = [recording_case(load(file), protocol, method_options)[0] for _, file in sequences]
+    ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched)."""
+    cases = [recording_case(load(file), protocol, method_options, exposure_matched)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}
     for m in methods:
@@ -117,13 +127,15 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
                      metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
                      tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
                      workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
-                     strict: bool = True) -> DatasetScores:
+                     strict: bool = True, exposure_matched: bool = True, by_class: bool = True) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
 
     progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
-    the messages and, on a terminal only, the bar. strict: raise when sequences fail (EvsimInputError when every
+    the messages and, on a terminal only, the bar. exposure_matched: with protocol "interleave", reconstructions
+    averaged over each held-out frame's exposure window (else at its mid-exposure time); by_class: also the
+    per-class scores (evaluate_recording). strict: raise when sequences fail (EvsimInputError when every
     one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
     DatasetScores.failures and the table holds the others.
     """
@@ -134,9 +146,11 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
     if tune:
         say = None if progress is False else (lambda text: print(text, file=sys.stderr))
         tuning, notes = tune_dataset(sequences, protocol=protocol, methods=methods, method_options=method_options,
-                                     tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say)
+                                     tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say,
+                                     exposure_matched=exposure_matched)
     options = {"protocol": protocol, "methods": methods, "metrics": metrics, "method_options": method_options,
-               "tuning": tuning if tune else None, "tune_fraction": tune_fraction}
+               "tuning": tuning if tune else None, "tune_fraction": tune_fraction,
+               "exposure_matched": exposure_matched, "by_class": by_class}
     tasks = [(name, (Path(file).resolve(),), options) for name, file in sequences]
     outcomes = run_tasks(evaluate_sequence_file, tasks, workers=workers, scheduler=scheduler, progress=progress,
                          desc="evaluating")
@@ -151,4 +165,4 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
             sequence_notes += [f"{outcome.name}: {note}"] if note else []
             for m in methods:
                 table[m][outcome.name] = scores[m]
-    return DatasetScores(add_means(table, metrics), sequence_notes + notes, tuning, failures)
+    return DatasetScores(add_means(table), sequence_notes + notes, tuning, failures)

@@ -4,6 +4,7 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
 - DVS: the scene is sampled by the adaptive (or fixed-rate) sampler and fed to sim.DVSEmulator in chunks;
 - LDR camera: sim.LDRCamera captures frames (exposure, motion blur, noise, the CRF; AHDR "window" by default);
 - reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
+- frames and reference are written when AHDRConfig.outputs names them (the events always);
 - threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
   spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
   reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
@@ -19,6 +20,7 @@ import importlib.metadata
 import math
 import platform
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -31,13 +33,14 @@ import sim
 from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
+from .choices import OUTPUTS
 from .formats.native import NativeWriter, check_compression
 from .sampling import make_sampler
 
 if TYPE_CHECKING:
     from sim.source import RadianceSource
 
-__all__ = ["AHDRConfig", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
+__all__ = ["AHDRConfig", "check_outputs", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
            "REFERENCE_WHITE_PERCENTILE", "MAX_RATE_HZ", "MAX_REFERENCE_FRAMES", "MAX_FIXED_SAMPLES"]
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
@@ -54,6 +57,8 @@ class AHDRConfig:
     """How to turn a scene into a sequence.
 
     dvs, camera: the sensor parameters (sim.DVSParams, sim.CameraParams).
+    sensor: the sensor model they came from, as sim.Sensor.describe() gives it (name, base, file, provenance; {}
+        when the parameters were given directly); recorded in the metadata.
     crf, crf_params: the camera response (crf_models.get(crf, **crf_params)); default the AHDR "window".
     auto_exposure: set camera.reference_radiance so that the scene's median radiance at t=0 gives the mid response
         (crf.inverse(0.5)); auto_illumination: set dvs.full_illumination to the scene's 99th-percentile radiance at
@@ -66,6 +71,9 @@ class AHDRConfig:
         or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
+    outputs: what the file holds, of generators.choices.OUTPUTS: "events" (always), "frames" (the LDR camera's
+        frames; without it the camera is not run) and "reference" (the HDR reference frames). The events are the
+        same whatever the outputs (the DVS input is sampled at the frame and reference times either way).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
     compression: of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by
         ISA-L, generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
@@ -73,6 +81,7 @@ class AHDRConfig:
 
     dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))
     camera: sim.CameraParams = field(default_factory=sim.CameraParams)
+    sensor: dict = field(default_factory=dict)
     crf: str = "window"
     crf_params: dict = field(default_factory=dict)
     auto_exposure: bool = True
@@ -88,8 +97,10 @@ class AHDRConfig:
     threshold_maps: bool = True
     labels: bool = False
     compression: str | None = "gzip"
+    outputs: tuple[str, ...] = OUTPUTS
 
     def __post_init__(self):
+        object.__setattr__(self, "outputs", check_outputs(self.outputs))
         if not isinstance(self.dvs, sim.DVSParams) or not isinstance(self.camera, sim.CameraParams):
             raise InvalidParameterError("AHDRConfig: dvs must be a sim.DVSParams and camera a sim.CameraParams")
         object.__setattr__(self, "reference_times_us", tuple(int(t) for t in self.reference_times_us))
@@ -107,6 +118,19 @@ class AHDRConfig:
     def to_dict(self) -> dict:
         """JSON-serialisable form (tuples as lists)."""
         return _jsonable(dataclasses.asdict(self))
+
+
+def check_outputs(outputs: Iterable[str]) -> tuple[str, ...]:
+    """outputs as a tuple in OUTPUTS order: names of OUTPUTS, "events" among them; InvalidParameterError naming
+    an unknown one."""
+    if isinstance(outputs, str) or not all(isinstance(o, str) for o in outputs):
+        raise InvalidParameterError(f"outputs must be a list of names ({', '.join(OUTPUTS)}), got {outputs!r}")
+    unknown = [o for o in outputs if o not in OUTPUTS]
+    if unknown:
+        raise InvalidParameterError(f"unknown output {unknown[0]!r}; outputs are {', '.join(OUTPUTS)}")
+    if "events" not in outputs:
+        raise InvalidParameterError(f"outputs must include events (the DVS output), got {', '.join(outputs) or 'none'}")
+    return tuple(o for o in OUTPUTS if o in outputs)
 
 
 def _jsonable(v):
@@ -229,6 +253,13 @@ def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     return sorted(times)
 
 
+def _rates(t_us: int, duration_us: int, frames: int, events: int, bar: tqdm) -> str:
+    """The DVS progress text: scene time done, input frames and events per second of wall time."""
+    elapsed = max(bar.format_dict["elapsed"], 1e-9)
+    return (f"{t_us * 1e-6:.3g}/{duration_us * 1e-6:.3g} s of scene, {frames / elapsed:.3g} frames/s, "
+            f"{events / elapsed:.3g} events/s")
+
+
 def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | None = None,
                   seed: int | np.random.SeedSequence = 0, *, progress: bool = True,
                   metadata: dict | None = None) -> GenerationResult:
@@ -301,17 +332,20 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
         ref_times = set(refs) | set(schedule[:, 1].tolist())
 
         def reference(img, t):
-            write("add_reference", img, t)
-            counts["references"] += 1
+            if "reference" in config.outputs:
+                write("add_reference", img, t)
+                counts["references"] += 1
 
         writer.set_crf(meta["crf"])
         if config.threshold_maps:
             writer.set_threshold_maps(dvs.threshold_map)
         chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
-        with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+        # over scene time (its ETA is the run's), showing the DVS input frames and events per second of wall time
+        with tqdm(total=duration, desc="events", disable=not progress, leave=False,
+                  bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:
             # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
             bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
-            stack, times = [], []
+            stack, times, n_fed = [], [], 0
             samples = iter(sampler)
             while True:
                 t0 = clock.now()
@@ -326,17 +360,22 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                 times.append(t)
                 if len(stack) == chunk:
                     feed(stack, times)
-                    bar.set_postfix_str("", refresh=False)
+                    n_fed += len(stack)
+                    bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
                     bar.update(t - bar.n)
                     stack, times = [], []
             if stack:
                 feed(stack, times)
+                n_fed += len(stack)
+            bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
             bar.update(duration - bar.n)
+            bar.refresh()  # the final rates, however soon after the last update
         rendered_for_dvs = src.seconds
-        with tqdm(total=len(schedule), unit="frame", desc="frames",
-                  disable=not progress, leave=False) as bar:
+        with tqdm(total=len(schedule) if "frames" in config.outputs else 0, unit="frame", desc="frames",
+                  disable=not progress or "frames" not in config.outputs, leave=False) as bar:
             bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
-            frames = camera.capture(src, irradiance=False, clean_response=False)
+            frames = camera.capture(src, irradiance=False, clean_response=False) if "frames" in config.outputs \
+                else iter(())
             while True:
                 t0, s0 = clock.now(), src.seconds
                 frame = next(frames, None)

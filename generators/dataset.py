@@ -33,18 +33,20 @@ import hashlib
 import importlib.metadata
 import json
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
+from .choices import INDEX_FILE
 from .config import DatasetConfig, build_scene, check_sequence_name, to_ahdr_config
-from .formats import export
+from .formats import HOLDS, ExportDropWarning, export
 from .formats.atomic import discard, write_text_atomic
 from .formats.common import json_attr, open_h5
 from .formats.native import FORMAT_VERSION
@@ -55,9 +57,8 @@ if TYPE_CHECKING:
 
     from .scenes import Scene
 
-INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
-                 "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
+                 "aedat4": ".aedat4", "aedat2": ".aedat2", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 MANIFEST_SUFFIX = ".manifest.json"
 MANIFEST_VERSION = 1
 _MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one
@@ -120,9 +121,9 @@ def prepare_output_dir(out_dir: str | Path, overwrite: bool) -> Path:
     if out.exists() and not out.is_dir():
         raise EvsimInputError(f"output {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
-        raise EvsimInputError(f"output folder {out} already exists and is not empty; "
-                              "pass --overwrite (overwrite=True) to replace its contents, or --resume "
-                              "(resume=True) to complete it")
+        what = f"output folder {out} already exists and is not empty; pass"
+        raise OptionError(f"{what} overwrite=True to replace its contents, or resume=True to complete it",
+                          f"{what} --overwrite to replace its contents, or --resume to complete it")
     out.mkdir(parents=True, exist_ok=True)
     return out
 
@@ -135,7 +136,9 @@ def write_sequence(out: Path, name: str, scene: RadianceSource, ahdr_config: AHD
     metadata = metadata or {}
     generate_ahdr(scene, path, ahdr_config, seed, progress=progress, metadata={"name": name, **metadata})
     if fmt != "native":
-        export(path, out / f"{name}{EXPORT_SUFFIX[fmt]}", fmt)
+        with warnings.catch_warnings():  # said once per run by run_sequences (export_note)
+            warnings.simplefilter("ignore", ExportDropWarning)
+            export(path, out / f"{name}{EXPORT_SUFFIX[fmt]}", fmt)
     return index_entry(out, name, fmt, tuple(metadata))
 
 
@@ -270,6 +273,22 @@ def verify_sequence(out: Path, name: str, fmt: str, digest: str) -> str:
     return ""
 
 
+def export_note(tasks: list[SequenceTask]) -> str:
+    """"" when every sequence's export holds all its file holds, else one sentence naming what the exports leave
+    out (the native files keep it)."""
+    dropped: dict[str, list[str]] = {}
+    for t in tasks:
+        if t.fmt == "native":
+            continue
+        parts = ["events", *t.ahdr.outputs, "threshold_maps" * t.ahdr.threshold_maps, "event_labels" * t.ahdr.labels,
+                 "crf", "metadata"]
+        for part in parts:
+            if part and part not in HOLDS[t.fmt] and part not in dropped.setdefault(t.fmt, []):
+                dropped[t.fmt].append(part)
+    return "; ".join(f"{fmt} holds {', '.join(HOLDS[fmt])} and the sensor size: its exports leave out "
+                     f"{', '.join(parts)} (the native .h5 files keep them)" for fmt, parts in dropped.items() if parts)
+
+
 def write_index(out: Path, index: dict) -> Path:
     """Write index.json atomically."""
     path = out / INDEX_FILE
@@ -325,10 +344,32 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
     overwrite and resume."""
     check_run_options(workers, scheduler)
     if overwrite and resume:
-        raise EvsimInputError("--resume and --overwrite exclude each other: --resume keeps the complete, "
-                              "matching files, --overwrite generates everything again")
+        why = "keeps the complete, matching files, {} generates everything again"
+        raise OptionError("resume=True and overwrite=True exclude each other: resume "
+                          + why.format("overwrite"), "--resume and --overwrite exclude each other: --resume "
+                          + why.format("--overwrite"))
     _check_file_names([task for task, _ in jobs])
+    created = not Path(out_dir).exists()
     out = prepare_output_dir(out_dir, overwrite or resume).resolve()
+    try:
+        return _run_into(out, jobs, header, resume, workers, scheduler, progress)
+    except BaseException as e:
+        if created and not isinstance(e, Exception):  # interrupted (Ctrl-C, SIGTERM): no empty folder left behind
+            remove_if_empty(out)
+        raise
+
+
+def remove_if_empty(folder: Path) -> None:
+    """Remove `folder` if it is an empty folder (so that an interrupted run leaves nothing that looks like a
+    result); leave it otherwise."""
+    try:
+        folder.rmdir()
+    except OSError:  # not empty (complete sequences are kept for --resume), or gone
+        pass
+
+
+def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], header: dict, resume: bool,
+              workers: int | None, scheduler: str | None, progress: bool) -> Path:
     (out / INDEX_FILE).unlink(missing_ok=True)  # from here on the folder does not claim to be complete
     digests = [spec_hash(task, scene) for task, scene in jobs]
     entries: list[dict | None] = [None] * len(jobs)
@@ -344,6 +385,9 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
               f"{': ' + _names(redo) if redo else ''}", flush=True)
         for i in todo:
             print(f"resume: generating {jobs[i][0].name} again: {states[i][1]}", flush=True)
+    note = export_note([task for task, _ in jobs])
+    if note:
+        warnings.warn(note, ExportDropWarning, stacklevel=2)
     _discard_stale_temporaries(out, [jobs[i][0] for i in todo])
     serial = workers is None and scheduler is None
     tasks = [(jobs[i][0].name, (jobs[i][0], jobs[i][1], out, digests[i]), {"progress": progress and serial})
@@ -355,9 +399,9 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
             entries[i] = outcome.value
         else:
             failures.append(outcome)
-    raise_failures("sequences", failures, len(tasks),
-                   f"the other files in {out} are complete; index.json was not written (rerun with --resume to "
-                   "generate the failed sequences)")
+    hint = f"the other files in {out} are complete; index.json was not written (rerun with {{}} to generate the " \
+           "failed sequences)"
+    raise_failures("sequences", failures, len(tasks), hint.format("resume=True"), cli_hint=hint.format("--resume"))
     return write_index(out, {**header, "sequences": entries})
 
 

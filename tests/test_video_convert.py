@@ -256,7 +256,8 @@ def test_real_clips_convert_end_to_end(tmp_path, capsys):
         pytest.skip("no .mp4 clips in ../shared/data/video")
     out = tmp_path / "out"
     assert main(["convert", str(VIDEO_DIR), "--out", str(out), "--stop-s", "0.25", "--height", "40",
-                 "--sensor", "davis346", "--crf", "srgb", "--format", "e2vid", "--no-progress"]) == 0
+                 "--sensor", "davis346", "--crf", "srgb", "--format", "e2vid", "--no-progress",
+                 "--outputs", "events,frames,reference"]) == 0
     index = json.loads((out / "index.json").read_text())
     assert [s["name"] for s in index["sequences"]] == [v.stem for v in videos]
     for entry, video in zip(index["sequences"], videos):

@@ -5,7 +5,8 @@ A folder holding:
                     exactly), x y pixel coordinates, p 1 = ON / 0 = OFF
     images.txt      lines "t images/frame_00000000.png": t = mid-exposure time in seconds
     images/         the frames as PNG (8-bit, or 16-bit for bit depth > 8), written and read with OpenCV
-    exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt
+    exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt (read also under
+                    the name frame_exposures.txt, as other exporters write it)
     evsim.json      (extension) height, width, frame_bit_depth, crf, metadata
     threshold_maps.npy   (extension) (2, H, W) float32 ON/OFF contrast thresholds
     event_labels.txt     (extension) one label per event line (0 signal, 1 shot, 2 leak, 3 hot)
@@ -51,6 +52,7 @@ from .native import recording_event_chunks
 from .recording import Recording, validate_recording
 
 _FORMAT_ROWS = 100_000  # events formatted per string operation
+EXPOSURE_FILES = ("exposures.txt", "frame_exposures.txt")  # frame exposure windows: evsim's name, then others'
 
 
 def seconds_text(t_us: int) -> str:
@@ -207,7 +209,7 @@ def _read_frames(d: Path):
     frames = np.stack(images)
     if frames.dtype.kind != "u":
         raise fail(path, f"images must be unsigned integer PNGs, got {frames.dtype}")
-    exp = d / "exposures.txt"
+    exp = next((d / n for n in EXPOSURE_FILES if (d / n).is_file()), d / EXPOSURE_FILES[0])
     if exp.is_file():
         e = _load_table(exp, 2)
         if e.shape[0] != len(rows):
