@@ -227,6 +227,11 @@ def test_cli_converts_a_tagged_slow_motion_clip_to_its_true_duration(slow_clip, 
     assert load(tmp_path / "a" / "tagged.h5").metadata["scene"]["resize"]["policy"] == "pad"
     assert json.loads((tmp_path / "a" / "index.json").read_text())["sequences"]
     capsys.readouterr()
+    assert main(["convert", str(clip), "--out", str(tmp_path / "c"), "--upsample", "none", "--no-progress",
+                 "--input-fps", "30", "--height", "20", "--width", "20"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["evsim: note: tagged.mp4: its metadata says captured at 960 fps (com.android.capture.fps), but 30 "
+                   "fps is used as given"]
     assert main(["info", str(tmp_path / "a" / "tagged.h5")]) == 0
     assert ("captured at 960 fps (capture-rate metadata (com.android.capture.fps)), resize pad, conditioning "
             "temporal") in capsys.readouterr().out

@@ -80,7 +80,9 @@ SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixe
 
 class InputTimingWarning(UserWarning):
     """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
-    contradicts the given rate)."""
+    contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
+
+    evsim_note = True
 
 
 def _sha256(paths: list[Path]) -> str:
