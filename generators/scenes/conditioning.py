@@ -18,20 +18,24 @@ values (DN: 0..255 for 8-bit video and images, 0..65535 for 16-bit), before any 
   filter, as in motion-adaptive temporal noise filters; Brailean, Kleihorst, Efstratiadis, Katsaggelos &
   Lagendijk, "Noise reduction filters for dynamic image sequences: a review", Proc. IEEE 1995): slow changes
   smaller than tau then pass as ramps, and so does codec wander;
+- motion passes whole: a pixel whose mean |change| over the 5 x 5 window around it exceeds 2 noise rms (noise
+  alone gives 1.13 on average, and the window's mean varies by about 0.25) is moving and follows its input
+  exactly (except at key frames), as in motion-adaptive temporal filters;
 - tau = threshold_sigmas x sigma, where sigma is the temporal noise rms in DN: `noise_dn` when given (a calibrated
-  camera), else estimated from the clip: per frame pair, s is the rms of the change around its median over the
-  pixels at or below its 90th percentile (moving pixels are the top decile and left out; a uniform change, a light,
-  is not noise); sigma is the running median of s over the last 64 ordinary pairs over sqrt(2), at least
-  min_noise_dn;
-- key frames (`key_frames`, compressed video): a pair whose s exceeds key_frame_ratio x the running median (and half
-  a code value) and that looks like a re-encoding (s at most max_artefact_dn, a common shift no larger than s) is a
-  key frame. At a key frame, every still pixel (within tau of its recent mean, a time constant of 8 frames) is
-  re-centred: its codec bias becomes input - output (clipped to +-max_artefact_dn), and the bias is subtracted from
-  this and later frames, so that the fresh coding error never reaches the DVS and the band is centred for the
-  next group of pictures. A pixel whose content then changes by more than max_artefact_dn drops its bias (the
-  change passes whole). The price: a real change smaller than max_artefact_dn at a still pixel that coincides
-  with a key frame is taken for codec error. Not handled: an encoder's refinement of its first picture over the
-  next frames (on the synthetic clip of tests/test_video_input.py, most of the static events left come from the
+  camera), else estimated from the clip: per frame pair, from the lower quartile of |change around its median|
+  (robust to motion on up to 3/4 of the picture; a uniform change, a light, is not noise) over 0.3186 (that of a
+  normal variable) and sqrt(2) (one frame's share of a difference); sigma is the running median of that over the
+  last 64 ordinary pairs, within [min_noise_dn, max_noise_dn];
+- key frames (`key_frames`, compressed video): with s the rms of the change around its median over the pixels at or
+  below its 90th percentile, a pair whose s exceeds key_frame_ratio x its running median (and half a code value), that
+  looks like a re-encoding (s at most max_artefact_dn, a common shift no larger than s) and whose predecessor was not
+  one is a key frame (the first pair never is). At a key frame, every still pixel (within tau of its recent mean, a
+  time constant of 8 frames) is re-centred: its codec bias becomes input - output (clipped to +-max_artefact_dn), and
+  the bias is subtracted from this and later frames, so that the fresh coding error never reaches the DVS and the band
+  is centred for the next group of pictures. A pixel whose content then changes by more than max_artefact_dn drops its
+  bias (the change passes whole). The price: a real change smaller than max_artefact_dn at a still pixel that
+  coincides with a key frame is taken for codec error. Not handled: an encoder's refinement of its first picture over
+  the next frames (on the synthetic clip of tests/test_video_input.py, most of the static events left come from the
   first 0.1 s).
 
 The filter holds four frames of state (height x width float32) and is deterministic: reset() and the same frames give
@@ -43,6 +47,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import cv2
 import numpy as np
 from numba import njit
 
@@ -52,6 +57,9 @@ CONDITIONING_MODES = ("temporal", "off")
 _HISTORY = 64  # pairs of noise estimates kept for the running median
 _MEAN_GAIN = 0.125  # per frame: a pixel's recent mean follows with a time constant of 8 frames
 _CODE_STEP_DN = 0.5  # a change spread narrower than half a code value is rounding, whatever the ratio
+_QUARTILE_OF_ABS_NORMAL = 0.3186  # the 25th percentile of |N(0, 1)|
+_WINDOW = 5  # pixels: the side of the window over which a change counts as motion
+_MOVING_SIGMAS = 2.0  # a window whose mean |change| exceeds this many noise rms is moving (noise alone: 1.13)
 _SAMPLE = 1 << 16  # pixels sampled (evenly) for the noise estimate
 _DECILE = 90  # percentile of |frame difference| above which pixels count as moving in the noise estimate
 
@@ -66,7 +74,8 @@ class ConditioningParams:
     threshold_sigmas: half-width of the hold band in units of the noise rms.
     track: fraction of the in-band difference followed per frame (0..1; 0 holds until the band is left).
     key_frame_ratio: a frame pair whose noise estimate exceeds this multiple of the running median is a key frame.
-    min_noise_dn: floor of the estimated noise (DN; 8-bit quantisation alone gives 0.29).
+    min_noise_dn, max_noise_dn: bounds of the estimated noise (DN; 8-bit quantisation alone gives 0.29; motion
+        over most of the picture inflates the estimate, hence the ceiling).
     key_frames: detect key frames (compressed video); False for the frames of a camera (no codec).
     max_artefact_dn: a frame pair whose change spreads wider than this (DN) is never taken for a key frame.
     """
@@ -77,6 +86,7 @@ class ConditioningParams:
     track: float = 0.0
     key_frame_ratio: float = 2.0
     min_noise_dn: float = 1.0
+    max_noise_dn: float = 2.0
     key_frames: bool = True
     max_artefact_dn: float = 16.0
 
@@ -87,7 +97,7 @@ class ConditioningParams:
         if not isinstance(self.key_frames, bool):
             raise InvalidParameterError(f"conditioning key_frames must be true or false, got {self.key_frames!r}")
         given = ("noise_dn",) if self.noise_dn is not None else ()
-        for name in ("threshold_sigmas", "key_frame_ratio", "min_noise_dn", "max_artefact_dn") + given:
+        for name in ("threshold_sigmas", "key_frame_ratio", "min_noise_dn", "max_noise_dn", "max_artefact_dn") + given:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v <= 0:
                 raise InvalidParameterError(f"conditioning {name} must be a finite number > 0, got {v!r}")
@@ -126,6 +136,7 @@ class InputConditioner:
         self._out: np.ndarray | None = None
         self._prev: np.ndarray | None = None
         self._spreads: list[float] = []
+        self._noises: list[float] = []
         self.n_frames = 0
         self.key_frames: list[int] = []
         self._held = 0
@@ -147,15 +158,19 @@ class InputConditioner:
         c = np.ascontiguousarray(c)
         sigma, recoding = self._noise(c, k)
         tau = p.threshold_sigmas * sigma
+        # moving pixels: the change around them, averaged over a window, stands out of the noise (not at key
+        # frames, whose re-encoding changes whole regions)
+        local = cv2.blur(np.abs(c - self._prev), (_WINDOW, _WINDOW), borderType=cv2.BORDER_REFLECT)
+        moving = (local > np.float32(_MOVING_SIGMAS * sigma)) if not recoding else np.zeros(c.shape, np.bool_)
         held = _update(c.ravel(), self._prev.ravel(), self._mean.ravel(), self._bias.ravel(), self._out.ravel(),
-                       tau, recoding, p.key_frames, p.max_artefact_dn, p.track, _MEAN_GAIN)
+                       moving.ravel(), tau, recoding, p.key_frames, p.max_artefact_dn, p.track, _MEAN_GAIN)
         self._held += held
         self._updates += c.size
         return self._out.copy()
 
     def _noise(self, c: np.ndarray, k: int) -> tuple[float, bool]:
         """(noise rms in DN for frame k: the given noise_dn or the running estimate; whether frame k is a key
-        frame or settles after one) (module docstring)."""
+        frame) (module docstring)."""
         p = self.params
         e = (c - self._prev).ravel()
         e = e[::max(1, e.size // _SAMPLE)]
@@ -165,18 +180,24 @@ class InputConditioner:
         spread = float(np.sqrt(np.mean(np.square(e[e <= cut]))))  # rms change of the still pixels
         # a re-encoding changes the picture like noise, by a few DN, with no common shift larger than its spread
         recoded = p.key_frames and spread <= p.max_artefact_dn and abs(shift) <= spread
+        # the noise of one frame from the lower quartile of |change| (robust to motion on up to 3/4 of the picture)
+        noise = float(np.percentile(e, 25)) / _QUARTILE_OF_ABS_NORMAL / np.sqrt(2.0)
         first = not self._spreads
-        if first:  # the first pair starts the history; it is a key frame if it stands out of a code step
+        if first:  # the first pair starts the history
             self._spreads.append(spread)
+            self._noises.append(noise)
         typical = float(np.median(self._spreads))
-        sigma = float(p.noise_dn) if p.noise_dn is not None else max(p.min_noise_dn, typical / np.sqrt(2.0))
+        sigma = (float(p.noise_dn) if p.noise_dn is not None
+                 else min(max(p.min_noise_dn, float(np.median(self._noises))), p.max_noise_dn))
         self._sigmas.append(sigma)
-        if recoded and spread > p.key_frame_ratio * (_CODE_STEP_DN if first else max(typical, _CODE_STEP_DN)):
+        isolated = not self.key_frames or self.key_frames[-1] != k - 1  # a key frame stands alone
+        if not first and recoded and isolated and spread > p.key_frame_ratio * max(typical, _CODE_STEP_DN):
             self.key_frames.append(k)
             return sigma, True
         if not first:
             self._spreads.append(spread)
-            del self._spreads[:-_HISTORY]
+            self._noises.append(noise)
+            del self._spreads[:-_HISTORY], self._noises[:-_HISTORY]
         return sigma, False
 
     def describe(self) -> dict:
@@ -197,12 +218,13 @@ class InputConditioner:
 
 
 @njit(cache=True, nogil=True)
-def _update(c, prev, mean, bias, out, tau, recoding, key_frames, max_artefact, track, mean_gain):  # pragma: no cover
+def _update(c, prev, mean, bias, out, moving, tau, recoding, key_frames, max_artefact, track,
+            mean_gain):  # pragma: no cover
     """One frame of InputConditioner on flat float32 arrays (DN), in place: at a key frame (recoding) the bias of
     still pixels becomes input - output (clipped to +-max_artefact); the recent mean and previous frame follow the
-    input; the output follows target = input - bias through the hold band of +-tau (after `track` of the in-band
-    difference), dropping the bias where the content changed by more than max_artefact. Returns the number of
-    pixels held in the band."""
+    input; the output is target = input - bias at moving pixels and elsewhere follows it through the hold band of
+    +-tau (after `track` of the in-band difference), dropping the bias where the content changed by more than
+    max_artefact. Returns the number of pixels held in the band."""
     held = 0
     for i in range(c.size):
         ci = c[i]
@@ -218,7 +240,9 @@ def _update(c, prev, mean, bias, out, tau, recoding, key_frames, max_artefact, t
             bias[i] = 0.0
             target = ci
         d = target - o
-        if d > tau:
+        if moving[i]:
+            o = target
+        elif d > tau:
             o = target - tau
         elif d < -tau:
             o = target + tau
