@@ -20,7 +20,7 @@ from pathlib import Path
 
 import sim
 from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
-from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
+from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, OUTPUTS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
 from . import export_command
@@ -390,6 +390,16 @@ def _non_negative(kind):
     return parse
 
 
+def _outputs(text: str) -> list[str]:
+    """argparse type of --outputs: comma-separated names of generators.choices.OUTPUTS, events among them."""
+    names = [o.strip() for o in text.split(",") if o.strip()]
+    unknown = [o for o in names if o not in OUTPUTS]
+    if unknown or "events" not in names:
+        why = f"unknown output {unknown[0]!r}" if unknown else "events are always written"
+        raise argparse.ArgumentTypeError(f"{why}; give events[,frames,reference], got {text!r}")
+    return names
+
+
 def _add_run_flags(p, *, resume: bool = True) -> None:
     """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
     g = p.add_argument_group("running the sequences (default: one after the other in this process)")
@@ -436,7 +446,7 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
-    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+    g.add_argument("--outputs", type=_outputs, metavar="LIST",
                    help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
                         "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,

@@ -201,3 +201,9 @@ def test_the_model_flags_and_sensor_files_load_no_numpy():
     code = ("import sys, evsim_app.model_flags, sim.sensor_file; "
             "assert not {'numpy', 'numba'} & set(sys.modules), sorted({'numpy', 'numba'} & set(sys.modules))")
     subprocess.run([sys.executable, "-c", code], check=True)
+    # the whole parser, every subcommand's help included, as `evsim --help` and `evsim plot realism --help` build it
+    code = ("import sys, contextlib, io; from evsim_app.cli import main\n"
+            "for argv in (['--help'], ['plot', 'realism', '--help'], ['convert', '--help']):\n"
+            "    with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit): main(argv)\n"
+            "assert not {'numpy', 'numba'} & set(sys.modules), sorted({'numpy', 'numba'} & set(sys.modules))")
+    subprocess.run([sys.executable, "-c", code], check=True)
