@@ -26,7 +26,8 @@ def describe(path: str | Path) -> dict:
     path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
     reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
-    seed_entropy, generator, sensor_model (the sensor's record: name, file, provenance, ...), packages, outputs
+    seed_entropy, generator, input (a converted video: path, capture_fps, rate_from, resize, linearisation,
+    conditioning) or None, sensor_model (the sensor's record: name, file, provenance, ...), packages, outputs
     (what the generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
     whether it has index.json, sequences: [one such dict each]}. Raises DatasetFormatError for unreadable files."""
     path = Path(path)
@@ -76,12 +77,24 @@ def describe(path: str | Path) -> dict:
         "crf": crf,
         "seed_entropy": seed.get("entropy") if isinstance(seed, dict) else seed,
         "generator": meta.get("generator"),
+        "input": _video_input(meta.get("scene")),
         "sensor_model": (meta.get("config") or {}).get("sensor") or None,
         "packages": meta.get("packages"),
         "outputs": meta.get("config", {}).get("outputs") if isinstance(meta.get("config"), dict) else None,
     }
 
 
+def _video_input(scene) -> dict | None:
+    """What a converted video's frames meant (the video scene's metadata): capture rate and its source, resize
+    policy, linearisation, conditioning; None for other scenes."""
+    if not isinstance(scene, dict) or "capture_fps" not in scene:
+        return None
+    inp = scene.get("input", {})
+    return {"path": inp.get("path"), "capture_fps": scene["capture_fps"],
+            "rate_from": inp.get("from", "timestamps" if "timestamps" in inp else None),
+            "resize": scene.get("resize", {}).get("policy"),
+            "linearisation": scene.get("linearisation", {}).get("method"),
+            "conditioning": scene.get("conditioning", {}).get("mode")}
 def _summary_stats(summary: dict) -> dict:
     """The event statistics of a native file's recorded summary (as _event_stats gives them)."""
     n, on, labels = summary["count"], summary["on"], summary["labels"]
@@ -167,6 +180,11 @@ def format_description(d: dict) -> str:
         lines.append(f"  model       {model.get('name')} ({model.get('file') or 'preset'})")
     if d["generator"]:
         lines.append(f"  generator   {d['generator']}")
+    if d.get("input"):
+        i = d["input"]
+        lines.append(f"  input       {i['path']}: captured at {i['capture_fps']:.6g} fps ({i['rate_from']}), resize "
+                     f"{i['resize']}, conditioning {i['conditioning']}")
+        lines.append(f"  linearised  {i['linearisation']}")
     if d["seed_entropy"] is not None:
         lines.append(f"  seed        {d['seed_entropy']} (SeedSequence entropy)")
     if d["packages"]:

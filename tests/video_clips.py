@@ -13,16 +13,18 @@ from skimage import data
 H, W = 120, 160
 
 
-def slow_motion_frames(n: int, *, px_per_frame: float = 0.25) -> np.ndarray:
+def slow_motion_frames(n: int, *, px_per_frame: float = 0.25, noise_dn: float = 0.0, seed: int = 0) -> np.ndarray:
     """(n, H, W) uint8: a static textured background (the astronaut, 10..227 DN) and a bright disk (radius 8 px)
-    moving right along y = 20 by px_per_frame per frame, as a 960 fps capture of a slow scene."""
+    moving right along y = 20 by px_per_frame per frame, as a 960 fps capture of a slow scene; noise_dn: rms of
+    Gaussian temporal noise added before rounding (a camera's, which makes every key frame code anew)."""
+    rng = np.random.default_rng(seed)
     bg = cv2.resize(cv2.cvtColor(data.astronaut(), cv2.COLOR_RGB2GRAY), (W, H), interpolation=cv2.INTER_AREA)
     bg = 0.85 * bg.astype(np.float32) + 10
     yy, xx = np.mgrid[:H, :W]
     out = np.empty((n, H, W), np.uint8)
     for k in range(n):
         disk = np.hypot(xx - (20 + px_per_frame * k), yy - 20) < 8
-        out[k] = np.clip(np.round(np.where(disk, 230.0, bg)), 0, 255)
+        out[k] = np.clip(np.round(np.where(disk, 230.0, bg) + rng.normal(0, noise_dn, (H, W))), 0, 255)
     return out
 
 

@@ -10,12 +10,24 @@ Inputs (open_frames):
 A timestamps file holds one time per input frame and line: integers are microseconds, decimal numbers seconds
 (the vid2e convention); they must increase strictly.
 
+Frame rate: the times are those of the capture. A video's rate is, in this order: `fps` (the capture rate, as
+given), `slowmo` x the container's rate (a slow-motion clip stored at a playback rate), the capture rate a phone
+records in MP4/QuickTime metadata (scenes.capture_rate: Android's com.android.capture.fps), the container's rate.
+InputTimingWarning (one line) says when the metadata contradicts a given rate, and when a clip taken at a container
+rate of 60 fps or less moves implausibly little per frame (flow upsampling measures it: median largest motion
+under 0.25 input pixels per frame), which is what a slow-motion clip looks like at its playback rate.
+
 Each frame becomes linear luminance: integer (LDR) values are normalised by the type's maximum and linearised
 through the inverse of `input_crf` (a crf_models curve, sRGB by default), float (HDR) values are taken as linear;
-colour becomes Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. The frame
-is then cropped to the sensor's aspect ratio (centred) and area-integrated to height x width (cv2.INTER_AREA), in
-linear radiance. The clip runs from the first input frame at or after start_s to the last at or before stop_s
-(seconds from the input's first frame); the scene's time 0 is that first frame.
+colour becomes Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. When the
+sensor's aspect ratio differs from the input's, `resize` says what happens: "crop" (default) fills the sensor with
+the largest centred window of the input, "pad" shows the whole input centred with black (0) bars, "stretch" shows
+the whole input distorted. The result is area-integrated to height x width (cv2.INTER_AREA), in linear radiance.
+Integer input is then conditioned (scenes.conditioning, `conditioning`) in its code values, frame by frame in
+order: read noise and codec artefacts on still pixels are held back from the DVS (default: on for video files,
+off for image folders and stacks, which are taken as clean unless conditioning is given). The clip runs from the
+first input frame at or after start_s to the last at or before stop_s (seconds from the input's first frame); the
+scene's time 0 is that first frame.
 
 Between input frames (`upsample`):
 - "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
@@ -50,7 +62,7 @@ from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
 from .capture_rate import capture_fps
-from .conditioning import ConditioningParams, InputConditioner
+from .conditioning import ConditioningParams, InputConditioner, condition_linear
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
@@ -68,7 +80,9 @@ SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixe
 
 class InputTimingWarning(UserWarning):
     """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
-    contradicts the given rate)."""
+    contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
+
+    evsim_note = True
 
 
 def _sha256(paths: list[Path]) -> str:
@@ -175,7 +189,7 @@ class _VideoFile(_Frames):
 
     def _capture_rate(self, fps, timestamps, slowmo, container_fps) -> tuple[float | None, str]:
         """The rate the frames were captured at and where it comes from (module docstring, Frame rate); warns
-        when the metadata's capture rate contradicts a flag."""
+        when the metadata's capture rate contradicts a given rate."""
         if slowmo is not None:
             if fps is not None or timestamps is not None:
                 raise OptionError(f"{self.path}: slowmo cannot be combined with fps or timestamps: give the capture "
@@ -378,7 +392,8 @@ class VideoScene(Scene):
     """Radiance from a video file, image folder or .npy stack (module docstring), upsampled in time.
 
     height, width: sensor size in pixels (default: the input's; one of them alone keeps the aspect ratio).
-    fps: input frame rate (frames per second; overrides a video container's); timestamps: a timestamps file.
+    fps: the input's capture rate (frames per second; overrides a video's); slowmo: a video captured this many
+        times faster than its container's rate; timestamps: a timestamps file (module docstring, Frame rate).
     start_s, stop_s: the part of the input to use, in seconds from its first frame.
     upsample: "flow" | "linear" | "none"; flow: "dis" | "farneback"; flow_preset: DIS preset (ultrafast, fast,
         medium); flow_scale: the flow is computed on the frames resized by this factor (0 < flow_scale <= 1) and
@@ -387,6 +402,9 @@ class VideoScene(Scene):
         keys further apart than key_step_px).
     input_crf, input_crf_params: the crf_models curve whose inverse linearises LDR (integer) input.
     channel: None for Rec. 709 luminance, or "R" / "G" / "B" / an index.
+    resize: "crop" | "pad" | "stretch" (module docstring). conditioning: None (by input kind), "temporal", "off", a
+        table of scenes.conditioning.ConditioningParams fields or an instance; a table without key_frames detects
+        key frames in video files only.
     log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
         99th percentile).
     """
@@ -514,9 +532,7 @@ class VideoScene(Scene):
         (scenes.conditioning) in the input's code values when the input is integer (LDR)."""
         y = self._luminance(raw, index)
         if self._is_ldr and conditioner.params.mode != "off":
-            lut = self._luts[raw.dtype]
-            codes = np.arange(lut.size, dtype=np.float32)
-            y = np.interp(conditioner(np.interp(y, lut, codes)), codes, lut).astype(np.float32)
+            y = condition_linear(conditioner, y, self._luts[raw.dtype])
         return y, np.log(y + np.float32(self.log_eps))
 
     # ----- the sliding window --------------------------------------------------------------------------
@@ -592,8 +608,10 @@ class VideoScene(Scene):
 
     @property
     def capture_fps(self) -> float:
-        """The rate the clip's frames were captured at (frames per second): frames used over their time span."""
-        return float((self.times.size - 1) * 1e6 / self.times[-1])
+        """The rate the clip's frames were captured at (frames per second): the rate used (module docstring,
+        Frame rate), or with a timestamps file the frames used over their time span."""
+        rate = self._input.rate.get("fps")
+        return float(rate) if rate is not None else float((self.times.size - 1) * 1e6 / self.times[-1])
 
     def max_speed_px_per_s(self) -> float:
         """flow: the largest optical-flow speed over the clip (intervals not yet decoded are scanned first, so
