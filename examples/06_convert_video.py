@@ -60,7 +60,7 @@ for mode in MODES:
     print(f"{mode:6s}: {recs[mode].events.size} events, {len(recs[mode].frames)} LDR frames, "
           f"{len(recs[mode].reference)} HDR reference frames")
 meta = recs["flow"].metadata["scene"]
-print(f"input: {meta['input']['kind']}, {meta['frame_rate_hz']:.2f} fps, "
+print(f"input: {meta['input']['kind']}, {meta['capture_fps']:.2f} fps, "
       f"linearisation: {meta['linearisation']['method']}")
 
 # %%
@@ -70,7 +70,7 @@ print(f"input: {meta['input']['kind']}, {meta['frame_rate_hz']:.2f} fps, "
 # interval for each mode (ON red, OFF blue), and below, the event rate in 1 ms bins, with the input frames as grey
 # lines.
 
-rate = meta["frame_rate_hz"]
+rate = meta["capture_fps"]
 t_mid = round(4.5e6 / rate)  # the middle of the 5th input interval
 rec = recs["flow"]
 plt = pyplot()
