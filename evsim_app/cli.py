@@ -22,6 +22,7 @@ from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
+from .calibrate_command import add_parser as add_calibrate_parser
 from .plots.cli import add_plot_parser
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
@@ -189,7 +190,7 @@ def _cmd_convert(args) -> int:
                     overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
                     stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
                     flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
-                    input_crf=args.input_crf, **_run_options(args))
+                    input_crf=args.input_crf, black_level=args.black_level, **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
@@ -416,7 +417,8 @@ def _add_convert_parser(sub) -> None:
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
                            "(PNG/JPG/TIFF 8/16-bit, EXR/HDR float) with a timestamps.txt or --fps, a .npy stack "
-                           "(N, H, W[, C]), or a folder of videos")
+                           "(N, H, W[, C]), a folder of videos, or a hybrid recording's frames (.aedat4, IJRR "
+                           "folder)")
     g = conv.add_argument_group("input")
     g.add_argument("--start-s", type=_non_negative(float), default=0.0,
                    help="start of the clip in seconds from the input's first frame (default 0)")
@@ -426,8 +428,10 @@ def _add_convert_parser(sub) -> None:
                                              "stacks; overrides a video container's rate)")
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
-    g.add_argument("--input-crf", default="srgb", help="crf_models curve whose inverse linearises 8/16-bit "
-                                                       "input (default srgb; float input is taken as linear)")
+    g.add_argument("--input-crf", help="crf_models curve whose inverse linearises 8/16-bit input (default srgb; "
+                                       "linear for a recording's frames; float input is taken as linear)")
+    g.add_argument("--black-level", type=_non_negative(float), help="the integer input's value for no light "
+                                                                    "(subtracted before linearising; default 0)")
     g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
@@ -545,6 +549,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
+    add_calibrate_parser(sub)
     return parser
 
 

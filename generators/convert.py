@@ -23,7 +23,8 @@ __all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS"]
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel")
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "black_level",
+                 "warm_up_s")
 
 
 def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
@@ -76,7 +77,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                for k, v in scene_options.items() if v is not None}
     sequences, names = [], set()
     for path in clips(inputs):
-        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy",) else path.name
+        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy", ".aedat4") else path.name
         base, i = name, 1
         while name in names:
             i += 1

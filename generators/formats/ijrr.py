@@ -5,7 +5,8 @@ A folder holding:
                     exactly), x y pixel coordinates, p 1 = ON / 0 = OFF
     images.txt      lines "t images/frame_00000000.png": t = mid-exposure time in seconds
     images/         the frames as PNG (8-bit, or 16-bit for bit depth > 8), written and read with OpenCV
-    exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt
+    exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt (read also under
+                    the name frame_exposures.txt)
     evsim.json      (extension) height, width, frame_bit_depth, crf, metadata
     threshold_maps.npy   (extension) (2, H, W) float32 ON/OFF contrast thresholds
     event_labels.txt     (extension) one label per event line (0 signal, 1 shot, 2 leak, 3 hot)
@@ -109,6 +110,9 @@ def is_ijrr(directory: Path) -> bool:
     return (Path(directory) / "events.txt").is_file()
 
 
+EXPOSURE_FILES = ("exposures.txt", "frame_exposures.txt")  # the names the exposures are read under, in order
+
+
 def _seconds_to_us(s) -> np.ndarray:
     return np.rint(np.asarray(s, dtype=np.float64) * 1e6).astype(np.int64)
 
@@ -207,8 +211,8 @@ def _read_frames(d: Path):
     frames = np.stack(images)
     if frames.dtype.kind != "u":
         raise fail(path, f"images must be unsigned integer PNGs, got {frames.dtype}")
-    exp = d / "exposures.txt"
-    if exp.is_file():
+    exp = next((d / n for n in EXPOSURE_FILES if (d / n).is_file()), None)
+    if exp is not None:
         e = _load_table(exp, 2)
         if e.shape[0] != len(rows):
             raise fail(exp, f"{e.shape[0]} exposure lines for {len(rows)} images")

@@ -10,12 +10,18 @@ Inputs (open_frames):
 A timestamps file holds one time per input frame and line: integers are microseconds, decimal numbers seconds
 (the vid2e convention); they must increase strictly.
 
-Each frame becomes linear luminance: integer (LDR) values are normalised by the type's maximum and linearised
-through the inverse of `input_crf` (a crf_models curve, sRGB by default), float (HDR) values are taken as linear;
+- a hybrid recording's frames (an .aedat4 file or an IJRR folder, scenes.recording_frames): times are the
+  mid-exposure times, each frame scaled to the first one's exposure time, input CRF the recorded one (a simulated
+  recording's) or linear (a DAVIS's APS frames are linear in DN).
+Each frame becomes linear luminance: integer (LDR) values minus black_level are normalised by the type's maximum
+minus black_level and linearised through the inverse of `input_crf` (a crf_models curve, sRGB by default, linear
+for a recording), float (HDR) values are taken as linear;
 colour becomes Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. The frame
 is then cropped to the sensor's aspect ratio (centred) and area-integrated to height x width (cv2.INTER_AREA), in
 linear radiance. The clip runs from the first input frame at or after start_s to the last at or before stop_s
-(seconds from the input's first frame); the scene's time 0 is that first frame.
+(seconds from the input's first frame); the scene's time 0 is that first frame, at time_origin_us in the input's
+own time base (a timestamps file's, a recording's), from which generation writes its times. The DVS is warmed up
+on the clip's first warm_up_s mirrored in time (a camera was running before the clip began: no start-up burst).
 
 Between input frames (`upsample`):
 - "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
@@ -51,11 +57,13 @@ from .base import Scene, positive
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
+from .recording_frames import RecordingFrames, is_recording
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
+WARM_UP_S = 0.5  # default DVS warm-up on the clip's start mirrored in time (seconds; see generators.ahdr)
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
 _HASH_CHUNK = 1 << 20
 
@@ -100,7 +108,9 @@ class _Frames:
     frames(first) yields the raw images (H, W) or (H, W, 3) RGB from index `first` on."""
 
     kind: str
-    counted_to_end = True  # False when a video was counted only up to the stop time
+    counted_to_end = True
+    time_origin_us = 0  # the time of the first frame in the input's own time base (a timestamps file's), us
+    exposures_us = None  # (N,) exposure time per frame (us) when the input records it  # False when a video was counted only up to the stop time
     path: Path
     times_us: np.ndarray
     size: tuple[int, int]
@@ -121,6 +131,7 @@ class _Frames:
             raise EvsimInputError(f"{self.path}: no frame times: give fps or a timestamps file"
                                   + (f" (or put {TIMESTAMPS_FILE} in the folder)" if default_ts else ""))
         self.times_us = times - times[0]
+        self.time_origin_us = int(times[0])
 
     def frames(self, first: int = 0):
         raise NotImplementedError
@@ -283,6 +294,8 @@ def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str |
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
+    if is_recording(path):
+        return RecordingFrames(path)
     if path.is_dir():
         return _ImageFolder(path, fps, timestamps)
     if path.suffix.lower() == ".npy":
@@ -295,6 +308,8 @@ def input_size(path: str | Path) -> tuple[int, int]:
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
+    if is_recording(path):
+        return RecordingFrames(path).size
     if path.is_dir():
         frames = sorted(p for p in path.iterdir() if p.suffix.lower() in LDR_IMAGE_SUFFIXES + HDR_IMAGE_SUFFIXES)
         if not frames:
@@ -328,14 +343,22 @@ class VideoScene(Scene):
     channel: None for Rec. 709 luminance, or "R" / "G" / "B" / an index.
     log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
         99th percentile).
+    black_level: the integer input's value for no light (subtracted before linearising: the normalised value is
+        (raw - black_level) / (max - black_level), clipped to [0, 1]).
+    warm_up_s: the DVS is warmed up on this much of the clip's start mirrored in time (the camera was running
+        before the first frame; generators.ahdr.warm_up_input), at most the clip's length.
+    Frames whose exposure times the input records (a recording) are scaled to the first frame's exposure. The
+    scene's time_origin_us is the time of its t = 0 in the input's own time base (a timestamps file's first time,
+    a recording's first mid-exposure): generation writes its times from there.
     """
 
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps: str | Path | None = None, start_s: float = 0.0,
                  stop_s: float | None = None, upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium",
                  flow_scale: float = FLOW_SCALE, key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
-                 input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
-                 log_eps: float | None = None):
+                 input_crf: str | None = None, input_crf_params: dict | None = None,
+                 channel: str | int | None = None, log_eps: float | None = None, black_level: float = 0.0,
+                 warm_up_s: float = WARM_UP_S):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
         start_us = int(round(positive("start_s", start_s, "VideoScene", allow_zero=True) * 1e6))
@@ -356,7 +379,21 @@ class VideoScene(Scene):
         self.upsample, self.channel = upsample, channel
         self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
         self.max_keys = check_int("VideoScene: max_keys", max_keys, minimum=1)
-        self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
+        if input_crf is None and self._input.kind == "recording":  # its recorded CRF, else linear (DAVIS APS)
+            self.input_crf = {"name": self._input.crf["name"],
+                              "params": dict(input_crf_params or self._input.crf.get("params", {}))}
+        else:
+            self.input_crf = {"name": input_crf or "srgb", "params": dict(input_crf_params or {})}
+        self.black_level = positive("black_level", black_level, "VideoScene", allow_zero=True)
+        # the clip was running before its first frame: the DVS is warmed up on its start mirrored (generators.ahdr)
+        self.warm_up_us = min(int(round(positive("warm_up_s", warm_up_s, "VideoScene", allow_zero=True) * 1e6)),
+                              int(self.times[-1]))
+        # the scene's time 0 in the input's own time base (a timestamps file's, a recording's)
+        self.time_origin_us = int(self._input.time_origin_us + t[keep[0]])
+        exposures = self._input.exposures_us
+        self._exposure_gain = None
+        if exposures is not None and np.all(exposures[keep] > 0):  # radiance in units of the first frame's exposure
+            self._exposure_gain = (exposures[keep[0]] / exposures[keep]).astype(np.float32)
         h0, w0 = self._input.size
         if height is None and width is None:
             height, width = h0, w0
@@ -409,7 +446,11 @@ class VideoScene(Scene):
             except crf_models.CRFError as e:
                 raise InvalidParameterError(f"input_crf: {e}") from None
             top = np.iinfo(raw.dtype).max
-            levels = np.arange(top + 1, dtype=np.float64) / top
+            if not self.black_level < top:
+                raise InvalidParameterError(f"black_level {self.black_level} must lie below the frames' maximum "
+                                            f"value {top}")
+            codes = np.arange(np.iinfo(raw.dtype).min, top + 1, dtype=np.float64)
+            levels = np.clip((codes - self.black_level) / (top - self.black_level), 0.0, 1.0)
             self._luts[raw.dtype] = np.asarray(crf.inverse(levels), dtype=np.float32)
         lut = self._luts[raw.dtype]
         return lut[raw.astype(np.int64) - np.iinfo(raw.dtype).min] if raw.dtype.kind == "i" else lut[raw]
@@ -420,6 +461,8 @@ class VideoScene(Scene):
             y = to_luminance(self._linear(raw), self.channel)
         except EvsimInputError as e:
             raise DatasetFormatError(f"{self.path}: frame {self._first + index}: {e}") from None
+        if self._exposure_gain is not None:
+            y = y * self._exposure_gain[index]
         y0, y1, x0, x1 = self._crop
         y = np.ascontiguousarray(y[y0:y1, x0:x1])
         if y.shape != (self.height, self.width):
@@ -536,6 +579,8 @@ class VideoScene(Scene):
         elif self.upsample == "linear":
             up["blend"] = "linear in time in log(I + log_eps)"
         return {
+            "time_origin_us": self.time_origin_us, "black_level": self.black_level, "warm_up_us": self.warm_up_us,
+            "exposure_normalised": self._exposure_gain is not None,
             "input": {"path": str(self.path), "kind": inp.kind, "sha256": inp.sha256, "size": list(inp.size),
                       ("n_frames" if inp.counted_to_end else "n_frames_read"): int(inp.times_us.size), **inp.rate},
             "frames_used": [self._first, self._first + int(self.times.size) - 1],
