@@ -32,6 +32,8 @@ EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names 
           "Exit codes: 0 success, 2 usage error, bad input or full disk, 3 some sequences failed (listed at the end; "
           "the others were done), 1 unexpected failure, 130 Ctrl-C, 143 SIGTERM.")
 DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
+SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) or a sensor file (.toml: see "
+               "docs/guide/calibrate.md)")
 
 
 # ----- building a dataset configuration from flags -----------------------------------------------------------
@@ -74,7 +76,7 @@ _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "expos
 
 
 def _dataset_config(args):
-    from generators.config import load_config, parse_config
+    from generators.config import load_config, parse_config, resolve_sensor
 
     if args.config is not None:
         given = [f for f in _SCENE_FLAGS if getattr(args, f) not in (None, False)]
@@ -83,8 +85,9 @@ def _dataset_config(args):
                                       "set it in the configuration file")
         cfg = load_config(args.config)
         if args.sensor is not None:
+            sensor = resolve_sensor("--sensor", args.sensor)
             for spec in cfg.sequences:
-                spec.settings["sensor"] = args.sensor
+                spec.settings["sensor"] = sensor
         return cfg
     data = {"defaults": _settings_from_flags(args), "sequence": _scene_sequences(args)}
     return parse_config(data, source="<command line>")
@@ -407,8 +410,8 @@ def _add_scene_flags(p) -> None:
     g.add_argument("--width", type=int, help="sensor width in pixels (default 240)")
     g.add_argument("--fps", type=float, help="frame rate of the LDR camera in frames per second (default 30)")
     _add_sensor_flags(g)
-    p.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS),
-                   help="DVS preset (default davis346); with --config it replaces every sequence's sensor")
+    p.add_argument("--sensor", metavar="NAME|FILE",
+                   help=f"{SENSOR_HELP} (default davis346); with --config it replaces every sequence's sensor")
 
 
 def _add_convert_parser(sub) -> None:
@@ -446,7 +449,7 @@ def _add_convert_parser(sub) -> None:
     s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
     s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
     _add_sensor_flags(s)
-    conv.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), help="DVS preset (default davis346)")
+    conv.add_argument("--sensor", metavar="NAME|FILE", help=f"{SENSOR_HELP} (default davis346)")
     _add_output_flags(conv, "evsim_convert")
     _add_run_flags(conv)
     conv.set_defaults(func=_cmd_convert)
@@ -465,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
     demo.add_argument("--height", type=int, default=DEMO_SIZE[0], help=f"height in pixels (default {DEMO_SIZE[0]})")
     demo.add_argument("--width", type=int, default=DEMO_SIZE[1], help=f"width in pixels (default {DEMO_SIZE[1]})")
-    demo.add_argument("--sensor", choices=sorted(sim.DVS_PRESETS), default="davis346", help="DVS preset")
+    demo.add_argument("--sensor", metavar="NAME|FILE", default="davis346", help=f"{SENSOR_HELP} (default davis346)")
     demo.add_argument("--no-reconstruct", action="store_true", help="only generate, do not run AKF and baselines")
     demo.add_argument("--no-progress", action="store_true", help="no progress bars")
     demo.set_defaults(func=_cmd_demo)

@@ -59,6 +59,8 @@ class AHDRConfig:
     """How to turn a scene into a sequence.
 
     dvs, camera: the sensor parameters (sim.DVSParams, sim.CameraParams).
+    sensor: the sensor model they came from, as sim.Sensor.describe() gives it (name, base, file, provenance; {}
+        when the parameters were given directly); recorded in the metadata.
     crf, crf_params: the camera response (crf_models.get(crf, **crf_params)); default the AHDR "window".
     auto_exposure: set camera.reference_radiance so that the scene's median radiance at t=0 gives the mid response
         (crf.inverse(0.5)); auto_illumination: set dvs.full_illumination to the scene's 99th-percentile radiance at
@@ -78,6 +80,7 @@ class AHDRConfig:
 
     dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))
     camera: sim.CameraParams = field(default_factory=sim.CameraParams)
+    sensor: dict = field(default_factory=dict)
     crf: str = "window"
     crf_params: dict = field(default_factory=dict)
     auto_exposure: bool = True

@@ -21,7 +21,7 @@ from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig
 from .builtin_sequences import BUILTIN_SEQUENCES
-from .config import DatasetConfig, parse_config
+from .config import DEFAULTS, DatasetConfig, parse_config, to_ahdr_config
 from .dataset import SequenceTask, run_sequences
 from .scenes import ImageMotionScene, Trajectory, linearise_ldr, load_image, to_luminance
 
@@ -93,18 +93,21 @@ def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, 
     return out
 
 
-def ahdr_suite_config(sensor: str = "davis346") -> AHDRConfig:
-    """generators.ahdr.AHDRConfig of the suite: the sensor preset, the window CRF, x = reference radiance
-    (reference_fill = reference_radiance = 1, no auto exposure), one reference per frame."""
-    return AHDRConfig(dvs=sim.DVSParams.preset(sensor), camera=sim.CameraParams(reference_radiance=1.0,
-                                                                                reference_fill=1.0),
-                      crf="window", auto_exposure=False)
+def ahdr_suite_config(sensor: str | Path | sim.Sensor = "davis346", *, dvs: dict | None = None,
+                      camera: dict | None = None) -> AHDRConfig:
+    """generators.ahdr.AHDRConfig of the suite: the sensor (a preset name or a sensor file, see sim.load_sensor)
+    with the dvs and camera field overrides over it, the window CRF, x = reference radiance (reference_fill =
+    reference_radiance = 1, no auto exposure, unless camera sets them), one reference per frame."""
+    sensor = sim.load_sensor(sensor)
+    settings = {**DEFAULTS, "sensor": sensor, "dvs": dict(dvs or {}),
+                "camera": {"reference_radiance": 1.0, "reference_fill": 1.0, **(camera or {})}}
+    return to_ahdr_config(settings, where="ahdr suite")
 
 
 def generate_ahdr_suite(out_dir: str | Path, *, height: int = 180, width: int = 240, duration_s: float = 1.0,
-                        seed: int = 0, sensor: str = "davis346", overwrite: bool = False, progress: bool = False,
-                        include_hdr: bool = True, workers: int | None = None, scheduler: str | None = None,
-                        resume: bool = False) -> Path:
+                        seed: int = 0, sensor: str | Path | sim.Sensor = "davis346", overwrite: bool = False,
+                        progress: bool = False, include_hdr: bool = True, workers: int | None = None,
+                        scheduler: str | None = None, resume: bool = False) -> Path:
     """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset, with the
     same workers, scheduler and resume options); return the index path. Sequence i is seeded with child i of
     SeedSequence(seed)."""

@@ -10,9 +10,11 @@ A configuration describes a dataset of sequences. Every key is optional except [
     duration_s = 1.0              # seconds
     height = 180                  # pixels (1..65535 per side, at most 2**25 pixels)
     width = 240                   # pixels
-    sensor = "davis346"           # sim.DVSParams preset
-    dvs = { pos_threshold = 0.2 } # sim.DVSParams fields (log units, Hz, microseconds as named)
-    camera = { fps = 20.0 }       # sim.CameraParams fields
+    sensor = "davis346"           # a DVS preset (sim.DVS_PRESETS) or a sensor file (sim.sensor_file; a path relative
+                                  # to this file): its [dvs] values, and its [camera] values under camera = {...}
+    dvs = { pos_threshold = 0.2 } # sim.DVSParams fields (units: sim.dvs_params.FIELD_UNITS), over the sensor's
+    camera = { fps = 20.0 }       # sim.CameraParams fields (units: sim.camera_params.FIELD_UNITS), or
+                                  # preset = "davis346_aps" (sim.CAMERA_PRESETS) with fields over it
     crf = { name = "window", params = {} }   # crf_models.get(name, **params)
     sampling = { mode = "adaptive", fraction = 0.5, quantile = 0.95, min_step_us = 10, max_step_us = 5000,
                  rate_hz = 2000.0 }   # quantile: of the per-pixel log change held below fraction x threshold
@@ -36,7 +38,6 @@ InvalidParameterError naming the file and the key.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import os
 import stat
@@ -47,6 +48,8 @@ from pathlib import Path
 import crf_models
 import sim
 from sim import EvsimInputError, InvalidParameterError
+from sim.sensor_file import check_camera_fields, check_dvs_fields
+from sim.suggest import unknown_name
 
 from . import scenes
 from .ahdr import AHDRConfig
@@ -144,19 +147,30 @@ def _check_table(where: str, table, allowed: dict) -> dict:
     out = {}
     for key, value in table.items():
         if key not in allowed:
-            raise _fail(f"{where}.{key}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
+            raise _fail(f"{where}.{key}", unknown_name("key", key, sorted(allowed)))
         out[key] = _check_type(f"{where}.{key}", value, allowed[key])
     return out
 
 
-def _field_names(cls) -> set[str]:
-    return {f.name for f in dataclasses.fields(cls)}
+def resolve_sensor(where: str, value: object, base_dir: Path | None = None) -> str:
+    """A configuration's sensor setting checked (sim.load_sensor): a preset name as is, a sensor file as its absolute
+    path (relative paths are relative to base_dir, default the current folder). InvalidParameterError naming
+    `where` otherwise."""
+    value = _check_type(where, value, str)
+    try:
+        sensor = sim.load_sensor(value, base_dir=base_dir)
+    except EvsimInputError as e:
+        raise _fail(where, str(e)) from None
+    return value if sensor.path is None else sensor.path
 
 
-def _resolve_settings(where: str, table: dict, base: dict) -> dict:
-    """Validate the sequence-level keys of `table` and merge them over `base` (sub-tables merged key by key)."""
+def resolve_settings(where: str, table: dict, base: dict, base_dir: Path | None = None) -> dict:
+    """Validate the sequence-level keys of `table` (SEQUENCE_KEYS) and merge them over `base` (sub-tables merged
+    key by key); a sensor file's path is taken relative to base_dir."""
     settings = copy.deepcopy(base)
     for key, value in table.items():
+        if key not in SEQUENCE_KEYS:
+            raise _fail(f"{where}.{key}", unknown_name("key", key, SEQUENCE_KEYS))
         value = _check_type(f"{where}.{key}", value, SEQUENCE_KEYS[key])
         if key == "sampling":
             value = _check_table(f"{where}.sampling", value, SAMPLING_KEYS)
@@ -165,9 +179,11 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
             for i, t in enumerate(value.get("reference_times_us", [])):
                 _check_type(f"{where}.output.reference_times_us[{i}]", t, int)
         elif key == "dvs":
-            unknown = set(value) - _field_names(sim.DVSParams)
-            if unknown:
-                raise _fail(f"{where}.dvs.{sorted(unknown)[0]}", "unknown sim.DVSParams field")
+            value = check_dvs_fields(f"{where}.dvs", value)
+        elif key == "camera":
+            value = check_camera_fields(f"{where}.camera", value)
+        elif key == "sensor":
+            value = resolve_sensor(f"{where}.sensor", value, base_dir)
         elif key == "crf":
             value = _check_table(f"{where}.crf", value, {"name": str, "params": dict})
             if "name" not in value:
@@ -181,9 +197,6 @@ def _resolve_settings(where: str, table: dict, base: dict) -> dict:
             settings[key] = {**settings[key], **value}
         else:
             settings[key] = value
-    if settings["sensor"] not in sim.DVS_PRESETS:
-        raise _fail(f"{where}.sensor", f"unknown DVS preset {settings['sensor']!r}; known: "
-                                       f"{', '.join(sorted(sim.DVS_PRESETS))}")
     if settings["sampling"]["mode"] not in ("adaptive", "fixed"):
         raise _fail(f"{where}.sampling.mode", f"must be 'adaptive' or 'fixed', got {settings['sampling']['mode']!r}")
     if _compression(settings["output"]["compression"]) not in COMPRESSIONS:
@@ -265,7 +278,7 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
     top = {"seed": int, "format": str, "defaults": dict, "sequence": list, "sweep": dict}
     for key in data:
         if key not in top:
-            raise _fail(f"{source}: {key}", f"unknown key (allowed: {', '.join(top)})")
+            raise _fail(f"{source}: {key}", unknown_name("key", key, top))
     seed = _check_type(f"{source}: seed", data.get("seed", 0), int)
     if seed < 0:
         raise _fail(f"{source}: seed", f"must be >= 0, got {seed}")
@@ -273,10 +286,7 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
     if fmt not in EXPORT_FORMATS:
         raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of {', '.join(EXPORT_FORMATS)}")
     defaults_table = _check_type(f"{source}: defaults", data.get("defaults", {}), dict)
-    for key in defaults_table:
-        if key not in SEQUENCE_KEYS:
-            raise _fail(f"{source}: defaults.{key}", f"unknown key (allowed: {', '.join(SEQUENCE_KEYS)})")
-    defaults = _resolve_settings(f"{source}: defaults", defaults_table, DEFAULTS)
+    defaults = resolve_settings(f"{source}: defaults", defaults_table, DEFAULTS, base_dir)
     seq_tables = _check_type(f"{source}: sequence", data.get("sequence", []), list)
     if not seq_tables:
         raise _fail(f"{source}: sequence", "no [[sequence]] defined")
@@ -288,10 +298,11 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
         own = {"name", "scene", "speeds"}
         for key in table:
             if key not in own and key not in SEQUENCE_KEYS:
-                raise _fail(f"{where}.{key}", f"unknown key (allowed: {', '.join([*own, *SEQUENCE_KEYS])})")
+                raise _fail(f"{where}.{key}", unknown_name("key", key, [*own, *SEQUENCE_KEYS]))
         name = check_sequence_name(f"{where}.name", table.get("name", f"seq{i:03d}"))
         scene = _check_scene(f"{where}.scene", table.get("scene"), base_dir)
-        settings = _resolve_settings(where, {k: v for k, v in table.items() if k in SEQUENCE_KEYS}, defaults)
+        settings = resolve_settings(where, {k: v for k, v in table.items() if k in SEQUENCE_KEYS}, defaults,
+                                    base_dir)
         speeds = _check_type(f"{where}.speeds", table.get("speeds", [None]), list)
         if "speeds" in table:
             if not speeds:
@@ -423,18 +434,17 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
 
 
 def to_ahdr_config(settings: dict, *, where: str = "settings") -> AHDRConfig:
-    """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS)."""
-    dvs_over = dict(settings["dvs"])
-    cam_over = dict(settings["camera"])
-    cam_preset = cam_over.pop("preset", None)
-    unknown = set(cam_over) - _field_names(sim.CameraParams)
-    if unknown:
-        raise _fail(f"{where}.camera.{sorted(unknown)[0]}", "unknown sim.CameraParams field")
-    for key in ("exposure_us", "frame_times_us"):
-        if isinstance(cam_over.get(key), list):
-            cam_over[key] = tuple(cam_over[key])
+    """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS): the sensor's DVS parameters
+    with the dvs table over them, the sensor's camera defaults with the camera table over them."""
     try:
-        dvs = sim.DVSParams.preset(settings["sensor"], **dvs_over)
+        sensor = sim.load_sensor(settings["sensor"])
+    except EvsimInputError as e:
+        raise _fail(f"{where}.sensor", str(e)) from None
+    dvs_over = check_dvs_fields(f"{where}.dvs", settings["dvs"])
+    cam_over = check_camera_fields(f"{where}.camera", {**sensor.camera, **settings["camera"]})
+    cam_preset = cam_over.pop("preset", None)
+    try:
+        dvs = sensor.dvs.replace(**dvs_over)
     except InvalidParameterError as e:
         raise _fail(f"{where}.dvs", str(e)) from None
     try:
@@ -445,9 +455,10 @@ def to_ahdr_config(settings: dict, *, where: str = "settings") -> AHDRConfig:
     sampling, output = settings["sampling"], settings["output"]
     try:
         return AHDRConfig(
-            dvs=dvs, camera=camera, crf=settings["crf"].get("name", "window"),
+            dvs=dvs, camera=camera, sensor=sensor.describe(), crf=settings["crf"].get("name", "window"),
             crf_params=settings["crf"].get("params", {}), auto_exposure="reference_radiance" not in cam_over,
-            auto_illumination="full_illumination" not in dvs_over, sampling=sampling["mode"],
+            auto_illumination="full_illumination" not in {*dvs_over, *sensor.dvs_fields},
+            sampling=sampling["mode"],
             sampling_fraction=sampling["fraction"], sampling_quantile=sampling["quantile"],
             min_step_us=sampling["min_step_us"], max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
             reference_times_us=tuple(output["reference_times_us"]), reference_rate_hz=output["reference_rate_hz"],

@@ -6,6 +6,7 @@ parameters, as `evsim --help` does, stays fast.
 Exports:
 - the DVS: DVSParams, DVS_PRESETS; DVSEmulator, emulate, emulate_source, EVENT_LABELS, NO_EVENT_US (sim.dvs);
 - the LDR camera: CameraParams, CAMERA_PRESETS, LDRCamera, LDRFrame (sim.camera);
+- sensor models (a preset name or a sensor file, sim.sensor_file): Sensor, load_sensor, write_sensor;
 - events: EVENT_DTYPE, make_events, empty_events, concatenate, slice_time, validate_events, is_sorted,
   first_unsorted_index (sim.events);
 - errors: EvsimInputError, InvalidParameterError, TimeOrderError, UnsortedEventsError.
@@ -18,9 +19,10 @@ from .lazy import lazy_exports
 
 # name -> "submodule" or "submodule:name in it", imported on first use
 _LAZY = {
-    "CAMERA_PRESETS": "camera:PRESETS",
-    **dict.fromkeys(("CameraParams", "LDRCamera", "LDRFrame"), "camera"),
+    "CAMERA_PRESETS": "camera_params:PRESETS", "CameraParams": "camera_params",
+    **dict.fromkeys(("LDRCamera", "LDRFrame"), "camera"),
     **dict.fromkeys(("EVENT_LABELS", "NO_EVENT_US", "DVSEmulator", "emulate", "emulate_source"), "dvs"),
+    **dict.fromkeys(("Sensor", "load_sensor", "write_sensor"), "sensor_file"),
     **dict.fromkeys(("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index", "is_sorted", "make_events",
                      "slice_time", "validate_events"), "events"),
 }

@@ -143,3 +143,13 @@ PRESETS: dict[str, DVSParams] = {
     # The same sensor with the noise of v2e's "noisy" setting (5 Hz shot noise) and more leak and hot pixels.
     "noisy": DVSParams(shot_noise_hz=5.0, dark_shot_noise_hz=10.0, leak_hz=0.5, hot_pixel_fraction=1e-3),
 }
+
+#: unit (or kind) of every DVSParams field, for messages, sensor files and `evsim ... --help` (tests check it covers
+#: them all)
+FIELD_UNITS: dict[str, str] = {
+    "pos_threshold": "log units", "neg_threshold": "log units", "threshold_sigma": "log units",
+    "min_threshold": "log units", "refractory_us": "us", "cutoff_hz": "Hz at full illumination, 0 = off",
+    "full_illumination": "radiance units", "dark_fraction": "fraction of full_illumination",
+    "shot_noise_hz": "Hz per pixel", "dark_shot_noise_hz": "Hz per pixel", "leak_hz": "Hz per pixel",
+    "leak_spread": "std of log rate", "hot_pixel_fraction": "fraction of pixels", "hot_pixel_hz": "Hz",
+}

@@ -1,0 +1,81 @@
+"""Pixel classes of a hybrid recording read from its frames: static pixels (quiet and dark ones), whose events are
+noise, and the frame intervals in which each pixel changed (motion), which tell passages from noise bursts.
+
+A pixel is static when no frame over the scored windows departs from its temporal median by more than the change
+threshold, max(STATIC_SIGMAS x the frames' read noise, MIN_CHANGE_DN); quiet when it is static, unsaturated and
+its whole 5x5 neighbourhood is static (no moving edge within 2 pixels); dark when quiet and its median is below
+DARK_DN (8-bit DN, scaled by 2**(bits - 8) for deeper frames). A pixel moves in the interval between frames k and
+k + 1 when its value changes by more than the change threshold. The read noise is estimated from the
+frame-to-frame differences of every pixel, MAD / 0.6745 / sqrt(2) (Hampel, "The influence curve and its role in
+robust estimation", 1974), which moving pixels, a small minority, do not bias.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+STATIC_SIGMAS = 6.0  # a static pixel stays within this many read-noise sigmas of its median (59 frames: ~1e-6 miss)
+MIN_CHANGE_DN = 3.0  # floor of the change threshold (8-bit DN): three quantisation steps
+DARK_DN = 20.0  # dark pixels: median below this (8-bit DN)
+QUIET_RADIUS_PX = 2  # quiet pixels: every pixel within this Chebyshev distance is static
+
+
+@dataclass(frozen=True)
+class FrameMasks:
+    """Pixel classes from a recording's frames (see the module).
+
+    static, quiet, dark: (H, W) bool. motion: (F - 1, H * W) bool, pixel changed between frames k and k + 1, whose
+    mid-exposure times are frame_t_us[k], frame_t_us[k + 1] (int64 us). median_dn: (H, W) float32 temporal median
+    of the frames used. change_dn: the change threshold; read_noise_dn: the estimated read noise (frame DN).
+    frames_used: how many frames (those bracketing the windows) set static, quiet and dark.
+    """
+
+    static: np.ndarray
+    quiet: np.ndarray
+    dark: np.ndarray
+    motion: np.ndarray
+    frame_t_us: np.ndarray
+    median_dn: np.ndarray
+    change_dn: float
+    read_noise_dn: float
+    frames_used: int
+
+
+def bracketing_frames(frame_t_us: np.ndarray, windows_us: np.ndarray) -> np.ndarray:
+    """Indices of the frames whose mid-exposure times lie in the windows, with the last one before and the first
+    one after each window."""
+    n = frame_t_us.size
+    keep = np.zeros(n, bool)
+    for a, b in windows_us:
+        k0 = max(int(np.searchsorted(frame_t_us, a, side="right")) - 1, 0)
+        k1 = min(int(np.searchsorted(frame_t_us, b, side="left")), n - 1)
+        keep[k0:k1 + 1] = True
+    return np.flatnonzero(keep)
+
+
+def frame_masks(frames: np.ndarray, frame_t_us: np.ndarray, windows_us: np.ndarray, bit_depth: int = 8
+                ) -> FrameMasks:
+    """FrameMasks of (F, H, W) integer frames with mid-exposure times frame_t_us (F,) int64 us, over the frames
+    bracketing windows_us ((K, 2) int64 us); bit_depth scales the 8-bit constants."""
+    frames = np.asarray(frames)
+    t = np.asarray(frame_t_us, dtype=np.int64)
+    f, h, w = frames.shape
+    scale = 2.0 ** (bit_depth - 8)
+    diffs = np.abs(np.diff(frames.astype(np.float32), axis=0)) if f > 1 else np.zeros((0, h, w), np.float32)
+    read_noise = float(np.median(diffs) / 0.6745 / np.sqrt(2)) if diffs.size else 0.0
+    change = max(STATIC_SIGMAS * read_noise, MIN_CHANGE_DN * scale)
+    used = bracketing_frames(t, windows_us)
+    sel = frames[used].astype(np.float32)
+    median = np.median(sel, axis=0) if used.size else np.zeros((h, w), np.float32)
+    static = (np.abs(sel - median).max(axis=0) <= change) if used.size > 1 else np.zeros((h, w), bool)
+    unsaturated = median < (2 ** bit_depth - 1) - change
+    size = 2 * QUIET_RADIUS_PX + 1
+    neighbourhood = ndimage.minimum_filter(static.astype(np.uint8), size=size, mode="nearest").astype(bool)
+    quiet = neighbourhood & unsaturated
+    dark = quiet & (median < DARK_DN * scale)
+    motion = (diffs > change).reshape(max(f - 1, 0), h * w)
+    return FrameMasks(static, quiet, dark, motion, t, median.astype(np.float32), float(change), read_noise,
+                      int(used.size))

@@ -1,0 +1,25 @@
+"""The realism score of one recording against another: what `evsim evaluate REAL --task realism --against SIM`
+runs."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from .comparison import Comparison, compare
+from .stats import cut, measure, measure_recording, shifted
+
+
+def score_recordings(real: object, sim: object, window_s: tuple[float, float] | None = None) -> Comparison:
+    """compare of two generators.formats Recordings over window_s (seconds from each one's origin, see
+    measure_recording; default: the real recording's whole event stream), with the real frames' pixel classes.
+    Both are scored on the windows where both have events: coverage gaps of either are cut out of both."""
+    real_stats = measure_recording(real, window_s)
+    sim_stats = measure_recording(sim, like=real_stats)
+    if sim_stats.gaps_us.size:  # the simulation misses time the real recording covers: score both without it
+        windows = cut(real_stats.windows_us, shifted(sim_stats, real_stats.origin_us).gaps_us)
+        again = measure(real.events, windows, height=real.height, width=real.width, masks=real_stats.masks)
+        real_stats = replace(again, gaps_us=real_stats.gaps_us, notes=real_stats.notes,
+                             origin_us=real_stats.origin_us)
+        again = measure(sim.events, like=shifted(real_stats, sim_stats.origin_us))
+        sim_stats = replace(again, gaps_us=sim_stats.gaps_us, notes=sim_stats.notes)
+    return compare(real_stats, sim_stats)

@@ -1,0 +1,302 @@
+"""The statistics of one event stream over time windows, for the realism score (evsim_eval.realism.compare).
+
+measure(events, windows_us, height=, width=, masks=) gives a RealismStats: event counts per polarity and per pixel,
+noise rates on the quiet and dark static pixels of FrameMasks (Hz per pixel), the whole-sensor event rate in
+RATE_BIN_US bins, the histogram of the intervals between successive events of a pixel (log bins) and the events
+per pixel per passage. measure(sim_events, like=real) measures a simulation on the windows and pixel classes of a
+real recording's statistics, which are computed once (measure_recording) and reused.
+
+A passage is a maximal run of one pixel's events whose successive intervals are at most PASSAGE_GAP_US, counted
+only where the recording's frames saw that pixel change (FrameMasks.motion) in a frame interval overlapping the
+run: an edge or object crossing the pixel, not a noise event.
+
+Coverage: a recording whose events cover only part of the time (dropped packets, exposure-gated exports) is
+scored on the covered windows only. A RATE_BIN_US bin without events is a gap when the median of the non-empty
+bins within GAP_CONTEXT_BINS of it is at least BUSY_EVENTS_PER_BIN (a Poisson stream that busy leaves a bin empty
+with probability below e**-20, 2e-9); gaps are cut out of the windows and listed in the notes. Resolution: one bin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from sim import EvsimInputError
+
+from .kernels import pixel_runs
+from .masks import FrameMasks, frame_masks
+
+RATE_BIN_US = 10_000  # whole-sensor rate curve and coverage bins (us)
+PASSAGE_GAP_US = 50_000  # a pixel's events further apart than this belong to different passages (us)
+INTERVAL_DECADES = (0, 7)  # interval histogram from 10**0 to 10**7 us (1 us .. 10 s), out-of-range intervals clipped
+BINS_PER_DECADE = 10
+BUSY_EVENTS_PER_BIN = 20
+GAP_CONTEXT_BINS = 5
+INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] + 1e-9, 1 / BINS_PER_DECADE)
+
+
+@dataclass
+class RealismStats:
+    """What measure gives (see the module). Times are int64 us, rates Hz.
+
+    windows_us: (K, 2) scored [start, end) windows; gaps_us: (G, 2) coverage gaps cut out of the requested windows.
+    counts: (2, H, W) int64 ON and OFF events per pixel. rate_hz: whole-sensor event rate in the RATE_BIN_US bins
+    of every window (the last bin of a window may be shorter); rate_counts: the events of those bins.
+    interval_counts: (len(INTERVAL_EDGES_US) - 1,) number of same-pixel intervals per log bin. passages: events of
+    each passage. quiet_hz, dark_hz: (ON, OFF) mean event rate per quiet / dark pixel, NaN without masks.
+    quiet_counts, dark_counts: (ON, OFF) events on those pixels. origin_us: the recording's time zero, from which
+    windows given in seconds count (measure_recording).
+    """
+
+    height: int
+    width: int
+    windows_us: np.ndarray
+    gaps_us: np.ndarray
+    masks: FrameMasks | None
+    counts: np.ndarray
+    rate_hz: np.ndarray
+    rate_counts: np.ndarray
+    interval_counts: np.ndarray
+    passages: np.ndarray
+    quiet_hz: tuple[float, float]
+    dark_hz: tuple[float, float]
+    quiet_counts: tuple[int, int]
+    dark_counts: tuple[int, int]
+    notes: list[str] = field(default_factory=list)
+    origin_us: int = 0
+
+    @property
+    def duration_s(self) -> float:
+        """Total length of the scored windows (s)."""
+        return float(np.sum(self.windows_us[:, 1] - self.windows_us[:, 0])) / 1e6
+
+    @property
+    def n_on(self) -> int:
+        return int(self.counts[0].sum())
+
+    @property
+    def n_off(self) -> int:
+        return int(self.counts[1].sum())
+
+    @property
+    def n_events(self) -> int:
+        return self.n_on + self.n_off
+
+    @property
+    def interval_pdf(self) -> np.ndarray:
+        """Fraction of the same-pixel intervals in each log bin (zeros without intervals)."""
+        total = self.interval_counts.sum()
+        return self.interval_counts / total if total else self.interval_counts.astype(float)
+
+    @property
+    def passage_median(self) -> float:
+        """Median events per pixel per passage (NaN without passages)."""
+        return float(np.median(self.passages)) if self.passages.size else float("nan")
+
+    def summary(self) -> dict:
+        """The scalar statistics as a JSON-serialisable dict (Hz, s, counts)."""
+        masks = self.masks
+        return {
+            "windows_s": (self.windows_us / 1e6).tolist(), "gaps_s": (self.gaps_us / 1e6).tolist(),
+            "duration_s": self.duration_s, "events": self.n_events, "on_events": self.n_on, "off_events": self.n_off,
+            "quiet_pixels": None if masks is None else int(masks.quiet.sum()),
+            "dark_pixels": None if masks is None else int(masks.dark.sum()),
+            "quiet_on_hz": self.quiet_hz[0], "quiet_off_hz": self.quiet_hz[1],
+            "dark_on_hz": self.dark_hz[0], "dark_off_hz": self.dark_hz[1],
+            "passages": int(self.passages.size), "passage_median": self.passage_median,
+            "mean_rate_hz": self.n_events / self.duration_s if self.duration_s else float("nan"),
+            "notes": list(self.notes),
+        }
+
+
+def as_windows(windows_us: np.ndarray | list | tuple) -> np.ndarray:
+    """(K, 2) int64 [start, end) windows in us, sorted and disjoint, each non-empty; EvsimInputError otherwise."""
+    w = np.asarray(windows_us)
+    if w.ndim == 1 and w.size == 2:
+        w = w[None]
+    if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] == 0 or (w.size and w.dtype.kind not in "iu"):
+        raise EvsimInputError(f"time windows must be (K, 2) integer microseconds [start, end), got {w.dtype} "
+                              f"{w.shape}")
+    w = w.astype(np.int64)
+    if np.any(w[:, 1] <= w[:, 0]):
+        raise EvsimInputError(f"every time window must end after it starts, got {w.tolist()}")
+    if np.any(w[1:, 0] < w[:-1, 1]):
+        raise EvsimInputError(f"time windows must be sorted and must not overlap, got {w.tolist()}")
+    return w
+
+
+def bin_edges(a: int, b: int) -> np.ndarray:
+    """RATE_BIN_US bin edges of the window [a, b) (us; the last bin may be shorter)."""
+    return np.append(np.arange(a, b, RATE_BIN_US, dtype=np.int64), np.int64(b))
+
+
+def coverage_gaps(t: np.ndarray, windows_us: np.ndarray) -> np.ndarray:
+    """(G, 2) int64 gaps in event coverage inside the windows (see the module), merged runs of empty bins; t sorted."""
+    gaps = []
+    for a, b in windows_us:
+        edges = bin_edges(a, b)
+        counts = np.diff(np.searchsorted(t, edges))
+        for k in np.flatnonzero(counts == 0):
+            near = counts[max(k - GAP_CONTEXT_BINS, 0):k + GAP_CONTEXT_BINS + 1]
+            near = near[near > 0]
+            if near.size and np.median(near) >= BUSY_EVENTS_PER_BIN:
+                lo, hi = int(edges[k]), int(edges[k + 1])
+                if gaps and gaps[-1][1] == lo:
+                    gaps[-1][1] = hi
+                else:
+                    gaps.append([lo, hi])
+    return np.array(gaps, dtype=np.int64).reshape(-1, 2)
+
+
+def cut(windows_us: np.ndarray, gaps_us: np.ndarray) -> np.ndarray:
+    """The windows with the gaps (sorted, disjoint, inside the windows) removed."""
+    out = []
+    for a, b in windows_us:
+        start = a
+        for g0, g1 in gaps_us:
+            if g1 <= start or g0 >= b:
+                continue
+            if g0 > start:
+                out.append((start, g0))
+            start = max(start, g1)
+        if start < b:
+            out.append((start, b))
+    return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+def _window_slices(t: np.ndarray, windows_us: np.ndarray) -> list[tuple[int, int]]:
+    ends = np.searchsorted(t, windows_us.ravel(), side="left").reshape(-1, 2)
+    return [(int(i0), int(i1)) for i0, i1 in ends]
+
+
+def _rate(value: int, pixels: np.ndarray, duration_s: float) -> float:
+    n = int(pixels.sum())
+    return value / (n * duration_s) if n and duration_s > 0 else float("nan")
+
+
+def _describe_gaps(gaps_us: np.ndarray, windows_us: np.ndarray) -> str:
+    total = float(np.sum(windows_us[:, 1] - windows_us[:, 0])) / 1e6
+    missing = float(np.sum(gaps_us[:, 1] - gaps_us[:, 0])) / 1e6
+    listed = ", ".join(f"{a / 1e6:.3f}-{b / 1e6:.3f}" for a, b in gaps_us[:5]) + (", ..." if len(gaps_us) > 5 else "")
+    return (f"events cover {total - missing:.3f} of {total:.3f} s: {len(gaps_us)} gap(s) of {RATE_BIN_US // 1000} ms "
+            f"bins without events in a busy stream ({listed} s, times as in the file) are not scored")
+
+
+def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = None, *, height: int | None = None,
+            width: int | None = None, masks: FrameMasks | None = None, like: RealismStats | None = None,
+            detect_gaps: bool = False) -> RealismStats:
+    """The statistics of events (sim.EVENT_DTYPE, sorted by t) over windows_us ((K, 2) or (2,) int64 us).
+
+    like: the statistics of a real recording, whose windows, sensor size and pixel classes are used (a simulation
+    is measured on them; the other arguments must then be left out). masks: FrameMasks for the noise rates and
+    passages (NaN rates and no passages without). detect_gaps: cut coverage gaps out of the windows (see the
+    module), noted in RealismStats.notes.
+    """
+    if like is not None:
+        if windows_us is not None or height is not None or width is not None or masks is not None:
+            raise EvsimInputError("measure(like=...) takes the windows, sensor size and masks of `like`: give "
+                                  "none of them")
+        windows_us, height, width, masks = like.windows_us, like.height, like.width, like.masks
+        origin = like.origin_us
+    elif windows_us is None or height is None or width is None:
+        raise EvsimInputError("measure needs windows_us, height and width (or like=)")
+    else:
+        origin = 0
+    windows = as_windows(windows_us)
+    t = events["t"]
+    gaps = np.zeros((0, 2), np.int64)
+    notes = []
+    if detect_gaps:
+        gaps = coverage_gaps(t, windows)
+        if gaps.size:
+            notes.append(_describe_gaps(gaps, windows))
+            windows = cut(windows, gaps)
+            if not windows.size:
+                raise EvsimInputError("no time window is covered by events")
+    n_pixels = height * width
+    parts = _window_slices(t, windows)
+    motion = masks.motion if masks is not None else np.zeros((0, n_pixels), bool)
+    frame_t = masks.frame_t_us if masks is not None else np.zeros(0, np.int64)
+    counts = np.zeros((2, n_pixels), np.int64)
+    rate_counts, rate_hz, intervals, passages = [], [], [], []
+    for (i0, i1), (a, b) in zip(parts, windows):
+        ev = events[i0:i1]
+        tw = np.ascontiguousarray(ev["t"], dtype=np.int64)
+        pix = ev["y"].astype(np.int64) * width + ev["x"].astype(np.int64)
+        on = ev["p"] > 0
+        counts[0] += np.bincount(pix[on], minlength=n_pixels)
+        counts[1] += np.bincount(pix[~on], minlength=n_pixels)
+        edges = bin_edges(a, b)
+        c = np.diff(np.searchsorted(tw, edges))
+        rate_counts.append(c)
+        rate_hz.append(c / (np.diff(edges) / 1e6))
+        iv = np.empty(tw.size, np.int64)
+        out_passage = np.empty(tw.size + 1, np.int64)
+        n = pixel_runs(tw, pix, n_pixels, PASSAGE_GAP_US, frame_t, motion, iv, out_passage)
+        intervals.append(iv[iv >= 0])
+        passages.append(out_passage[:n])
+    iv = np.concatenate(intervals) if intervals else np.zeros(0, np.int64)
+    nbins = INTERVAL_EDGES_US.size - 1
+    k = np.floor(np.log10(np.maximum(iv, 1)) * BINS_PER_DECADE + 1e-9).astype(np.int64) - \
+        INTERVAL_DECADES[0] * BINS_PER_DECADE
+    interval_counts = np.bincount(np.clip(k, 0, nbins - 1), minlength=nbins)
+    duration = float(np.sum(windows[:, 1] - windows[:, 0])) / 1e6
+    quiet_counts = dark_counts = (0, 0)
+    quiet_hz = dark_hz = (float("nan"), float("nan"))
+    if masks is not None:
+        quiet, dark = masks.quiet.ravel(), masks.dark.ravel()
+        quiet_counts = (int(counts[0][quiet].sum()), int(counts[1][quiet].sum()))
+        dark_counts = (int(counts[0][dark].sum()), int(counts[1][dark].sum()))
+        quiet_hz = tuple(_rate(c, quiet, duration) for c in quiet_counts)
+        dark_hz = tuple(_rate(c, dark, duration) for c in dark_counts)
+    return RealismStats(height, width, windows, gaps, masks, counts.reshape(2, height, width),
+                        np.concatenate(rate_hz), np.concatenate(rate_counts), interval_counts,
+                        np.concatenate(passages) if passages else np.zeros(0, np.int64),
+                        quiet_hz, dark_hz, quiet_counts, dark_counts, notes, origin)
+
+
+def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
+    """stats with its windows, gaps and frame times moved to a recording whose time zero is origin_us."""
+    d = origin_us - stats.origin_us
+    masks = None if stats.masks is None else replace(stats.masks, frame_t_us=stats.masks.frame_t_us + d)
+    return replace(stats, windows_us=stats.windows_us + d, gaps_us=stats.gaps_us + d, masks=masks,
+                   origin_us=origin_us)
+
+
+def recording_origin_us(rec: object) -> int:
+    """Time zero of a recording (us): its first frame's exposure start, else its first event's time (0 without
+    events). Windows given in seconds count from it."""
+    if getattr(rec, "frames", None) is not None and len(rec.frame_t_start_us):
+        return int(rec.frame_t_start_us[0])
+    return int(rec.events["t"][0]) if rec.events.size else 0
+
+
+def measure_recording(rec: object, window_s: tuple[float, float] | None = None, *,
+                      like: RealismStats | None = None, detect_gaps: bool = True) -> RealismStats:
+    """measure of a generators.formats Recording over window_s = (start, end) seconds from its origin
+    (recording_origin_us; default: its whole event stream), with the pixel classes of its frames (if any), or with
+    like= (another recording's statistics, whose windows are taken from that recording's origin to this one's).
+    Coverage gaps are cut out (detect_gaps)."""
+    origin = recording_origin_us(rec)
+    if like is not None:
+        return measure(rec.events, like=shifted(like, origin), detect_gaps=detect_gaps)
+    if window_s is None:
+        t = rec.events["t"]
+        if not t.size:
+            raise EvsimInputError("the recording has no events to score")
+        windows = np.array([[int(t[0]), int(t[-1]) + 1]], np.int64)
+    else:
+        start, end = window_s
+        if not end > start:
+            raise EvsimInputError(f"the window must end after it starts, got {start} .. {end} s")
+        windows = np.array([[origin + round(start * 1e6), origin + round(end * 1e6)]], np.int64)
+    masks = None
+    notes = []
+    if rec.frames is not None and len(rec.frame_t_mid_us) > 1:
+        masks = frame_masks(np.asarray(rec.frames), rec.frame_t_mid_us, windows, rec.frame_bit_depth)
+    else:
+        notes.append("no frames: static and dark noise rates and passages are not measured")
+    stats = measure(rec.events, windows, height=rec.height, width=rec.width, masks=masks, detect_gaps=detect_gaps)
+    stats.notes[:0] = notes
+    return replace(stats, origin_us=origin)
