@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import sim
 from sim import EvsimInputError
 
 from .config import DatasetConfig, parse_config
@@ -67,7 +68,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
 
     settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output); height,
     width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
-    VideoScene default).
+    VideoScene default; black_level defaults to the [input] table of a sensor file given as settings["sensor"]).
     """
     unknown = set(scene_options) - set(SCENE_OPTIONS)
     if unknown:
@@ -75,6 +76,11 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                               f"known: {', '.join(SCENE_OPTIONS)}")
     options = {k: (str(Path(v).resolve()) if k == "timestamps" else v)
                for k, v in scene_options.items() if v is not None}
+    sensor = (settings or {}).get("sensor")
+    if sensor is not None and "black_level" not in options:  # a sensor file's [input] table: the frames' black
+        black = sim.load_sensor(sensor).tables.get("input", {}).get("black_level")
+        if black is not None:
+            options["black_level"] = black
     sequences, names = [], set()
     for path in clips(inputs):
         name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy", ".aedat4") else path.name
