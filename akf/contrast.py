@@ -1,11 +1,11 @@
 """The DVS contrast threshold estimated from the data, for recordings that carry none.
 
-Between the mid-exposures of two consecutive frames a pixel whose true log intensity changed by dL fires about
-dL / c net events (ON minus OFF), whatever its quantisation phase (uniform on [0, c)): E[net | dL] = dL / c. So the
-slope of net on dL over many pixels is 1 / c without the bias of regressing dL on net (the phase noise is in net).
-dL is measured as the change of log(CRF^-1(response) * T_0 / T_k + I0) between the two frames (I0: the pixel's log
-offset, the DVS model's dark level sim.DVSParams.dark_fraction x full_illumination in the frames' units; given, or
-estimated as the offset under which the estimate does not depend on brightness: estimate_log_offset), on pixels with both
+Between the mid-exposures of two consecutive frames a pixel whose true log intensity changed by dL fires about dL /
+c net events (ON minus OFF), whatever its quantisation phase (uniform on [0, c)): E[net | dL] = dL / c. So the slope
+of net on dL over many pixels is 1 / c without the bias of regressing dL on net (the phase noise is in net). dL is
+measured as the change of log(CRF^-1(response) * T_0 / T_k + I0) between the two frames (I0: the pixel's log offset,
+the DVS model's dark level sim.DVSParams.dark_fraction x full_illumination in the frames' units; given, or estimated
+as the offset under which the estimate does not depend on brightness: estimate_log_offset), on pixels with both
 responses inside [margin, 1 - margin] (unclipped) and |dL| >= min_change (frame noise in the regressor would bias
 the slope toward 0). ON and OFF are estimated separately (pixels with dL > 0 give c_on, dL < 0 c_off). Robust: the
 slope is refitted on the pixels whose residual lies within 3 scaled MADs, twice.

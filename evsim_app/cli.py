@@ -258,7 +258,8 @@ def _cmd_evaluate(args) -> int:
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
-                              progress=False if args.no_progress else None, strict=False, **_run_options(args))
+                              progress=False if args.no_progress else None, strict=False, sensor=args.sensor,
+                              **_run_options(args))
     scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
         print(format_table(scores.table, args.protocol, scores.notes))
@@ -524,6 +525,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--tune-metric", default=TUNE_METRIC,
                     help=f"metric the tuning minimises (maximises for SSIM/PSNR; default {TUNE_METRIC})")
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
+    ev.add_argument("--sensor", help="sensor file (from evsim calibrate on this camera) or preset whose thresholds a "
+                                     "recording without recorded ones gets (default: estimated from the data)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
     dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",

@@ -68,14 +68,15 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: Sequence[str] = DEFAULT_METHODS,
                        metrics: Sequence[str] = DEFAULT_METRICS,
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
-                       tune_fraction: float = TUNE_FRACTION) -> tuple[dict, str]:
-    """Score methods on one recording: ({method: {metric: value}}, notes joined by "; ").
+                       tune_fraction: float = TUNE_FRACTION, sensor: str | None = None) -> tuple[dict, str]:
+    """Score methods on one recording: ({method: {metric: value}}, notes joined by "; "). sensor: a sensor file or
+    preset whose thresholds a recording without recorded ones gets (protocols.recording_contrast_or_estimate).
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
     on the times after the tuning split only.
     """
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
-    case, notes = recording_case(rec, protocol, method_options)
+    case, notes = recording_case(rec, protocol, method_options, sensor)
     sel = np.arange(case.times.size) if tuning is None else split_times(case.times.size, tune_fraction)[1]
     table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics) for m in methods}
     return table, "; ".join(notes)
@@ -97,10 +98,10 @@ def add_means(result: dict, metrics: Sequence[str]) -> dict:
 
 def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, methods: Iterable[str],
                  method_options: dict[str, dict[str, Any]] | None, tune_fraction: float, tune_metric: str,
-                 progress: Callable[..., object] | None = None) -> tuple[dict, list[str]]:
+                 progress: Callable[..., object] | None = None, sensor: str | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
     ((name, file) pairs), in this process."""
-    cases = [recording_case(load(file), protocol, method_options)[0] for _, file in sequences]
+    cases = [recording_case(load(file), protocol, method_options, sensor)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}
     for m in methods:
@@ -117,7 +118,7 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
                      metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
                      tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
                      workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
-                     strict: bool = True) -> DatasetScores:
+                     strict: bool = True, sensor: str | None = None) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
@@ -125,7 +126,7 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
     progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
     the messages and, on a terminal only, the bar. strict: raise when sequences fail (EvsimInputError when every
     one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
-    DatasetScores.failures and the table holds the others.
+    DatasetScores.failures and the table holds the others. sensor: see evaluate_recording.
     """
     methods, metrics = tuple(methods), tuple(metrics)
     check_request(protocol, methods, metrics, tune_metric, tune_fraction)
@@ -134,9 +135,10 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
     if tune:
         say = None if progress is False else (lambda text: print(text, file=sys.stderr))
         tuning, notes = tune_dataset(sequences, protocol=protocol, methods=methods, method_options=method_options,
-                                     tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say)
+                                     tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say,
+                                     sensor=sensor)
     options = {"protocol": protocol, "methods": methods, "metrics": metrics, "method_options": method_options,
-               "tuning": tuning if tune else None, "tune_fraction": tune_fraction}
+               "tuning": tuning if tune else None, "tune_fraction": tune_fraction, "sensor": sensor}
     tasks = [(name, (Path(file).resolve(),), options) for name, file in sequences]
     outcomes = run_tasks(evaluate_sequence_file, tasks, workers=workers, scheduler=scheduler, progress=progress,
                          desc="evaluating")

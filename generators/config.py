@@ -70,8 +70,8 @@ SCENE_TYPES = {
     "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "
              "fps (input frame rate, for folders and stacks), timestamps (file), upsample (flow | linear | none), "
              "flow (dis | farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, "
-             "channel, black_level, warm_up_s (the clip sets the duration; it is cropped to the aspect ratio of height x width and "
-             "area-resized to it)",
+             "channel, black_level, warm_up_s (the clip sets the duration; it is cropped to the aspect ratio of "
+             "height x width and area-resized to it)",
     "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, "
                      "trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",

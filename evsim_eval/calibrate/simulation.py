@@ -1,11 +1,12 @@
 """A recording's own frames, upsampled once, as the input of many DVS simulations (the calibration's inner loop).
 
 The frames go through the same path as `evsim convert` (generators.scenes.VideoScene: black level, the frames'
-exposure times, linear input CRF for a hybrid camera's frames, flow upsampling) and are sampled by the same
-adaptive sampler (generators.sampling) once, with convert's DVS warm-up (the clip's start mirrored before it); the samples stay in memory, so each simulation with other DVS
-parameters costs one sim.emulate over them. The full illumination is resolved as generate resolves it
-(generators.ahdr.resolve_sensors: the 99th percentile of the radiance at t = 0), so a DVSParams fitted here gives
-the same events through `evsim convert --sensor`. Event times are in the recording's time base.
+exposure times, linear input CRF for a hybrid camera's frames, flow upsampling) and are sampled by the same adaptive
+sampler (generators.sampling) once, with convert's DVS warm-up (the clip's start mirrored before it); the samples
+stay in memory, so each simulation with other DVS parameters costs one sim.emulate over them. The full illumination
+is resolved as generate resolves it (generators.ahdr.resolve_sensors: the 99th percentile of the radiance at t = 0),
+so a DVSParams fitted here gives the same events through `evsim convert --sensor`. Event times are in the
+recording's time base.
 """
 
 from __future__ import annotations

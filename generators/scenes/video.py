@@ -108,9 +108,9 @@ class _Frames:
     frames(first) yields the raw images (H, W) or (H, W, 3) RGB from index `first` on."""
 
     kind: str
-    counted_to_end = True
+    counted_to_end = True  # False when a video was counted only up to the stop time
     time_origin_us = 0  # the time of the first frame in the input's own time base (a timestamps file's), us
-    exposures_us = None  # (N,) exposure time per frame (us) when the input records it  # False when a video was counted only up to the stop time
+    exposures_us = None  # (N,) exposure time per frame (us) when the input records it
     path: Path
     times_us: np.ndarray
     size: tuple[int, int]
