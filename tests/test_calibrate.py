@@ -18,7 +18,7 @@ TRUTH = sim.DVSParams(pos_threshold=0.25, neg_threshold=0.3, threshold_sigma=0.0
 
 class _GlowingWall(Scene):
     """A static wall whose brightness spans two decades across x (so the log offset matters); the left half is
-    lit by a light that swells and fades (log brightness sinusoidal, 1.5 Hz, +-0.8), the right half is static
+    lit by a light that swells and fades (log brightness sinusoidal, 1.5 Hz, +-1.5), the right half is static
     (its events are noise)."""
 
     def __init__(self, height: int = 32, width: int = 48, duration_us: int = 1_600_000):
@@ -28,14 +28,14 @@ class _GlowingWall(Scene):
         self._lit = np.arange(width) < width // 2
 
     def _render(self, t_us):
-        gain = math.exp(0.8 * math.sin(2 * math.pi * 1.5 * t_us * 1e-6))
+        gain = math.exp(1.5 * math.sin(2 * math.pi * 1.5 * t_us * 1e-6))
         return np.where(self._lit, self._base * gain, self._base).astype(np.float32)
 
 
 @pytest.fixture(scope="module")
 def synthetic_recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("calibrate") / "wall.h5"
-    camera = sim.CameraParams(fps=25.0, exposure_us=2000, reference_radiance=2.5, reference_fill=1.0, noise=False,
+    camera = sim.CameraParams(fps=25.0, exposure_us=2000, reference_radiance=5.0, reference_fill=1.0, noise=False,
                               bit_depth=16)
     generate_ahdr(_GlowingWall(), path, AHDRConfig(dvs=TRUTH, camera=camera, crf="linear", auto_exposure=False,
                                                    threshold_maps=False), seed=3, progress=False)
