@@ -10,6 +10,8 @@ Exports:
 Submodules with more:
 - akf.evaluate: Case, the one scoring path (evaluate_sequence, evsim_eval's dataset protocols and the tuning
   objective all score through it);
+- akf.exposure: a method's output averaged over a frame's exposure window (exposure-matched scoring);
+- akf.pixel_classes: the pixel and time classes of the per-class scores;
 - akf.tuning: setting_options, default_setting, describe_setting, and tune_cases (the objective over Cases);
 - akf.denoise: event denoising filters, each a keep-mask over an event array (correlation, hot_pixel, wrappers of
   dv-processing and tonic; FILTERS, keep_mask).

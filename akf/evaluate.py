@@ -3,6 +3,7 @@ dataset protocols of evsim_eval and the tuning objective all go through Case).""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -11,8 +12,11 @@ import numpy as np
 from sim.errors import EvsimInputError, InvalidParameterError
 
 from .baselines import BASELINES
+from .exposure import exposure_average
 from .filter import reconstruct
-from .metrics import METRICS, score
+from .inputs import as_crf
+from .metrics import METRICS, PER_PIXEL, score, score_map
+from .pixel_classes import CLASSES, TIME_CLASSES, nearest_frames, pixel_classes, time_classes, valid_region
 from .tuning import setting_options
 
 if TYPE_CHECKING:
@@ -25,7 +29,8 @@ if TYPE_CHECKING:
     #: the reconstruction scores of evaluate_sequence: {method: {metric: mean value}}
     ScoreTable = dict[str, dict[str, float]]
 
-__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names"]
+__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "output_bound", "reachable_white", "exposure_gains",
+           "DEFAULT_OUTPUT_BOUND"]
 
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
@@ -40,6 +45,35 @@ def check_names(methods: Iterable[str] = (), metrics: Iterable[str] = ()) -> Non
                                     f"metrics: {sorted(METRICS)}")
 
 
+#: the output bound (x units) of the event-based methods at their defaults: akf.reconstruct's and the complementary
+#: filter's max_intensity, the full well
+DEFAULT_OUTPUT_BOUND = 1.0
+
+
+def exposure_gains(frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """T_0 / T_k of every frame (1 where an exposure time is zero): what brings frame k to frame 0's x units."""
+    length = np.asarray(frame_t_end_us, np.float64) - np.asarray(frame_t_start_us, np.float64)
+    ok = (length > 0) & (length[0] > 0)
+    return np.where(ok, length[0] / np.where(length > 0, length, 1.0), 1.0)
+
+
+def output_bound(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> float:
+    """The largest value (x units) a method outputs at its defaults: DEFAULT_OUTPUT_BOUND (the AKF, the
+    complementary filters), or frames-only's largest, CRF^-1(1) T_0 / T_k of the shortest exposure, if larger."""
+    crf = as_crf(crf)
+    frames_max = float(crf.inverse(1.0)) * float(np.max(exposure_gains(frame_t_start_us, frame_t_end_us)))
+    return max(DEFAULT_OUTPUT_BOUND, frames_max)
+
+
+def reachable_white(scene_white: float, crf: CRF | str, frame_t_start_us: npt.ArrayLike,
+                    frame_t_end_us: npt.ArrayLike) -> tuple[float, str]:
+    """(white, description): the [0, 1] metrics' white, min(the scene's white, output_bound): a white no method
+    can reach would map every output below it to a small range where all methods tie."""
+    bound = output_bound(crf, frame_t_start_us, frame_t_end_us)
+    white = min(float(scene_white), bound)
+    return white, f"white {white:.4g} x = min(scene white {scene_white:.4g} x, methods' output bound {bound:.4g} x)"
+
+
 @dataclass
 class Case:
     """One sequence as every method sees it, and what it is scored against.
@@ -48,6 +82,9 @@ class Case:
     in log units), the scored times (int64 us), the truth there (T, H, W) in the CRF's scaled-irradiance units x of
     frame 0's exposure, the white level (x) the [0, 1] metrics map to 1, and optionally the per-time range
     clip[k] = (lo, hi) in x a held-out frame can measure (reconstructions are clipped to it before scoring).
+    windows: (T, 2) int64 exposure windows [t_start, t_end] us when the truth is a frame that integrated the scene
+    over them (a held-out frame); then, with exposure_matched (default), every reconstruction is the average of the
+    method over the window (akf.exposure), else the method at the scored time (point-in-time).
     options: {method: {keyword: value}} each method gets beyond the shared inputs.
     """
 
@@ -63,24 +100,86 @@ class Case:
     white: float
     clip: np.ndarray | None = None
     options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    windows: np.ndarray | None = None
+    exposure_matched: bool = True
+    _classes: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @property
+    def scoring(self) -> str:
+        """How run() compares reconstructions with the truth: exposure-matched or point-in-time."""
+        return "exposure-matched" if self.windows is not None and self.exposure_matched else "point-in-time"
 
     def run(self, method: str, sel: slice | np.ndarray = slice(None),
             setting: dict[str, float | None] | None = None) -> np.ndarray:
-        """The method's reconstructions at times[sel], with a tuning setting (akf.tuning) applied on top of the
-        case's contrast and options; clipped to the measurable range when the case has one."""
+        """The method's reconstructions at times[sel] (exposure-matched: averaged over windows[sel]), with a tuning
+        setting (akf.tuning) applied on top of the case's contrast and options; clipped to the measurable range
+        when the case has one (the held-out frame's response applied to the average)."""
         contrast, options = self.contrast, self.options.get(method, {})
         if setting:
             contrast, options = setting_options(method, setting, contrast, options)
-        images = METHODS[method](self.events, self.frames, self.t_start, self.t_end, self.crf, self.times[sel],
-                                 contrast=contrast, bit_depth=self.bit_depth, **options)
+
+        def at(times):
+            return METHODS[method](self.events, self.frames, self.t_start, self.t_end, self.crf, times,
+                                   contrast=contrast, bit_depth=self.bit_depth, **options)
+
+        if self.scoring == "exposure-matched":
+            images, _ = exposure_average(at, self.events, self.windows[sel], self.truth.shape[1:])
+        else:
+            images = at(self.times[sel])
         if self.clip is not None:
             images = np.stack([np.clip(img, lo, hi) for img, (lo, hi) in zip(images, self.clip[sel])])
         return images
 
-    def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Iterable[str]) -> dict[str, float]:
-        """{metric: mean over the frames} of images (at times[sel]) against the truth."""
+    def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Iterable[str],
+               by_class: bool = False) -> dict[str, float]:
+        """{metric: mean over the frames} of images (at times[sel]) against the truth; with by_class also
+        "metric@class" for every per-pixel metric (akf.metrics.PER_PIXEL) and class (akf.pixel_classes.CLASSES:
+        the class's pixels pooled over the frames; NaN for an empty class) and "share@class", the class's share of
+        the scored pixels."""
+        metrics = list(metrics)
         truth = self.truth[sel]
-        return {m: float(np.mean([score(m, r, t, self.white) for r, t in zip(images, truth)])) for m in metrics}
+        out = {m: float(np.mean([score(m, r, t, self.white) for r, t in zip(images, truth)])) for m in metrics}
+        if by_class:
+            out.update(self._class_scores(images, np.arange(self.times.size)[sel], [m for m in metrics
+                                                                                   if m in PER_PIXEL]))
+        return out
+
+    def classes(self, k: int) -> dict[str, np.ndarray]:
+        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel and time classes), cached."""
+        if k not in self._classes:
+            mid = (np.asarray(self.t_start, np.int64) + np.asarray(self.t_end, np.int64)) // 2
+            before, after = nearest_frames(mid, int(self.times[k]))
+            masks = pixel_classes(np.asarray(self.frames[before]), np.asarray(self.frames[after]), as_crf(self.crf),
+                                  self.bit_depth, self.truth[k], self.white)
+            when = time_classes(int(self.times[k]), self.t_start, self.t_end)
+            for name in TIME_CLASSES:
+                masks[name] = np.full(self.truth.shape[1:], name == when)
+            self._classes[k] = masks
+        return self._classes[k]
+
+    def _class_scores(self, images: np.ndarray, index: np.ndarray, metrics: list[str]) -> dict[str, float]:
+        shape = self.truth.shape[1:]
+        regions = {ssim: valid_region(shape, ssim) for ssim in (False, True)}
+        sums = {(m, c): 0.0 for m in metrics for c in CLASSES}
+        counts = {(ssim, c): 0 for ssim in (False, True) for c in CLASSES}
+        for img, k in zip(images, index):
+            masks = self.classes(int(k))
+            for ssim, region in regions.items():
+                for c in CLASSES:
+                    counts[ssim, c] += int(np.count_nonzero(masks[c] & region))
+            for m in metrics:
+                smap = score_map(m, img, self.truth[k], self.white)
+                region = regions["ssim" in m]
+                for c in CLASSES:
+                    sums[m, c] += float(smap[masks[c] & region].sum())
+        out = {}
+        for m in metrics:
+            for c in CLASSES:
+                n = counts["ssim" in m, c]
+                out[f"{m}@{c}"] = sums[m, c] / n if n else math.nan
+        total = index.size * shape[0] * shape[1]
+        out.update({f"share@{c}": counts[False, c] / total for c in CLASSES})
+        return out
 
 
 def evaluate_sequence(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
@@ -97,8 +196,8 @@ def evaluate_sequence(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_u
 
     Each metric is computed per reference frame (see akf.metrics for each one's normalisation) and averaged over
     the frames. method_options: {method: {keyword: value}} passed to that method (e.g. {"akf": {"params": ...}}).
-    white: the intensity the [0, 1] protocol metrics (mse01, ssim01) map to 1; default the 98th percentile of the
-    reference (all frames pooled).
+    white: the intensity the [0, 1] protocol metrics (mse01, ssim01) map to 1; default reachable_white of the 98th
+    percentile of the reference (all frames pooled): at most what the methods can output.
     Returns {method: {metric: mean value}}, and also {method: images} when return_images.
     """
     reference = np.asarray(reference)
@@ -108,7 +207,7 @@ def evaluate_sequence(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_u
                               f"and {times.shape[0]} times")
     check_names(methods, metrics)
     if white is None:
-        white = float(np.percentile(reference, 98))
+        white = reachable_white(float(np.percentile(reference, 98)), crf, frame_t_start_us, frame_t_end_us)[0]
     case = Case(events, frames, frame_t_start_us, frame_t_end_us, bit_depth, crf, contrast, times, reference, white,
                 options=method_options or {})
     table, images = {}, {}

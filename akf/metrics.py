@@ -161,12 +161,55 @@ NORMALISATION = {
 HIGHER_IS_BETTER = frozenset({"psnr", "ssim", "ssim01", "pu21_psnr", "pu21_ssim"})
 
 
-def score(metric: str, x: npt.ArrayLike, ref: npt.ArrayLike, white: float | None = None) -> float:
-    """metric (a METRICS name) of image x against ref; white is required by the NEEDS_WHITE metrics."""
+def _check_metric(metric: str, white: float | None) -> None:
     if metric not in METRICS:
         raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join(METRICS)}")
+    if metric in NEEDS_WHITE and white is None:
+        raise EvsimInputError(f"metric {metric!r} needs the white level of the [0, 1] protocol")
+
+
+def score(metric: str, x: npt.ArrayLike, ref: npt.ArrayLike, white: float | None = None) -> float:
+    """metric (a METRICS name) of image x against ref; white is required by the NEEDS_WHITE metrics."""
+    _check_metric(metric, white)
     if metric in NEEDS_WHITE:
-        if white is None:
-            raise EvsimInputError(f"metric {metric!r} needs the white level of the [0, 1] protocol")
         return METRICS[metric](x, ref, white=white)
     return METRICS[metric](x, ref)
+
+
+#: SSIM's window: skimage's default 7x7; its local map is valid (and averaged) SSIM_MARGIN pixels from the border
+SSIM_WINDOW = 7
+SSIM_MARGIN = (SSIM_WINDOW - 1) // 2
+#: the metrics that are a mean of a per-pixel map (score_map), so that they can be averaged over a pixel class
+PER_PIXEL = frozenset({"mse01", "ssim01", "mse", "ssim", "log_mse", "pu21_ssim"})
+
+
+def _ssim_map(x: np.ndarray, ref: np.ndarray, data_range: float) -> npt.NDArray[np.float64]:
+    _, smap = structural_similarity(x, ref, data_range=data_range, full=True)
+    return np.asarray(smap, np.float64)
+
+
+def score_map(metric: str, x: npt.ArrayLike, ref: npt.ArrayLike, white: float | None = None
+              ) -> npt.NDArray[np.float64]:
+    """The per-pixel map whose mean is the PER_PIXEL metric: the squared error (mse01, mse, log_mse, each in its
+    normalisation) or the local SSIM (ssim01, ssim, pu21_ssim: Wang et al. 2004, 7x7 window). score() of an SSIM
+    metric is the mean of its map SSIM_MARGIN pixels in from the border (skimage's rule); of the others the mean of
+    the whole map."""
+    _check_metric(metric, white)
+    if metric not in PER_PIXEL:
+        raise EvsimInputError(f"metric {metric!r} is not a mean over pixels; per-pixel maps exist for "
+                              f"{', '.join(sorted(PER_PIXEL))}")
+    x, ref = _pair(x, ref)
+    if metric in ("mse01", "ssim01"):
+        x, ref = to_unit_range(x, white), to_unit_range(ref, white)
+    if metric == "ssim01":
+        return _ssim_map(x, ref, 1.0)
+    if metric == "ssim":
+        rng = float(ref.max() - ref.min())
+        if rng <= 0:
+            raise EvsimInputError("ssim needs a positive data_range (the reference is constant)")
+        return _ssim_map(x, ref, rng)
+    if metric == "pu21_ssim":
+        return _ssim_map(pu21_encode(100.0 * x), pu21_encode(100.0 * ref), PU21_PEAK)
+    if metric == "log_mse":
+        return (np.log(x + LOG_EPS) - np.log(ref + LOG_EPS)) ** 2
+    return (x - ref) ** 2

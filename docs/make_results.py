@@ -230,6 +230,51 @@ def _mean_table(scores: dict, metrics: tuple[str, ...]) -> list[str]:
     return lines
 
 
+#: the per-class rows of the results pages (akf.pixel_classes), in this order, with a short label
+CLASS_ROWS = {"well": "well-exposed in the nearest frames", "high": "clipped high in a nearest frame",
+              "low": "clipped low in a nearest frame", "flat": "flat truth", "textured": "textured truth",
+              "at_frames": "times inside a frame's exposure", "between": "times between frames"}
+
+
+def _class_table(scores: dict, metrics: tuple[str, ...] = ("mse01", "ssim01")) -> list[str]:
+    """Mean over the sequences of each class's scores (rows: classes with pixels; the mean share of the scored
+    pixels beside the class), a column per method, the best of each metric in bold."""
+    mean = {m: scores[m]["mean"] for m in METHODS}
+    rows = [c for c in CLASS_ROWS if (mean[METHODS[0]].get(f"share@{c}") or 0) > 0]
+    if not rows:
+        return []
+    head = "| pixel class (share) | " + " | ".join(f"{METHOD_NAMES[m]} {' / '.join(metrics)}" for m in METHODS) + " |"
+    lines = [head, "|---" * (len(METHODS) + 1) + "|"]
+    for c in rows:
+        cells = []
+        for m in METHODS:
+            parts = []
+            for k in metrics:
+                vals = [mean[mm][f"{k}@{c}"] for mm in METHODS]
+                best = min(vals) if k in LOWER_IS_BETTER else max(vals)
+                v = mean[m][f"{k}@{c}"]
+                parts.append(f"**{fmt(v)}**" if v == best else fmt(v))
+            cells.append(" / ".join(parts))
+        lines.append(f"| {CLASS_ROWS[c]} ({100 * mean[METHODS[0]][f'share@{c}']:.0f} %) | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _losses(scores: dict, metrics: tuple[str, ...] = ("mse01", "ssim01")) -> list[str]:
+    """Where the AKF is not the best: every sequence, and every class with pixels (mean over the sequences)."""
+    places = [(s, s, "") for s in scores["akf"] if s != "mean"]
+    shares = scores["akf"]["mean"]
+    places += [(f"class {c}", "mean", f"@{c}") for c in CLASS_ROWS if (shares.get(f"share@{c}") or 0) > 0]
+    out = []
+    for k in metrics:
+        pick = min if k in LOWER_IS_BETTER else max
+        for label, row, suffix in places:
+            vals = {m: scores[m][row][k + suffix] for m in METHODS}
+            best = pick(vals, key=vals.get)
+            if best != "akf":
+                out.append(f"- {label}, `{k}`: AKF {fmt(vals['akf'])}, {METHOD_NAMES[best]} {fmt(vals[best])}")
+    return out
+
+
 def _notes(stdout: str) -> list[str]:
     """The notes `evsim evaluate` prints on the assumptions it made (the tuned settings are listed apart)."""
     lines = [x.strip() for x in stdout.splitlines()]
@@ -243,7 +288,8 @@ def evaluation_page(e: dict, m: dict) -> str:
              "camera pan, zoom or rotation and seen by a noisy DAVIS346-like event sensor and an LDR camera behind "
              "the AKF paper's window CRF, which clips most of each frame. Every method reconstructs the HDR "
              "reference frames' times; the scores are the paper's protocol (`mse01`, `ssim01`: both images "
-             "mapped to [0, 1] by the scene's white level) and HDR-aware metrics on absolute values (`mse`, "
+             "mapped to [0, 1] by a white the methods can reach, min(scene white, output bound)) and HDR-aware "
+             "metrics on absolute values (`mse`, "
              "`log_mse`, PU21-SSIM); the model reference describes each metric and protocol.", "",
              f"The suite: `generate_ahdr_suite('ahdr_suite', include_hdr=False)` at {size['height']}x"
              f"{size['width']} pixels, {size['duration_s']:g} s per sequence, seed 0. Methods: the AKF, the "
@@ -265,10 +311,18 @@ def evaluation_page(e: dict, m: dict) -> str:
              "method is then scored on the remaining two thirds, so these numbers are not comparable frame for "
              "frame with the untuned ones.")):
         r = e[label]
-        scores = {k: v for k, v in r["scores"].items() if k != "tuning"}
+        scores = {k: v for k, v in r["scores"].items() if k not in ("tuning", "scoring")}
         lines += [f"## {title}", "", text, "",
                   f"Command: `{r['command']}` ({r['cpu_s']:.0f} CPU-seconds on this machine).", "",
                   *_table(scores, ("mse01", "ssim01")), "", *_mean_table(scores, ("mse", "log_mse", "pu21_ssim")), ""]
+        classes = _class_table(scores)
+        if classes:
+            lines += ["Per pixel class (`mse01` / `ssim01` of the class's pixels pooled over each sequence's scored "
+                      "times, then averaged over the sequences; `akf.pixel_classes`): where each method wins.", "",
+                      *classes, ""]
+        losses = _losses(scores)
+        lines += (["Where the AKF is not the best:", "", *losses, ""] if losses
+                  else ["The AKF is the best on every sequence and every class of `mse01` and `ssim01`.", ""])
         if label == "tuned" and r["scores"].get("tuning"):
             from akf.tuning import describe_setting
 

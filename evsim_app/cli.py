@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 import sim
@@ -22,8 +23,10 @@ from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
+from . import export_command
 from .calibrate_command import add_parser as add_calibrate_parser
 from .plots.cli import add_plot_parser
+from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
 
@@ -49,6 +52,8 @@ def _settings_from_flags(args) -> dict:
     if args.sampling_quantile is not None:
         s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
     s["output"] = {"labels": args.labels}
+    if args.outputs is not None:
+        s["output"]["outputs"] = args.outputs
     if args.reference_rate_hz is not None:
         s["output"]["reference_rate_hz"] = args.reference_rate_hz
     return s
@@ -72,7 +77,7 @@ def _scene_sequences(args) -> list[dict]:
 
 
 _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
-                "reference_rate_hz", "sampling")
+                "reference_rate_hz", "sampling", "outputs")
 
 
 def _dataset_config(args):
@@ -193,12 +198,23 @@ def _cmd_convert(args) -> int:
                     overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
                     stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
                     flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
-                    input_crf=args.input_crf, black_level=args.black_level, **_run_options(args))
+                    input_crf=args.input_crf, slowmo=args.slowmo, resize=args.resize,
+                    conditioning=_conditioning_option(args),
+                    black_level=args.black_level, **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
     print(f"converted {n} clip(s) to {index.parent} (index: {index.name})")
     return 0
+
+
+def _conditioning_option(args) -> str | dict | None:
+    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn."""
+    if args.input_noise_dn is None:
+        return args.input_conditioning
+    if args.input_conditioning == "off":
+        raise sim.EvsimInputError("--input-noise-dn sets the conditioning's noise: drop --input-conditioning off")
+    return {"mode": "temporal", "noise_dn": args.input_noise_dn}
 
 
 def _cmd_info(args) -> int:
@@ -251,22 +267,28 @@ def _cmd_demo(args) -> int:
 
 def _cmd_evaluate(args) -> int:
     from evsim_eval.evaluate import evaluate_dataset
-    from evsim_eval.tables import format_table, write_json
+    from evsim_eval.tables import format_table, scoring_record, write_json
 
     if args.task == "denoise":
         return _evaluate_denoise(args)
+    if args.task == "realism":
+        from .realism_command import evaluate_realism
+
+        return evaluate_realism(args)
+    matched = not args.point_scoring
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
-                              progress=False if args.no_progress else None, strict=False, sensor=args.sensor,
+                              progress=False if args.no_progress else None, strict=False, exposure_matched=matched,
+                              sensor=args.sensor,
                               **_run_options(args))
     scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
-        print(format_table(scores.table, args.protocol, scores.notes))
+        print(format_table(scores.table, args.protocol, scores.notes, matched))
     raise_failures("sequences", scores.failures, len(scores.failures) + len(scored),
                    "the table above is over the others" + (f"; {args.json} not written" if args.json else ""))
     if args.json is not None:
-        write_json(scores.table, args.json, scores.tuning)
+        write_json(scores.table, args.json, scores.tuning, scoring_record(args.protocol, matched, scores.notes))
         print(f"\nscores written to {args.json}")
     return 0
 
@@ -378,16 +400,19 @@ def _add_output_flags(p, default_out: str) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
-def _add_sensor_flags(g) -> None:
+def _add_sensor_flags(g, crf_default: str = "window") -> None:
     """The LDR camera, CRF, DVS sampling and output flags shared by generate and convert (read by
     _settings_from_flags, with the camera's --fps)."""
     g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
-    g.add_argument("--crf", help="camera response function name from crf_models (default: window)")
+    g.add_argument("--crf", help=f"camera response function name from crf_models (default: {crf_default})")
     g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
     g.add_argument("--sampling-quantile", type=float,
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
+    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+                   help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
+                        "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
 
@@ -416,7 +441,8 @@ def _add_scene_flags(p) -> None:
 
 
 def _add_convert_parser(sub) -> None:
-    conv = sub.add_parser("convert", help="video(s) -> events + LDR frames + HDR reference, one sequence per clip",
+    conv = sub.add_parser("convert", help="video(s) -> events (+ LDR frames + HDR reference with --outputs), one "
+                          "sequence per clip",
                           epilog=EPILOG)
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
@@ -428,14 +454,31 @@ def _add_convert_parser(sub) -> None:
                    help="start of the clip in seconds from the input's first frame (default 0)")
     g.add_argument("--stop-s", type=_non_negative(float), default=None,
                    help="end of the clip in seconds (default: the input's last frame)")
-    g.add_argument("--fps", type=float, help="input frame rate in frames per second (image folders and .npy "
-                                             "stacks; overrides a video container's rate)")
+    g.add_argument("--input-fps", "--fps", dest="fps", type=float,
+                   help="the rate the input frames were captured at, frames per second (default: a video's "
+                        "capture-rate metadata, else its container rate; image folders and .npy stacks need it or "
+                        "timestamps)")
+    g.add_argument("--slowmo", type=float, metavar="FACTOR",
+                   help="a slow-motion video: captured FACTOR times faster than its container rate (e.g. 32 for "
+                        "960 fps stored at 30); phones' capture-rate metadata is read without it")
+    g.add_argument("--resize", choices=("crop", "pad", "stretch"), default="crop",
+                   help="when the sensor's aspect ratio differs from the input's: crop (fill the sensor, centred; "
+                        "default), pad (the whole input, black bars) or stretch (the whole input, distorted)")
+    g.add_argument("--input-conditioning", choices=("temporal", "off"),
+                   help="per-pixel temporal filter of the input before the DVS, against codec artefacts (key "
+                        "frames, flicker) and read noise on static pixels (default: temporal for video files, off "
+                        "for image folders and stacks)")
+    g.add_argument("--input-noise-dn", type=_non_negative(float), metavar="DN",
+                   help="temporal noise rms of the input in its code values (e.g. a camera's read noise); turns "
+                        "the conditioning on (default: estimated from a video)")
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
-    g.add_argument("--input-crf", help="crf_models curve whose inverse linearises 8/16-bit input (default srgb; "
-                                       "linear for a recording's frames; float input is taken as linear)")
+    g.add_argument("--input-crf", help="linearisation: crf_models curve whose inverse maps 8/16-bit input to linear "
+                                       "radiance (default srgb; linear, or the recorded one, for a recording's frames; "
+                                       "float input is taken as linear; the output's metadata states it)")
     g.add_argument("--black-level", type=_non_negative(float), help="the integer input's value for no light "
-                                                                    "(subtracted before linearising; default 0)")
+                                                                    "(subtracted before linearising; default 0, or "
+                                                                    "the --sensor file's [input] black_level)")
     g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
@@ -445,11 +488,10 @@ def _add_convert_parser(sub) -> None:
                                                     "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
     s.add_argument("--height", type=int, help="sensor height in pixels (default: the input's; alone, it keeps "
-                                              "the aspect ratio; the input is cropped to the sensor's aspect ratio "
-                                              "and area-resized)")
+                                              "the aspect ratio; see --resize; the input is area-resized)")
     s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
     s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
-    _add_sensor_flags(s)
+    _add_sensor_flags(s, crf_default="srgb")
     conv.add_argument("--sensor", metavar="NAME|FILE", help=f"{SENSOR_HELP} (default davis346)")
     _add_output_flags(conv, "evsim_convert")
     _add_run_flags(conv)
@@ -514,8 +556,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
-    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (and "
-                                              "tuning: {method: setting} with --tune)")
+    ev.add_argument("--json", type=Path, help="also write {method: {sequence: {metric: value}, mean: {...}}} (with "
+                                              "per-class scores metric@class, share@class; scoring: what the "
+                                              "scores compare; tuning: {method: setting} with --tune)")
+    ev.add_argument("--point-scoring", action="store_true",
+                    help="interleave: score each reconstruction at the held-out frame's mid-exposure time instead "
+                         "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
                          "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
@@ -529,15 +575,17 @@ def build_parser() -> argparse.ArgumentParser:
                                      "recording without recorded ones gets (default: estimated from the data)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
-    dn.add_argument("--task", choices=("reconstruction", "denoise"), default="reconstruction",
+    dn.add_argument("--task", choices=("reconstruction", "denoise", "realism"), default="reconstruction",
                     help="reconstruction (default): score HDR reconstructions; denoise: TPR on signal and FPR per "
                          "noise type (shot, leak, hot) of each filter over its main parameter, ROC AUCs, and the "
                          "methods on events denoised at each filter's default (needs files written with --labels; "
-                         "--json then writes the result of evsim_eval.denoisers)")
+                         "--json then writes the result of evsim_eval.denoisers); realism: how real the events of "
+                         "--against SIM are against those of DATASET (see below)")
     dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
     dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")
+    add_realism_flags(ev)
     _add_run_flags(ev, resume=False)
     ev.set_defaults(func=_cmd_evaluate)
 
@@ -556,7 +604,16 @@ def build_parser() -> argparse.ArgumentParser:
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
     add_calibrate_parser(sub)
+    export_command.add_parser(sub, EPILOG)
     return parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning whose category says evsim_note as "evsim: note: ...", others as Python does."""
+    if getattr(category, "evsim_note", False):
+        print(f"evsim: note: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 class Terminated(BaseException):
@@ -581,7 +638,9 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     try:
         _check_paths(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
+            return args.func(args)
     except sim.EvsimInputError as e:
         print(f"evsim: error: {e}", file=sys.stderr)
         return 2

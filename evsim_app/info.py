@@ -1,6 +1,9 @@
 """What a dataset holds: `describe(path)` gathers it, `format_description(d)` prints it (used by `evsim info`).
 
-Native files are summarised by streaming their events (memory stays flat); other layouts are loaded.
+Native files are summarised from the event summary their writer records (checked against the file's event count
+and first and last times: generators.formats.native.event_summary), else by streaming their events (memory stays
+flat); other layouts are loaded. A folder of sequences (a dataset folder with index.json, a folder written by
+`evsim export`, a `evsim reconstruct` output with one folder per sequence) is described sequence by sequence.
 """
 
 from __future__ import annotations
@@ -9,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from generators.choices import INDEX_FILE
+from generators.exports import folder_sequences
 from generators.formats import detect, load
 from generators.formats.common import json_attr, open_h5
-from generators.formats.native import iter_native_events, recording_event_chunks
+from generators.formats.native import event_summary, iter_native_events, recording_event_chunks
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")
 
@@ -21,8 +26,14 @@ def describe(path: str | Path) -> dict:
     path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
     reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
-    seed_entropy, generator, packages. Raises DatasetFormatError for unreadable files."""
+    seed_entropy, generator, packages, outputs (what the generator was asked to write, or None). A folder of
+    sequences gives {path, layout: "folder", index: whether it has index.json, sequences: [one such dict each]}.
+    Raises DatasetFormatError for unreadable files."""
     path = Path(path)
+    sequences = folder_sequences(path)
+    if sequences is not None:
+        return {"path": str(path), "layout": "folder", "index": (path / INDEX_FILE).is_file(),
+                "sequences": [describe(file) for _, file in sequences]}
     layout = detect(path)
     if layout == "native":
         with open_h5(path) as f:
@@ -33,7 +44,8 @@ def describe(path: str | Path) -> dict:
             ref_t = f["reference/t_us"][()] if "reference/t_us" in f else np.zeros(0, np.int64)
             thr = f["threshold_maps"][()] if "threshold_maps" in f else None
             crf, meta = json_attr(f, "crf"), json_attr(f, "metadata", {})
-        chunks = iter_native_events(path)
+        summary = event_summary(path)
+        chunks = iter_native_events(path) if summary is None else None
     else:
         rec = load(path)
         h, w, crf, meta, thr = rec.height, rec.width, rec.crf, rec.metadata, rec.threshold_maps
@@ -41,7 +53,7 @@ def describe(path: str | Path) -> dict:
                                                    "t_end_us": rec.frame_t_end_us, "bit_depth": rec.frame_bit_depth}
         ref_t = rec.reference_t_us if rec.reference is not None else np.zeros(0, np.int64)
         chunks = recording_event_chunks(rec)
-    ev = _event_stats(chunks)
+    ev = _event_stats(chunks) if chunks is not None else _summary_stats(summary)
     if frames is not None and frames["t_mid_us"].size == 0:
         frames = None
     spans = [(ev["t_first_us"], ev["t_last_us"])] if ev["count"] else []
@@ -65,7 +77,17 @@ def describe(path: str | Path) -> dict:
         "seed_entropy": seed.get("entropy") if isinstance(seed, dict) else seed,
         "generator": meta.get("generator"),
         "packages": meta.get("packages"),
+        "outputs": meta.get("config", {}).get("outputs") if isinstance(meta.get("config"), dict) else None,
     }
+
+
+def _summary_stats(summary: dict) -> dict:
+    """The event statistics of a native file's recorded summary (as _event_stats gives them)."""
+    n, on, labels = summary["count"], summary["on"], summary["labels"]
+    if labels is not None:
+        labels = {(LABEL_NAMES[i] if i < len(LABEL_NAMES) else str(i)): int(c) for i, c in enumerate(labels)}
+    return {"count": n, "on": on, "off": n - on, "rate_hz": None, "t_first_us": summary["t_first_us"] if n else None,
+            "t_last_us": summary["t_last_us"] if n else None, "labels": labels}
 
 
 def _event_stats(chunks) -> dict:
@@ -98,8 +120,21 @@ def _frame_stats(frames: dict) -> dict:
             "exposure_us": {"min": int(exposure.min()), "mean": float(exposure.mean()), "max": int(exposure.max())}}
 
 
+def _not_asked(d: dict, part: str) -> str:
+    """" (not among its outputs: ...)" when the file was generated without `part`, else ""."""
+    outputs = d.get("outputs")
+    if isinstance(outputs, list) and part not in outputs:
+        return f" (generated with --outputs {','.join(outputs)})"
+    return ""
+
+
 def format_description(d: dict) -> str:
     """A human-readable, multi-line rendering of describe()'s dictionary."""
+    if "sequences" in d:
+        n = len(d["sequences"])
+        head = (f"{d['path']} (dataset folder, {n} sequence{'s' * (n != 1)}"
+                + (")" if d["index"] else f", no {INDEX_FILE}: not written by generate/convert, or incomplete)"))
+        return "\n\n".join([head] + [format_description(s) for s in d["sequences"]])
     ev = d["events"]
     lines = [
         f"{d['path']} ({d['layout']})",
@@ -117,10 +152,10 @@ def format_description(d: dict) -> str:
         lines.append(f"  frames      {fr['count']}{rate}, {fr['bit_depth']}-bit, exposure "
                      f"{e['min']} / {e['mean']:.1f} / {e['max']} us (min/mean/max)")
     else:
-        lines.append("  frames      none")
+        lines.append("  frames      none" + _not_asked(d, "frames"))
     ref = d["reference"]
     lines.append(f"  reference   {ref['count']} HDR frames [{ref['t_first_us']} .. {ref['t_last_us']}] us" if ref
-                 else "  reference   none")
+                 else "  reference   none" + _not_asked(d, "reference"))
     if d["threshold_maps"]:
         t = d["threshold_maps"]
         lines.append(f"  thresholds  ON mean {t['on_mean']:.4f}, OFF mean {t['off_mean']:.4f} (log units)")

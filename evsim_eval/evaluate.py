@@ -68,17 +68,19 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: Sequence[str] = DEFAULT_METHODS,
                        metrics: Sequence[str] = DEFAULT_METRICS,
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
-                       tune_fraction: float = TUNE_FRACTION, sensor: str | None = None) -> tuple[dict, str]:
+                       tune_fraction: float = TUNE_FRACTION, exposure_matched: bool = True,
+                       by_class: bool = False, sensor: str | None = None) -> tuple[dict, str]:
     """Score methods on one recording: ({method: {metric: value}}, notes joined by "; "). sensor: a sensor file or
     preset whose thresholds a recording without recorded ones gets (protocols.recording_contrast_or_estimate).
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
-    on the times after the tuning split only.
+    on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
+    scores "metric@class" and shares "share@class" (akf.evaluate.Case.scores).
     """
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
-    case, notes = recording_case(rec, protocol, method_options, sensor)
+    case, notes = recording_case(rec, protocol, method_options, exposure_matched, sensor)
     sel = np.arange(case.times.size) if tuning is None else split_times(case.times.size, tune_fraction)[1]
-    table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics) for m in methods}
+    table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics, by_class) for m in methods}
     return table, "; ".join(notes)
 
 
@@ -87,21 +89,27 @@ def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]
     return evaluate_recording(load(file), **options)
 
 
-def add_means(result: dict, metrics: Sequence[str]) -> dict:
-    """Add {"mean": {metric: mean over the sequences}} to every method of {method: {sequence: {metric: value}}}
-    that scored any sequence; returns result."""
+def add_means(result: dict) -> dict:
+    """Add {"mean": {key: mean over the sequences}} to every method of {method: {sequence: {key: value}}} that
+    scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result."""
     for rows in result.values():
         if rows:
-            rows["mean"] = {k: float(np.mean([r[k] for r in rows.values()])) for k in metrics}
+            keys = list(next(iter(rows.values())))
+            means = {}
+            for k in keys:
+                values = [r[k] for r in rows.values() if k in r and not math.isnan(r[k])]
+                means[k] = float(np.mean(values)) if values else math.nan
+            rows["mean"] = means
     return result
 
 
 def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, methods: Iterable[str],
                  method_options: dict[str, dict[str, Any]] | None, tune_fraction: float, tune_metric: str,
-                 progress: Callable[..., object] | None = None, sensor: str | None = None) -> tuple[dict, list[str]]:
+                 progress: Callable[..., object] | None = None, exposure_matched: bool = True,
+                 sensor: str | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
-    ((name, file) pairs), in this process."""
-    cases = [recording_case(load(file), protocol, method_options, sensor)[0] for _, file in sequences]
+    ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched)."""
+    cases = [recording_case(load(file), protocol, method_options, exposure_matched, sensor)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}
     for m in methods:
@@ -118,13 +126,16 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
                      metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
                      tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
                      workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
-                     strict: bool = True, sensor: str | None = None) -> DatasetScores:
+                     strict: bool = True, exposure_matched: bool = True, by_class: bool = True,
+                     sensor: str | None = None) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
 
     progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
-    the messages and, on a terminal only, the bar. strict: raise when sequences fail (EvsimInputError when every
+    the messages and, on a terminal only, the bar. exposure_matched: with protocol "interleave", reconstructions
+    averaged over each held-out frame's exposure window (else at its mid-exposure time); by_class: also the
+    per-class scores (evaluate_recording). strict: raise when sequences fail (EvsimInputError when every
     one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
     DatasetScores.failures and the table holds the others. sensor: see evaluate_recording.
     """
@@ -136,9 +147,10 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
         say = None if progress is False else (lambda text: print(text, file=sys.stderr))
         tuning, notes = tune_dataset(sequences, protocol=protocol, methods=methods, method_options=method_options,
                                      tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say,
-                                     sensor=sensor)
+                                     exposure_matched=exposure_matched, sensor=sensor)
     options = {"protocol": protocol, "methods": methods, "metrics": metrics, "method_options": method_options,
-               "tuning": tuning if tune else None, "tune_fraction": tune_fraction, "sensor": sensor}
+               "tuning": tuning if tune else None, "tune_fraction": tune_fraction,
+               "exposure_matched": exposure_matched, "by_class": by_class, "sensor": sensor}
     tasks = [(name, (Path(file).resolve(),), options) for name, file in sequences]
     outcomes = run_tasks(evaluate_sequence_file, tasks, workers=workers, scheduler=scheduler, progress=progress,
                          desc="evaluating")
@@ -153,4 +165,4 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
             sequence_notes += [f"{outcome.name}: {note}"] if note else []
             for m in methods:
                 table[m][outcome.name] = scores[m]
-    return DatasetScores(add_means(table, metrics), sequence_notes + notes, tuning, failures)
+    return DatasetScores(add_means(table), sequence_notes + notes, tuning, failures)

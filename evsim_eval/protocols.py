@@ -13,10 +13,14 @@ their max_intensity, default 1: what the camera can represent). Scores are compu
   time, as x = CRF^-1(response) * T_0 / T_k. A frame only measures x inside the CRF's range
   [CRF^-1(0), CRF^-1(1)], so reconstructions are clipped to that range (of the held-out frame's exposure) before
   scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
-  assumed linear (x = response).
+  assumed linear (x = response). The held-out frame integrated the scene over its exposure window, so by default
+  (exposure_matched) each reconstruction is averaged over that window before the clip (akf.exposure, Case.windows);
+  exposure_matched=False scores the reconstruction at mid-exposure (point-in-time).
 Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
-The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 the recorded reference_white_radiance (reference
-protocol; else the reference's 98th percentile, with a note) or CRF^-1(1) (interleave: a held-out frame's white).
+The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 (reference protocol) a white the methods can
+reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the recorded
+reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a held-out
+frame's white).
 Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), those of
 a given sensor file (the camera calibrated by `evsim calibrate`: the same pixel model), else the thresholds
 estimated from its events and the fed frames under that pixel model with its log offset b, log(x + b)
@@ -45,14 +49,15 @@ import crf_models
 import sim
 from akf.evaluate import Case
 from generators.formats import detect
-from generators.formats.recording import Recording
+from generators.formats.recording import Recording, not_generated_hint
 from sim import EvsimInputError
 
 from .choices import PROTOCOLS
 
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
-WHITE = {"reference": " (white = the recorded reference_white_radiance in x units)",
-         "interleave": " (white = CRF^-1(1))"}
+WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the methods' output bound): "
+                      "see the notes)",
+         "interleave": " (white = CRF^-1(1), the held-out frame's white)"}
 UNITS = {"reference": "x = CRF scaled irradiance of frame 0's exposure (reference radiance * reference_to_crf_x)",
          "interleave": "x = CRF^-1(held-out frame) of frame 0's exposure; reconstructions clipped to the CRF range"}
 
@@ -144,23 +149,26 @@ def reference_to_x(rec: Recording) -> float:
 def check_frames(rec: Recording, need: int, what: str) -> None:
     n = 0 if rec.frames is None else rec.frames.shape[0]
     if n < need:
-        raise EvsimInputError(f"{what} needs at least {need} frame{'s' * (need != 1)}, the recording has {n}")
+        raise EvsimInputError(f"{what} needs at least {need} LDR frame{'s' * (need != 1)}, the recording has {n}"
+                              + (not_generated_hint(rec, "frames") if n == 0 else ""))
 
 
 # ----- the two protocols -----------------------------------------------------------------------------------------
 
 def recording_case(rec: Recording, protocol: str = "reference",
                    method_options: dict[str, dict[str, Any]] | None = None,
-                   sensor: str | None = None) -> tuple[Case, list[str]]:
-    """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made. sensor: see
-    recording_contrast_or_estimate."""
+                   exposure_matched: bool = True, sensor: str | None = None) -> tuple[Case, list[str]]:
+    """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made.
+    exposure_matched (interleave): reconstructions averaged over each held-out frame's exposure window (default),
+    else taken at its mid-exposure time. sensor: see recording_contrast_or_estimate."""
     crf, note = recording_crf(rec)
     notes = [note] if note else []
     options = method_options_for(rec, method_options)
     if protocol == "reference":
         check_frames(rec, 2, "protocol 'reference'")
         if rec.reference is None:
-            raise EvsimInputError("the recording has no HDR reference frames (use --protocol interleave)")
+            raise EvsimInputError("the recording has no HDR reference frames"
+                                  + (not_generated_hint(rec, "reference") or " (use --protocol interleave)"))
         inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
         if not inside.any():
             raise EvsimInputError("no reference frame lies between the first and the last frame")
@@ -168,35 +176,34 @@ def recording_case(rec: Recording, protocol: str = "reference",
         truth = rec.reference[inside] * to_x
         white_radiance = rec.metadata.get("reference_white_radiance")
         if isinstance(white_radiance, (int, float)) and white_radiance > 0:
-            white = float(white_radiance) * to_x
+            scene_white = float(white_radiance) * to_x
         else:
-            white = float(np.percentile(truth, 98))
-            notes.append("no reference_white_radiance recorded: [0, 1] metrics map the reference's 98th "
-                         "percentile to 1")
+            scene_white = float(np.percentile(truth, 98))
+            notes.append("no reference_white_radiance recorded: the scene white is the reference's 98th percentile")
+        white, white_note = akf.evaluate.reachable_white(scene_white, crf, rec.frame_t_start_us, rec.frame_t_end_us)
+        notes.append(white_note)
         fed = np.arange(rec.frames.shape[0])
-        times, clip = rec.reference_t_us[inside], None
+        times, clip, windows = rec.reference_t_us[inside], None, None
     elif protocol == "interleave":
         check_frames(rec, 3, "protocol 'interleave'")
         nf = rec.frames.shape[0]
         fed = np.arange(0, nf, 2)
         held = np.arange(1, fed[-1], 2)
-        t0 = float(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
-        gains = np.ones(held.size)
-        for i, k in enumerate(held):
-            tk = float(rec.frame_t_end_us[k] - rec.frame_t_start_us[k])
-            gains[i] = t0 / tk if t0 > 0 and tk > 0 else 1.0
+        gains = akf.evaluate.exposure_gains(rec.frame_t_start_us, rec.frame_t_end_us)[held]
         full = float((1 << rec.frame_bit_depth) - 1)
         truth = np.stack([g * np.asarray(crf.inverse(rec.frames[k] / full), np.float64)
                           for g, k in zip(gains, held)])
         x_lo, x_hi = float(crf.inverse(0.0)), float(crf.inverse(1.0))
         white, times, clip = x_hi, rec.frame_t_mid_us[held], np.stack([gains * x_lo, gains * x_hi], axis=1)
+        windows = np.stack([rec.frame_t_start_us[held], rec.frame_t_end_us[held]], axis=1).astype(np.int64)
     else:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
     contrast, c_note = recording_contrast_or_estimate(rec, crf, fed, sensor)
     if c_note:
         notes.append(c_note)
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
-                rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options)
+                rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options,
+                windows=windows, exposure_matched=exposure_matched)
     return case, notes
 
 

@@ -50,7 +50,8 @@ def synthetic_clip(path):
 
 
 clip = args.video or synthetic_clip(out / "astronaut_30fps.avi")
-settings = {"sensor": "davis346", "crf": {"name": "srgb"}}
+# convert writes the events only unless asked: the LDR frames and the HDR reference are drawn below
+settings = {"sensor": "davis346", "crf": {"name": "srgb"}, "output": {"outputs": ["events", "frames", "reference"]}}
 recs = {}
 for mode in MODES:
     index = convert(clip, out / f"06_{mode}", settings=settings, height=HEIGHT, stop_s=STOP_S, upsample=mode,

@@ -4,6 +4,7 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
 - DVS: the scene is sampled by the adaptive (or fixed-rate) sampler and fed to sim.DVSEmulator in chunks;
 - LDR camera: sim.LDRCamera captures frames (exposure, motion blur, noise, the CRF; AHDR "window" by default);
 - reference: the scene radiance at every frame's mid-exposure time, plus optional extra times or a regular rate;
+- frames and reference are written when AHDRConfig.outputs names them (the events always);
 - threshold maps and per-event labels when requested; metadata: the resolved configuration, the seed (entropy and
   spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
   reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
@@ -24,6 +25,7 @@ import importlib.metadata
 import math
 import platform
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,13 +38,15 @@ import sim
 from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
+from .choices import OUTPUTS
 from .formats.native import NativeWriter, check_compression
 from .sampling import make_sampler
 
 if TYPE_CHECKING:
     from sim.source import RadianceSource
 
-__all__ = ["AHDRConfig", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions", "warm_up_input",
+__all__ = ["AHDRConfig", "check_outputs", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
+           "warm_up_input",
            "REFERENCE_WHITE_PERCENTILE", "MAX_RATE_HZ", "MAX_REFERENCE_FRAMES", "MAX_FIXED_SAMPLES"]
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
@@ -73,6 +77,9 @@ class AHDRConfig:
         or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
     reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
         regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
+    outputs: what the file holds, of generators.choices.OUTPUTS: "events" (always), "frames" (the LDR camera's
+        frames; without it the camera is not run) and "reference" (the HDR reference frames). The events are the
+        same whatever the outputs (the DVS input is sampled at the frame and reference times either way).
     threshold_maps, labels: store the per-pixel thresholds / per-event labels.
     compression: of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by
         ISA-L, generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
@@ -96,8 +103,10 @@ class AHDRConfig:
     threshold_maps: bool = True
     labels: bool = False
     compression: str | None = "gzip"
+    outputs: tuple[str, ...] = OUTPUTS
 
     def __post_init__(self):
+        object.__setattr__(self, "outputs", check_outputs(self.outputs))
         if not isinstance(self.dvs, sim.DVSParams) or not isinstance(self.camera, sim.CameraParams):
             raise InvalidParameterError("AHDRConfig: dvs must be a sim.DVSParams and camera a sim.CameraParams")
         object.__setattr__(self, "reference_times_us", tuple(int(t) for t in self.reference_times_us))
@@ -115,6 +124,19 @@ class AHDRConfig:
     def to_dict(self) -> dict:
         """JSON-serialisable form (tuples as lists)."""
         return _jsonable(dataclasses.asdict(self))
+
+
+def check_outputs(outputs: Iterable[str]) -> tuple[str, ...]:
+    """outputs as a tuple in OUTPUTS order: names of OUTPUTS, "events" among them; InvalidParameterError naming
+    an unknown one."""
+    if isinstance(outputs, str) or not all(isinstance(o, str) for o in outputs):
+        raise InvalidParameterError(f"outputs must be a list of names ({', '.join(OUTPUTS)}), got {outputs!r}")
+    unknown = [o for o in outputs if o not in OUTPUTS]
+    if unknown:
+        raise InvalidParameterError(f"unknown output {unknown[0]!r}; outputs are {', '.join(OUTPUTS)}")
+    if "events" not in outputs:
+        raise InvalidParameterError(f"outputs must include events (the DVS output), got {', '.join(outputs) or 'none'}")
+    return tuple(o for o in OUTPUTS if o in outputs)
 
 
 def _jsonable(v):
@@ -338,8 +360,9 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
         ref_times = set(refs) | set(schedule[:, 1].tolist())
 
         def reference(img, t):
-            write("add_reference", img, t + origin)
-            counts["references"] += 1
+            if "reference" in config.outputs:
+                write("add_reference", img, t + origin)
+                counts["references"] += 1
 
         writer.set_crf(meta["crf"])
         if config.threshold_maps:
@@ -370,10 +393,11 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                 feed(stack, times)
             bar.update(duration - bar.n)
         rendered_for_dvs = src.seconds
-        with tqdm(total=len(schedule), unit="frame", desc="frames",
-                  disable=not progress, leave=False) as bar:
+        with tqdm(total=len(schedule) if "frames" in config.outputs else 0, unit="frame", desc="frames",
+                  disable=not progress or "frames" not in config.outputs, leave=False) as bar:
             bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
-            frames = camera.capture(src, irradiance=False, clean_response=False)
+            frames = camera.capture(src, irradiance=False, clean_response=False) if "frames" in config.outputs \
+                else iter(())
             while True:
                 t0, s0 = clock.now(), src.seconds
                 frame = next(frames, None)

@@ -19,7 +19,8 @@ A configuration describes a dataset of sequences. Every key is optional except [
     sampling = { mode = "adaptive", fraction = 0.5, quantile = 0.95, min_step_us = 10, max_step_us = 5000,
                  rate_hz = 2000.0 }   # quantile: of the per-pixel log change held below fraction x threshold
     output = { labels = false, threshold_maps = true, reference_times_us = [], reference_rate_hz = 0.0,
-               compression = "gzip" }   # or "lzf" (faster to write, larger) or "none"
+               compression = "gzip",    # or "lzf" (faster to write, larger) or "none"
+               outputs = ["events", "frames", "reference"] }   # what each file holds (events always)
 
     [[sequence]]
     name = "desk_pan"             # a plain file name: no path separators, no leading dot, not empty
@@ -52,7 +53,8 @@ from sim.sensor_file import check_camera_fields, check_dvs_fields
 from sim.suggest import unknown_name
 
 from . import scenes
-from .ahdr import AHDRConfig
+from .ahdr import AHDRConfig, check_outputs
+from .choices import OUTPUTS
 from .formats import EXPORT_FORMATS
 from .formats.native import COMPRESSIONS
 
@@ -67,11 +69,13 @@ SCENE_TYPES = {
              "views from one warp of a box-filtered source instead of the sub-sample grid; default true)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
-    "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "
-             "fps (input frame rate, for folders and stacks), timestamps (file), upsample (flow | linear | none), "
-             "flow (dis | farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, "
-             "channel, black_level, warm_up_s (the clip sets the duration; it is cropped to the aspect ratio of "
-             "height x width and area-resized to it)",
+    "video": "a video file, a folder of images, a .npy stack or a hybrid recording's frames (generators.scenes.video): "
+             "path, start_s, stop_s, fps (the capture rate of the input frames), slowmo (video files: capture rate "
+             "= container rate x slowmo), timestamps (file), upsample (flow | linear | none), flow (dis | "
+             "farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, channel, "
+             "black_level, warm_up_s, resize (crop | pad | stretch: to the aspect ratio of height x width), "
+             "conditioning (temporal | off, or a table of generators.scenes.conditioning.ConditioningParams fields) "
+             "(the clip sets the duration)",
     "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, "
                      "trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",
@@ -85,7 +89,7 @@ MAX_PIXELS = 1 << 25  # about 33 M pixels (8K UHD): larger sensors are refused a
 SAMPLING_KEYS = {"mode": str, "fraction": float, "quantile": float, "min_step_us": int, "max_step_us": int,
                  "rate_hz": float}
 OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": list, "reference_rate_hz": float,
-               "compression": str}
+               "compression": str, "outputs": list}
 SEQUENCE_KEYS = {"duration_s": float, "height": int, "width": int, "sensor": str, "dvs": dict, "camera": dict,
                  "crf": dict, "sampling": dict, "output": dict}
 #: the DVS parameters a [sweep] table may vary
@@ -98,7 +102,7 @@ DEFAULTS = {
     "sampling": {"mode": "adaptive", "fraction": 0.5, "quantile": 0.95, "min_step_us": 10, "max_step_us": 5000,
                  "rate_hz": 2000.0},
     "output": {"labels": False, "threshold_maps": True, "reference_times_us": [], "reference_rate_hz": 0.0,
-               "compression": "gzip"},
+               "compression": "gzip", "outputs": list(OUTPUTS)},
 }
 
 
@@ -178,6 +182,11 @@ def resolve_settings(where: str, table: dict, base: dict, base_dir: Path | None 
             value = _check_table(f"{where}.output", value, OUTPUT_KEYS)
             for i, t in enumerate(value.get("reference_times_us", [])):
                 _check_type(f"{where}.output.reference_times_us[{i}]", t, int)
+            if "outputs" in value:
+                try:
+                    value["outputs"] = list(check_outputs(value["outputs"]))
+                except InvalidParameterError as e:
+                    raise _fail(f"{where}.output.outputs", str(e)) from None
         elif key == "dvs":
             value = check_dvs_fields(f"{where}.dvs", value)
         elif key == "camera":
@@ -463,7 +472,7 @@ def to_ahdr_config(settings: dict, *, where: str = "settings") -> AHDRConfig:
             min_step_us=sampling["min_step_us"], max_step_us=sampling["max_step_us"], rate_hz=sampling["rate_hz"],
             reference_times_us=tuple(output["reference_times_us"]), reference_rate_hz=output["reference_rate_hz"],
             threshold_maps=output["threshold_maps"], labels=output["labels"],
-            compression=_compression(output["compression"]),
+            compression=_compression(output["compression"]), outputs=tuple(output["outputs"]),
         )
     except InvalidParameterError as e:
         raise _fail(where, str(e)) from None

@@ -1,10 +1,13 @@
 """Videos to datasets (`evsim convert`): each clip is a VideoScene run through the dataset pipeline of
-`evsim generate` (generators.dataset.generate_dataset: DVS emulator, LDR camera, HDR reference, writers).
+`evsim generate` (generators.dataset.generate_dataset: DVS emulator, LDR camera, HDR reference, writers). A
+converted clip holds its events only by default (CONVERT_OUTPUTS); the LDR frames and HDR reference on request.
 
 convert(inputs, out_dir, ...) takes video files, image folders and .npy stacks (generators.scenes.video), or
 folders of video files, and writes one sequence per clip. Each sequence's metadata (its "scene") records the
-input's path and sha256, its frame rate or timestamps, the part used, the linearisation, the luminance weighting,
-the crop and resize and the upsampling.
+input's path and sha256, the capture rate used and where it comes from (timestamps, --input-fps, --slowmo, the
+container's capture-rate metadata or its rate), the part used, the linearisation, the luminance weighting, the
+resize policy, the input conditioning and the upsampling. The synthetic LDR frames use the sRGB CRF unless the
+settings name another.
 """
 
 from __future__ import annotations
@@ -20,12 +23,18 @@ from .config import DatasetConfig, parse_config
 from .dataset import generate_dataset
 from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
 
-__all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS"]
+__all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS", "CONVERT_OUTPUTS"]
+
+#: what a converted clip's file holds unless settings["output"]["outputs"] says otherwise: the events
+CONVERT_OUTPUTS = ("events",)
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
-SCENE_OPTIONS = ("start_s", "stop_s", "fps", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "black_level",
-                 "warm_up_s")
+SCENE_OPTIONS = ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning",
+                 "black_level", "warm_up_s")
+#: the LDR camera's CRF when the settings name none: ordinary video looks as it did (the AHDR `window` CRF of
+#: `generate` maps all but a narrow band of radiance to black or white)
+DEFAULT_CRF = {"name": "srgb", "params": {}}
 
 
 def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
@@ -66,7 +75,9 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                    **scene_options: Any) -> DatasetConfig:
     """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
 
-    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output); height,
+    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; the crf is
+    DEFAULT_CRF, sRGB, unless given; output.outputs defaults to CONVERT_OUTPUTS, the events only: add "frames" and
+    "reference" for the LDR frames and the HDR reference of the clip); height,
     width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
     VideoScene default; black_level defaults to the [input] table of a sensor file given as settings["sensor"]).
     """
@@ -92,15 +103,17 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
         h, w = _sensor_size(path, height, width)
         sequences.append({"name": name, "height": h, "width": w,
                           "scene": {"type": "video", "path": str(path.resolve()), **options}})
-    return parse_config({"seed": seed, "defaults": dict(settings or {}), "sequence": sequences},
-                        source="<convert>")
+    defaults = {"crf": DEFAULT_CRF, **(settings or {})}
+    defaults["output"] = {"outputs": list(CONVERT_OUTPUTS), **defaults.get("output", {})}
+    return parse_config({"seed": seed, "defaults": defaults, "sequence": sequences}, source="<convert>")
 
 
 def convert(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, *, settings: dict | None = None,
             height: int | None = None, width: int | None = None, seed: int = 0, fmt: str = "native",
             overwrite: bool = False, progress: bool = True, workers: int | None = None, scheduler: str | None = None,
             resume: bool = False, **scene_options: Any) -> Path:
-    """Convert video(s) into a dataset folder (one native HDF5 file per clip, an optional export, index.json);
+    """Convert video(s) into a dataset folder (one native HDF5 file per clip, with the events only unless
+    settings["output"]["outputs"] asks for frames and reference; an optional export; index.json);
     return the index path. Arguments as for convert_config; fmt, workers, scheduler, resume: as for
     generate_dataset (one task per clip)."""
     cfg = convert_config(inputs, settings=settings, height=height, width=width, seed=seed, **scene_options)

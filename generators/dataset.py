@@ -33,6 +33,7 @@ import hashlib
 import importlib.metadata
 import json
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -43,8 +44,9 @@ from sim import EvsimInputError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
+from .choices import INDEX_FILE
 from .config import DatasetConfig, build_scene, check_sequence_name, to_ahdr_config
-from .formats import export
+from .formats import HOLDS, ExportDropWarning, export
 from .formats.atomic import discard, write_text_atomic
 from .formats.common import json_attr, open_h5
 from .formats.native import FORMAT_VERSION
@@ -55,9 +57,8 @@ if TYPE_CHECKING:
 
     from .scenes import Scene
 
-INDEX_FILE = "index.json"
 EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
-                 "aedat4": ".aedat4", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
+                 "aedat4": ".aedat4", "aedat2": ".aedat2", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
 MANIFEST_SUFFIX = ".manifest.json"
 MANIFEST_VERSION = 1
 _MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one
@@ -135,7 +136,9 @@ def write_sequence(out: Path, name: str, scene: RadianceSource, ahdr_config: AHD
     metadata = metadata or {}
     generate_ahdr(scene, path, ahdr_config, seed, progress=progress, metadata={"name": name, **metadata})
     if fmt != "native":
-        export(path, out / f"{name}{EXPORT_SUFFIX[fmt]}", fmt)
+        with warnings.catch_warnings():  # said once per run by run_sequences (export_note)
+            warnings.simplefilter("ignore", ExportDropWarning)
+            export(path, out / f"{name}{EXPORT_SUFFIX[fmt]}", fmt)
     return index_entry(out, name, fmt, tuple(metadata))
 
 
@@ -270,6 +273,22 @@ def verify_sequence(out: Path, name: str, fmt: str, digest: str) -> str:
     return ""
 
 
+def export_note(tasks: list[SequenceTask]) -> str:
+    """"" when every sequence's export holds all its file holds, else one sentence naming what the exports leave
+    out (the native files keep it)."""
+    dropped: dict[str, list[str]] = {}
+    for t in tasks:
+        if t.fmt == "native":
+            continue
+        parts = ["events", *t.ahdr.outputs, "threshold_maps" * t.ahdr.threshold_maps, "event_labels" * t.ahdr.labels,
+                 "crf", "metadata"]
+        for part in parts:
+            if part and part not in HOLDS[t.fmt] and part not in dropped.setdefault(t.fmt, []):
+                dropped[t.fmt].append(part)
+    return "; ".join(f"{fmt} holds {', '.join(HOLDS[fmt])} and the sensor size: its exports leave out "
+                     f"{', '.join(parts)} (the native .h5 files keep them)" for fmt, parts in dropped.items() if parts)
+
+
 def write_index(out: Path, index: dict) -> Path:
     """Write index.json atomically."""
     path = out / INDEX_FILE
@@ -344,6 +363,9 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
               f"{': ' + _names(redo) if redo else ''}", flush=True)
         for i in todo:
             print(f"resume: generating {jobs[i][0].name} again: {states[i][1]}", flush=True)
+    note = export_note([task for task, _ in jobs])
+    if note:
+        warnings.warn(note, ExportDropWarning, stacklevel=2)
     _discard_stale_temporaries(out, [jobs[i][0] for i in todo])
     serial = workers is None and scheduler is None
     tasks = [(jobs[i][0].name, (jobs[i][0], jobs[i][1], out, digests[i]), {"progress": progress and serial})

@@ -11,6 +11,7 @@ import pytest
 import akf
 import crf_models
 import sim
+from akf.exposure import sample_count, sample_times
 from evsim_app.cli import main
 from evsim_eval.evaluate import evaluate_dataset
 from evsim_eval.protocols import reference_to_x
@@ -67,7 +68,8 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
     assert main(["evaluate", str(dataset), "--metrics", "mse,ssim", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     result = json.loads(out.read_text())
-    assert set(result) == {"akf", "cf", "frames"}
+    assert set(result) == {"akf", "cf", "frames", "scoring"}
+    assert result.pop("scoring")["mode"].startswith("point-in-time")
     direct = {name: _direct(dataset / f"{name}.h5") for name in ("a", "b")}
     for method in result:
         assert set(result[method]) == {"a", "b", "mean"}
@@ -118,7 +120,8 @@ def test_dataset_index_folder_is_read_in_index_order(tmp_path):
     generate_tiny(tmp_path / "y.h5", 3)
     write_index(tmp_path, {"sequences": [{"name": "z", "file": "z.h5"}, {"name": "y", "file": "y.h5"}]})
     result, notes, _, _ = evaluate_dataset(tmp_path, methods=("frames",), metrics=("mse",))
-    assert list(result["frames"]) == ["z", "y", "mean"] and notes == []
+    assert list(result["frames"]) == ["z", "y", "mean"]
+    assert [n.split(": white ")[0] for n in notes] == ["z", "y"]  # each sequence's white point, nothing else
 
 
 def test_reconstruct_writes_exr_frames_with_the_same_values(dataset, tmp_path, capsys):
@@ -146,19 +149,33 @@ def test_interleave_protocol_on_exported_layouts(dataset, tmp_path, layout):
     rec = load(dataset / "a.h5")
     target = tmp_path / ("seq" if layout == "ijrr" else "seq.mat")
     export(rec, target, layout)
-    result, notes, _, _ = evaluate_dataset(target, protocol="interleave", methods=("akf", "frames"), metrics=("mse",))
+    result, notes, _, _ = evaluate_dataset(target, protocol="interleave", methods=("akf", "frames"), metrics=("mse",),
+                                           exposure_matched=False)
     # ground truth by hand: odd frames between even ones, x = CRF^-1(frame), frames-only from the even frames
     crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
     fed = np.arange(0, rec.frames.shape[0], 2)
     held = np.arange(1, fed[-1], 2)
     truth = crf.inverse(rec.frames[held] / 255.0)
-    fr = akf.frames_only(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed], crf,
-                         rec.frame_t_mid_us[held])
-    fr = np.clip(fr, crf.inverse(0.0), crf.inverse(1.0))
-    expected = np.mean([np.mean((a - b) ** 2) for a, b in zip(fr, truth)])
-    assert result["frames"]["seq"]["mse"] == pytest.approx(expected, rel=1e-6)
+
+    def frames_only(times):
+        return akf.frames_only(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed], crf,
+                               times)
+
+    def mse_clipped(images):
+        images = np.clip(images, crf.inverse(0.0), crf.inverse(1.0))
+        return np.mean([np.mean((a - b) ** 2) for a, b in zip(images, truth)])
+
+    assert result["frames"]["seq"]["mse"] == pytest.approx(mse_clipped(frames_only(rec.frame_t_mid_us[held])),
+                                                           rel=1e-6)
     assert result["akf"]["seq"]["mse"] < result["frames"]["seq"]["mse"]  # the events fill the skipped frame
     assert notes == []
+    # exposure-matched (the default): the mean of the method at the midpoint samples of each held-out exposure
+    matched, *_ = evaluate_dataset(target, protocol="interleave", methods=("frames",), metrics=("mse",))
+    averaged = []
+    for k in held:
+        a, b = rec.frame_t_start_us[k], rec.frame_t_end_us[k]
+        averaged.append(frames_only(sample_times(a, b, sample_count(rec.events, a, b, truth.shape[1:]))).mean(0))
+    assert matched["frames"]["seq"]["mse"] == pytest.approx(mse_clipped(np.stack(averaged)), rel=1e-6)
 
 
 def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):

@@ -111,6 +111,12 @@ def _expelliarmus_events(path, fmt):
     return a["t"], a["x"], a["y"], np.where(a["p"] > 0, 1, -1)
 
 
+def _faery_events(path):
+    faery = pytest.importorskip("faery")
+    a = faery.events_stream_from_file(path).to_array()
+    return a["t"], a["x"], a["y"], np.where(a["on"], 1, -1)
+
+
 def _toolbox_dat_events(path):
     """Prophesee's own numpy reader convention (github.com/prophesee-ai/prophesee-automotive-dataset-toolbox,
     src/io/dat_events_tools.py): '% ' header lines, 1 byte type, 1 byte size, then (u4 t, i4 packed x|y|p)."""
@@ -153,6 +159,7 @@ def test_prophesee_exports_read_back_exactly_by_independent_readers(tmp_path, fm
     else:
         _assert_same(_expelliarmus_events(tmp_path / name, fmt), ev)
         _assert_same(_toolbox_dat_events(tmp_path / name), ev)
+        _assert_same(_faery_events(tmp_path / name), ev)  # faery reads CD-typed .dat files only
     assert detect(tmp_path / name) == fmt
     back = load(tmp_path / name)
     assert (back.height, back.width) == (260, 346)
@@ -171,6 +178,41 @@ def test_prophesee_times_past_the_formats_range_are_stored_from_a_recorded_offse
     reader = _expelliarmus_events(path, fmt) if fmt == "dat" else _evlib_events(path)
     _assert_same(reader, rec.events, offset)
     np.testing.assert_array_equal(load(path).events, rec.events)
+
+
+def test_dat_header_and_event_type_are_prophesees_and_faerys_own_encoder_agrees(tmp_path):
+    # Prophesee's DAT spec (docs.prophesee.ai/stable/data/file_formats/dat.html): "% Data file containing CD
+    # events", Date YYYY-MM-DD HH:MM:SS, Version 2, Width, Height; then event type 0x0C (EventCd) and size 8.
+    faery = pytest.importorskip("faery")
+    ev = long_stream(3000)
+    export_quietly(Recording(events=ev, height=260, width=346), tmp_path / "e.dat", "dat")
+    data = (tmp_path / "e.dat").read_bytes()
+    lines = data.split(b"\n")
+    assert lines[:5] == [b"% Data file containing CD events", b"% Date 1970-01-01 00:00:00", b"% Version 2",
+                         b"% Width 346", b"% Height 260"]
+    body = data.index(b"\n", data.rindex(b"\n% ") + 1) + 1
+    assert data[body : body + 2] == bytes([0x0C, 8])
+    # faery's own DAT encoder (event type "cd") writes the same type byte and the same 8-byte events
+    packet = np.zeros(ev.size, [("t", "<u8"), ("x", "<u2"), ("y", "<u2"), ("payload", "u1")])
+    packet["t"], packet["x"], packet["y"], packet["payload"] = ev["t"], ev["x"], ev["y"], ev["p"] > 0
+    with faery.dat.Encoder(tmp_path / "f.dat", "dat2", "cd", False, (346, 260)) as enc:
+        enc.write(packet)
+    theirs = (tmp_path / "f.dat").read_bytes()
+    cut = theirs.index(bytes([0x0C, 8]), theirs.rindex(b"% "))
+    assert theirs[cut:] == data[body:]
+    np.testing.assert_array_equal(load(tmp_path / "f.dat").events, ev)
+
+
+def test_dat_files_of_event_type_0_under_the_older_header_still_read(tmp_path):
+    # earlier evsim .dat output: "% Data file containing Event2D events." and type 0 (Event2d), same layout
+    ev = long_stream(500)
+    export_quietly(Recording(events=ev, height=260, width=346), tmp_path / "new.dat", "dat")
+    data = (tmp_path / "new.dat").read_bytes()
+    old = data.replace(b"% Data file containing CD events\n", b"% Data file containing Event2D events.\n")
+    at = old.index(bytes([0x0C, 8]), old.rindex(b"\n% "))
+    (tmp_path / "old.dat").write_bytes(old[:at] + bytes([0, 8]) + old[at + 2 :])
+    np.testing.assert_array_equal(load(tmp_path / "old.dat").events, ev)
+    _assert_same(_expelliarmus_events(tmp_path / "old.dat", "dat"), ev)
 
 
 def test_prophesee_export_from_a_native_file_streams_chunks_exactly(tmp_path):
@@ -229,7 +271,9 @@ def test_prophesee_bad_files_are_clear_errors(tmp_path):
 # -- AEDAT4 -------------------------------------------------------------------------------------------------------
 def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_recording):
     # iniVation's convention (dv-processing's dv::Frame): a frame's timestamp is its exposure start and exposure
-    # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t.
+    # its duration; the aedat package reports them as exposure_begin_t / exposure_end_t, and the start and end of
+    # frame readout (frame.fbs timestampStartOfFrame / EndOfFrame) as begin_t / end_t: the camera model's exposure
+    # window too, as it has no readout time.
     dv = pytest.importorskip("dv_processing")
     aedat = pytest.importorskip("aedat")
     rec = tiny_recording
@@ -258,6 +302,14 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_reco
     fr = [p["frame"] for p in packets if "frame" in p]
     np.testing.assert_array_equal([f["exposure_begin_t"] for f in fr], rec.frame_t_start_us)
     np.testing.assert_array_equal([f["exposure_end_t"] for f in fr], rec.frame_t_end_us)
+    np.testing.assert_array_equal([f["t"] for f in fr], rec.frame_t_start_us)
+    np.testing.assert_array_equal([f["begin_t"] for f in fr], rec.frame_t_start_us)
+    np.testing.assert_array_equal([f["end_t"] for f in fr], rec.frame_t_end_us)
+    np.testing.assert_array_equal(np.stack([f["pixels"] for f in fr]), rec.frames)
+    _assert_same(_faery_events(tmp_path / "r.aedat4"), rec.events)  # faery reads the event stream too
+    # packets in time order: each frame before the events that follow its exposure start
+    order = [("frame", p["frame"]["t"]) if "frame" in p else ("events", p["events"]["t"][0]) for p in packets]
+    assert [t for _, t in order] == sorted(t for _, t in order)
     back = load(tmp_path / "r.aedat4")
     np.testing.assert_array_equal(back.events, rec.events)
     np.testing.assert_array_equal(back.frames, rec.frames)

@@ -187,7 +187,7 @@ def test_video_file_and_config_scene_type(tmp_path):
     assert (scene.height, scene.width, scene.duration_us) == (24, 32, round(6e6 / 30))
     meta = scene.describe()
     assert meta["input"]["sha256"] == hashlib.sha256((tmp_path / "clip.avi").read_bytes()).hexdigest()
-    assert meta["frame_rate_hz"] == pytest.approx(30.0)
+    assert meta["capture_fps"] == pytest.approx(30.0)
     # 2 px per frame at 64 wide is 1 px per frame at 32 wide: 30 px/s
     assert scene.max_speed_px_per_s() == pytest.approx(30.0, rel=0.3)
 
@@ -256,7 +256,8 @@ def test_real_clips_convert_end_to_end(tmp_path, capsys):
         pytest.skip("no .mp4 clips in ../shared/data/video")
     out = tmp_path / "out"
     assert main(["convert", str(VIDEO_DIR), "--out", str(out), "--stop-s", "0.25", "--height", "40",
-                 "--sensor", "davis346", "--crf", "srgb", "--format", "e2vid", "--no-progress"]) == 0
+                 "--sensor", "davis346", "--crf", "srgb", "--format", "e2vid", "--no-progress",
+                 "--outputs", "events,frames,reference"]) == 0
     index = json.loads((out / "index.json").read_text())
     assert [s["name"] for s in index["sequences"]] == [v.stem for v in videos]
     for entry, video in zip(index["sequences"], videos):

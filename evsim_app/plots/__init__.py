@@ -2,9 +2,10 @@
 
 plot_pixel: one pixel over time (the figure that explains the AKF); plot_events: event frames, time surfaces and the
 event rate; plot_compare: methods side by side with error and gain maps; plot_sweep: error (or a denoiser's AUC)
-against swept noise parameters; plot_roc: ROC curves of event denoisers against the per-event labels; plot_crfs:
-the CRF family; animate: events against the reconstruction as GIF/MP4. All use the Agg backend, one tone-mapping
-operator (common.ToneMap) and write their files atomically.
+against swept noise parameters; plot_roc: ROC curves of event denoisers against the per-event labels; plot_realism:
+a real recording's events beside a simulation's (the realism score's statistics); plot_crfs: the CRF family;
+animate: events against the reconstruction as GIF/MP4. All use the Agg backend, one tone-mapping operator
+(common.ToneMap) and write their files atomically.
 """
 
 from sim.lazy import lazy_exports
@@ -18,6 +19,7 @@ _EXPORTS = {
     **dict.fromkeys(("event_frame", "event_rate", "plot_events", "time_surface"), "events"),
     **dict.fromkeys(("PixelSeries", "pixel_series", "plot_pixel"), "pixel"),
     **dict.fromkeys(("load_roc_result", "plot_roc"), "roc"),
+    "plot_realism": "realism",
     **dict.fromkeys(("plot_sweep", "sweep_metrics"), "sweep"),
 }
 __all__ = sorted(_EXPORTS)

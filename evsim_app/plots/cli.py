@@ -1,4 +1,5 @@
-"""`evsim plot pixel|events|compare|sweep|roc`: registered on the evsim command line by add_plot_parser(subparsers).
+"""`evsim plot pixel|events|compare|sweep|roc|realism`: registered on the evsim command line by
+add_plot_parser(subparsers).
 
 Handlers raise sim.EvsimInputError on bad input (the evsim entry point prints "evsim: error: ..." and exits 2);
 this includes a missing matplotlib (evsim_app.plots.common.PlotDependencyError, with the pip command to fix it).
@@ -9,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+from sim import EvsimInputError
 
 PLOT_EPILOG = ("Times in milliseconds (-ms) as the flag names say, pixel coordinates from 0 (x: column, y: row). "
                "Log intensities are natural logs of the CRF's scaled irradiance plus I0. "
@@ -42,14 +45,30 @@ def _cmd_pixel(args) -> int:
 
 
 def _cmd_events(args) -> int:
-    from .common import load_recording, prepare
-    from .events import plot_events
+    from generators.formats import detect
 
-    rec = load_recording(args.dataset)
+    from .common import load_recording, prepare
+    from .events import EventSource, plot_events
+
+    if args.video is not None:
+        from .video import check_video_options, write_video
+
+        check_video_options(args.video, args.frame_ms, args.video_fps, args.full_scale, args.scale)
+        if not Path(args.dataset).exists():
+            raise EvsimInputError(f"dataset not found: {args.dataset}")
+        v = write_video(args.dataset, args.video, frame_ms=args.frame_ms, fps=args.video_fps,
+                        full_scale=args.full_scale, scale=args.scale, progress=not args.no_progress)
+        print(f"wrote {args.video} ({v['frames']} frames of {v['frame_us'] / 1e3:g} ms, {v['events']} events, "
+              f"played at {args.video_fps:g} fps)")
+        if args.out is None and args.animate is None:
+            return 0
     if args.animate is not None:
         from .animate import check_output
 
         check_output(args.animate)
+    # a native file is read window by window (memory stays flat); other layouts, and an animation, load it
+    native = args.animate is None and Path(args.dataset).is_file() and detect(args.dataset) == "native"
+    rec = EventSource.of_native(args.dataset) if native else load_recording(args.dataset)
     out = args.out or _default_out(args.dataset, "events")
     res = plot_events(rec, out, at_ms=args.at_ms, window_ms=args.window_ms, bin_ms=args.bin_ms)
     print(f"wrote {out} (windows ending at {', '.join(f'{t / 1e3:g}' for t in res['times_us'])} ms)")
@@ -126,6 +145,17 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                    help="also write an animation of events against the AKF reconstruction (.gif; .mp4 needs ffmpeg)")
     e.add_argument("--frames", type=_positive_int, default=40, help="animation frames (default 40)")
     e.add_argument("--fps", type=float, default=10.0, help="animation frames per second (default 10)")
+    e.add_argument("--video", type=Path, metavar="FILE",
+                   help="write a DVS video instead of the figure (add --out for both): event frames over "
+                        "consecutive --frame-ms intervals, ON red, OFF blue; .mp4 (OpenCV) or .gif; streamed, so "
+                        "memory does not grow with the recording")
+    e.add_argument("--frame-ms", type=float, default=10.0, help="video: the interval each frame accumulates, ms "
+                                                                "(default 10)")
+    e.add_argument("--video-fps", type=float, default=30.0, help="video: playback frames per second (default 30)")
+    e.add_argument("--full-scale", type=_positive_int, default=3,
+                   help="video: events of one polarity in a frame that give the full colour (default 3, at most 15)")
+    e.add_argument("--scale", type=_positive_int, default=1, help="video: pixels per sensor pixel side (default 1)")
+    e.add_argument("--no-progress", action="store_true", help="video: no progress bar")
     e.set_defaults(func=_cmd_events)
 
     c = psub.add_parser("compare", epilog=PLOT_EPILOG,
@@ -159,4 +189,8 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                                                 "all in the JSON)")
     r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
     r.set_defaults(func=_cmd_roc)
+
+    from .realism import add_realism_plot_parser
+
+    add_realism_plot_parser(psub, PLOT_EPILOG)
     return plot

@@ -14,18 +14,20 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim import EvsimInputError, slice_time
+from sim import EVENT_DTYPE, EvsimInputError, slice_time
 
 from .common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
 
-if TYPE_CHECKING:
-    from pathlib import Path
+_EMPTY = np.zeros(0, EVENT_DTYPE)
 
+if TYPE_CHECKING:
     from generators.formats.recording import Recording
 
 
@@ -54,9 +56,10 @@ def time_surface(events: np.ndarray, height: int, width: int, t_us: int, tau_us:
     return out.reshape(height, width)
 
 
-def event_rate(events: np.ndarray, bin_us: int, t_start_us: int | None = None,
+def event_rate(events: np.ndarray | Mapping[str, np.ndarray], bin_us: int, t_start_us: int | None = None,
                t_end_us: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds."""
+    """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds.
+    events: an event array, or a mapping of its "t" and "p" columns."""
     if bin_us < 1:
         raise EvsimInputError(f"rate bin must be >= 1 us, got {bin_us}")
     t = events["t"]
@@ -71,9 +74,22 @@ def event_rate(events: np.ndarray, bin_us: int, t_start_us: int | None = None,
     return (edges[:-1], np.histogram(t[on], edges)[0] * scale, np.histogram(t[~on], edges)[0] * scale)
 
 
-def event_frame_rgb(counts: np.ndarray) -> np.ndarray:
-    """(H, W, 3) float image of a (2, H, W) event frame: white, ON towards red, OFF towards blue (see module doc)."""
-    top = max(float(np.percentile(counts[counts > 0], 99)) if np.any(counts > 0) else 1.0, 1.0)
+def _streamed_rate(src: EventSource, bin_us: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """event_rate over the whole stream of src, summed chunk by chunk over the same bins."""
+    t0 = src.t_first_us if src.count else 0
+    t1 = src.t_last_us + 1 if src.count else t0 + bin_us
+    start, on, off = event_rate(_EMPTY, bin_us, t0, t1)
+    for chunk in src.chunks():
+        _, on_k, off_k = event_rate(chunk, bin_us, t0, t1)
+        on, off = on + on_k, off + off_k
+    return start, on, off
+
+
+def event_frame_rgb(counts: np.ndarray, top: float | None = None) -> np.ndarray:
+    """(H, W, 3) float image of a (2, H, W) event frame: white, ON towards red, OFF towards blue (see module doc),
+    full colour at `top` events (default: the 99th percentile of the counts)."""
+    if top is None:
+        top = max(float(np.percentile(counts[counts > 0], 99)) if np.any(counts > 0) else 1.0, 1.0)
     on, off = (np.clip(c / top, 0, 1)[..., None] for c in counts)
     white = np.ones(3)
     to_on, to_off = (np.array(c) - white for c in (ON_COLOUR, OFF_COLOUR))
@@ -81,36 +97,85 @@ def event_frame_rgb(counts: np.ndarray) -> np.ndarray:
     return np.clip(rgb, 0, 1)
 
 
-def default_times_us(events: np.ndarray, n: int = 3) -> list[int]:
+def default_times_us(events: np.ndarray | EventSource, n: int = 3) -> list[int]:
     """n window end times spread evenly over the events' span, on whole milliseconds (us)."""
-    if events.size == 0:
+    src = events if isinstance(events, EventSource) else EventSource.of_array(events, 1, 1)
+    if src.count == 0:
         raise EvsimInputError("the dataset has no events")
-    t0, t1 = int(events["t"][0]), int(events["t"][-1])
+    t0, t1 = src.t_first_us, src.t_last_us
     return [int(round((t0 + (t1 - t0) * (k + 1) / n) / 1e3)) * 1000 for k in range(n)]
 
 
-def plot_events(rec: Recording, out: str | Path, *, at_ms: Sequence[float] | None = None, window_ms: float = 10.0,
-                bin_ms: float | None = None) -> dict:
+@dataclass
+class EventSource:
+    """The events of a recording as the figure reads them: count, first and last time (us), the events of a time
+    window (window(t0, t1): t0 <= t < t1) and the whole stream in chunks (chunks()). of_array wraps events in
+    memory; of_native reads a native file window by window and chunk by chunk, so memory stays flat."""
+
+    height: int
+    width: int
+    count: int
+    t_first_us: int | None
+    t_last_us: int | None
+    window: Callable[[int, int], np.ndarray]
+    chunks: Callable[[], Iterator[np.ndarray | dict[str, np.ndarray]]]
+
+    @classmethod
+    def of_array(cls, events: np.ndarray, height: int, width: int) -> EventSource:
+        n = int(events.size)
+        return cls(height, width, n, int(events["t"][0]) if n else None, int(events["t"][-1]) if n else None,
+                   lambda t0, t1: slice_time(events, t0, t1), lambda: iter([events]))
+
+    @classmethod
+    def of_native(cls, path: str | Path) -> EventSource:
+        from generators.formats.common import open_h5
+        from generators.formats.native import (
+            event_summary,
+            iter_native_columns,
+            iter_native_events,
+            read_native_window,
+        )
+
+        summary = event_summary(path)
+        if summary is None:  # (a file without a summary: count and span from one pass)
+            n, first, last = 0, None, None
+            for ev, _ in iter_native_events(path):
+                if ev.size:
+                    n, first, last = n + ev.size, int(ev["t"][0]) if first is None else first, int(ev["t"][-1])
+        else:
+            n, first, last = summary["count"], summary["t_first_us"], summary["t_last_us"]
+        with open_h5(path) as f:
+            h, w = int(f.attrs["height"]), int(f.attrs["width"])
+        return cls(h, w, n, first if n else None, last if n else None,
+                   lambda t0, t1: read_native_window(path, t0, t1),
+                   lambda: iter_native_columns(path, ("t", "p")))
+
+
+def plot_events(rec: Recording | EventSource, out: str | Path, *, at_ms: Sequence[float] | None = None,
+                window_ms: float = 10.0, bin_ms: float | None = None) -> dict:
     """Event frames and time surfaces at each time of at_ms (window [t - window_ms, t)), and the event rate over
-    time, into the image file `out`. Returns {"times_us", "frames", "surfaces", "rate"} (what was drawn)."""
-    events = rec.events
+    time, into the image file `out`. rec: a Recording, or an EventSource (EventSource.of_native streams a native
+    file: only the windows drawn are read, and the rate in chunks). Returns {"times_us", "frames", "surfaces",
+    "rate"} (what was drawn)."""
+    src = rec if isinstance(rec, EventSource) else EventSource.of_array(rec.events, rec.height, rec.width)
     if not window_ms > 0:
         raise EvsimInputError(f"--window-ms must be > 0, got {window_ms}")
     if bin_ms is not None and not bin_ms * 1e3 >= 1:
         raise EvsimInputError(f"--bin-ms must be at least 0.001 ms, got {bin_ms}")
     win = int(round(window_ms * 1e3))
-    times = default_times_us(events) if not at_ms else [int(round(t * 1e3)) for t in at_ms]
-    if events.size:
-        span = (int(events["t"][0]), int(events["t"][-1]) + 1)
+    times = default_times_us(src) if not at_ms else [int(round(t * 1e3)) for t in at_ms]
+    if src.count:
+        span = (src.t_first_us, src.t_last_us + 1)
         bad = [t for t in times if not span[0] < t <= span[1] + win]
         if bad:
             raise EvsimInputError(f"time {bad[0] / 1e3:g} ms lies outside the events' span "
                                   f"{span[0] / 1e3:g}..{span[1] / 1e3:g} ms")
-    frames = [event_frame(events, rec.height, rec.width, t - win, t) for t in times]
-    surfaces = [time_surface(events, rec.height, rec.width, t, win) for t in times]
-    span_us = int(events["t"][-1] - events["t"][0]) + 1 if events.size else 1
+    h, w = src.height, src.width
+    frames = [event_frame(src.window(t - win, t), h, w, t - win, t) for t in times]
+    surfaces = [time_surface(src.window(int(t - 10 * win), t), h, w, t, win) for t in times]
+    span_us = src.t_last_us - src.t_first_us + 1 if src.count else 1
     bin_us = int(round(bin_ms * 1e3)) if bin_ms else max(int(round(span_us / 200, -2)), 100)
-    rate = event_rate(events, bin_us)
+    rate = _streamed_rate(src, bin_us)
 
     plt = pyplot()
     n = len(times)

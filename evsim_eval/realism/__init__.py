@@ -6,7 +6,7 @@
   `measure_recording(recording, window_s)` does it for a generators.formats Recording, with its frames' pixel
   classes (`frame_masks` -> `FrameMasks`) and coverage gaps cut out;
 - `compare(real_stats, sim_stats)` -> `Comparison` (scores, their seed noise, notes); `format_comparison`,
-  `write_comparison_json`; `score_recordings(real, sim, window_s)` for two Recordings.
+  `write_comparison_json`; `score_recordings(real, sim, window_s)` for two Recordings, `load_one(path)` to read one.
 Every name is imported on first use.
 """
 
@@ -19,7 +19,7 @@ _EXPORTS = {
     "FrameMasks": "masks", "frame_masks": "masks",
     "Comparison": "comparison", "compare": "comparison", "format_comparison": "comparison",
     "write_comparison_json": "comparison", "PERFECT": "comparison",
-    "score_recordings": "score",
+    "score_recordings": "score", "load_one": "score",
 }
 __all__ = sorted(_EXPORTS)
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

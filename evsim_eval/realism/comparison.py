@@ -38,6 +38,7 @@ from sim import EvsimInputError
 from .stats import RealismStats
 
 BLUR_PX = 5  # side of the box blur of the blurred per-pixel correlation (pixels)
+#: the value of every score for a simulation whose statistics equal the real recording's
 PERFECT = {"count_ratio": 1.0, "on_ratio": 1.0, "off_ratio": 1.0, "quiet_on_ratio": 1.0, "quiet_off_ratio": 1.0,
            "dark_on_ratio": 1.0, "dark_off_ratio": 1.0, "count_corr": 1.0, "count_corr_blurred": 1.0,
            "rate_corr": 1.0, "rate_rel_rmse": 0.0, "interval_l1": 0.0, "passage_median_diff": 0.0}
@@ -167,10 +168,14 @@ def _num(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}g}"
 
 
+def _seconds(t_us: int) -> str:
+    return f"{t_us / 1e6:.3f}".rstrip("0").rstrip(".")
+
+
 def table_rows(c: Comparison) -> list[tuple[str, str, str, str]]:
     """(statistic, real, simulated, score) rows of the realism table."""
     r, s, k = c.real, c.sim, c.scores
-    span = ", ".join(f"{(a - r.origin_us) / 1e6:.3g}-{(b - r.origin_us) / 1e6:.3g}" for a, b in r.windows_us[:3])
+    span = ", ".join(f"{_seconds(a - r.origin_us)}-{_seconds(b - r.origin_us)}" for a, b in r.windows_us[:3])
     span += ", ..." if len(r.windows_us) > 3 else ""
     def ratio(text: str) -> str:
         return text if text == "-" else f"x{text}"

@@ -4,7 +4,12 @@ runs."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
+from generators.formats import load
+from sim import EvsimInputError
+
+from ..protocols import dataset_sequences
 from .comparison import Comparison, compare
 from .stats import cut, measure, measure_recording, shifted
 
@@ -23,3 +28,12 @@ def score_recordings(real: object, sim: object, window_s: tuple[float, float] | 
         again = measure(sim.events, like=shifted(real_stats, sim_stats.origin_us))
         sim_stats = replace(again, gaps_us=sim_stats.gaps_us, notes=sim_stats.notes)
     return compare(real_stats, sim_stats)
+
+
+def load_one(path: str | Path, what: str = "the recording") -> object:
+    """The Recording at path: a file or IJRR folder evsim reads, or a dataset folder of exactly one sequence (what
+    `evsim convert` writes for one clip); EvsimInputError naming `what` otherwise."""
+    sequences = dataset_sequences(path)
+    if len(sequences) != 1:
+        raise EvsimInputError(f"{what} {path} holds {len(sequences)} sequences: give one recording")
+    return load(sequences[0][1])

@@ -11,9 +11,10 @@ only where the recording's frames saw that pixel change (FrameMasks.motion) in a
 run: an edge or object crossing the pixel, not a noise event.
 
 Coverage: a recording whose events cover only part of the time (dropped packets, exposure-gated exports) is
-scored on the covered windows only. A RATE_BIN_US bin without events is a gap when the median of the non-empty
-bins within GAP_CONTEXT_BINS of it is at least BUSY_EVENTS_PER_BIN (a Poisson stream that busy leaves a bin empty
-with probability below e**-20, 2e-9); gaps are cut out of the windows and listed in the notes. Resolution: one bin.
+scored on the covered windows only. A run of RATE_BIN_US bins without events is a gap when the non-empty bins
+among the GAP_CONTEXT_BINS on either side of it hold a median of at least BUSY_EVENTS_PER_BIN events (a Poisson
+stream that busy leaves a bin empty with probability below e**-20, 2e-9); gaps are cut out of the windows and
+listed in the notes. Resolution: one bin.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ INTERVAL_DECADES = (0, 7)  # interval histogram from 10**0 to 10**7 us (1 us .. 
 BINS_PER_DECADE = 10
 BUSY_EVENTS_PER_BIN = 20
 GAP_CONTEXT_BINS = 5
+#: edges (us) of the log bins of the same-pixel inter-event-interval histogram, BINS_PER_DECADE per decade
 INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] + 1e-9, 1 / BINS_PER_DECADE)
 
 
@@ -132,20 +134,21 @@ def bin_edges(a: int, b: int) -> np.ndarray:
 
 
 def coverage_gaps(t: np.ndarray, windows_us: np.ndarray) -> np.ndarray:
-    """(G, 2) int64 gaps in event coverage inside the windows (see the module), merged runs of empty bins; t sorted."""
+    """(G, 2) int64 gaps in event coverage inside the windows (see the module): runs of empty bins whose
+    non-empty neighbours (GAP_CONTEXT_BINS on either side) hold a median of at least BUSY_EVENTS_PER_BIN events;
+    t sorted."""
     gaps = []
     for a, b in windows_us:
         edges = bin_edges(a, b)
         counts = np.diff(np.searchsorted(t, edges))
-        for k in np.flatnonzero(counts == 0):
-            near = counts[max(k - GAP_CONTEXT_BINS, 0):k + GAP_CONTEXT_BINS + 1]
+        empty = np.concatenate([[False], counts == 0, [False]])
+        starts = np.flatnonzero(~empty[:-1] & empty[1:])  # runs of empty bins [start, stop)
+        stops = np.flatnonzero(empty[:-1] & ~empty[1:])
+        for k0, k1 in zip(starts, stops):
+            near = np.concatenate([counts[max(k0 - GAP_CONTEXT_BINS, 0):k0], counts[k1:k1 + GAP_CONTEXT_BINS]])
             near = near[near > 0]
             if near.size and np.median(near) >= BUSY_EVENTS_PER_BIN:
-                lo, hi = int(edges[k]), int(edges[k + 1])
-                if gaps and gaps[-1][1] == lo:
-                    gaps[-1][1] = hi
-                else:
-                    gaps.append([lo, hi])
+                gaps.append([int(edges[k0]), int(edges[k1])])
     return np.array(gaps, dtype=np.int64).reshape(-1, 2)
 
 
@@ -265,10 +268,11 @@ def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
 
 
 def recording_origin_us(rec: object) -> int:
-    """Time zero of a recording (us): its first frame's exposure start, else its first event's time (0 without
-    events). Windows given in seconds count from it."""
-    if getattr(rec, "frames", None) is not None and len(rec.frame_t_start_us):
-        return int(rec.frame_t_start_us[0])
+    """Time zero of a recording (us): its first frame's mid-exposure time, else its first event's time (0 without
+    events). Windows given in seconds count from it. The mid-exposure time is what every layout with frames
+    records (IJRR images.txt holds no exposure start), so one recording read from two layouts gets one origin."""
+    if getattr(rec, "frames", None) is not None and len(rec.frame_t_mid_us):
+        return int(rec.frame_t_mid_us[0])
     return int(rec.events["t"][0]) if rec.events.size else 0
 
 

@@ -1,6 +1,7 @@
 """AEDAT4 (iniVation DV): reader through the optional `aedat` package (`pip install aedat`), writer through
 dv-processing (`pip install dv-processing`), iniVation's own library, run in a child process (it aborts its
-process when a write fails).
+process when a write fails), for the events; the frames are evsim's own FRME packets (aedat4_tables), since
+dv-processing's Python dv.Frame leaves the start and end of frame readout at 0.
 
 Reads the first event stream (and the first frame stream, if any) into a Recording. Times are the camera's
 int64 microseconds (usually Unix time). Frame exposure windows come from exposure_begin_t / exposure_end_t;
@@ -23,6 +24,15 @@ import numpy as np
 
 from sim import EvsimInputError
 
+from .aedat4_tables import (
+    MAGIC,
+    PacketEntry,
+    data_table_packet,
+    frame_packet,
+    io_header_table,
+    read_data_table,
+    stream_ids,
+)
 from .atomic import commit, discard, disk_full_error, is_disk_full, temp_sibling
 from .common import events_from_columns, fail, polarity_pm1
 from .native import recording_event_chunks
@@ -97,8 +107,8 @@ def read_aedat4(path: str | Path) -> Recording:
 # dv-processing writes in a thread of its own and aborts the process (SIGABRT) when a write fails (a full disk) or
 # on a file name not ending in .aedat4: it runs in a child process, fed through a pipe, which writes
 # <temporary folder>/out.aedat4; a failure there is an exception here. Messages on the pipe: b"E" + n (u8) + t (i8
-# x n) + x (u2 x n) + y (u2 x n) + on (u1 x n) for events, b"F" + t_start, exposure (i8) + h, w (u4) + pixels for a
-# frame, b"Q" to close the file; the first line is JSON {"path", "width", "height", "frames"}.
+# x n) + x (u2 x n) + y (u2 x n) + on (u1 x n) for events, b"Q" to close the file; the first line is JSON
+# {"path", "width", "height", "frames"} ("frames": declare a frame stream, which add_frames then fills).
 _WRITER_CHILD = r"""
 import json, os, struct, sys
 import numpy as np
@@ -129,10 +139,6 @@ while True:
         for ti, xi, yi, oi in zip(t.tolist(), x.tolist(), y.tolist(), on.astype(bool).tolist()):
             push(ti, xi, yi, oi)
         writer.writeEvents(store)
-    elif tag == b"F":
-        t0, exposure, h, w = struct.unpack("<qqII", read(24))
-        img = np.frombuffer(read(h * w), "u1").reshape(h, w)
-        writer.writeFrame(dv.Frame(t0, exposure, 0, 0, img, dv.FrameSource.SENSOR))
     else:
         break
 del writer  # closes the file (flushes the writer thread; a failed write aborts this process)
@@ -140,50 +146,87 @@ del writer  # closes the file (flushes the writer thread; a failed write aborts 
 
 
 def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
-    """Write events (and frames with their exposure windows, when the recording has them) as AEDAT4 through
-    dv-processing (`pip install dv-processing`), streamed chunk by chunk and atomically.
+    """Write events (and frames with their exposure windows, when the recording has them) as AEDAT4, streamed chunk
+    by chunk and atomically: the events through dv-processing (`pip install dv-processing`), the frames as FRME
+    packets of evsim's own (needs `pip install lz4`, as dv-processing compresses with LZ4).
 
     What AEDAT4 holds: the sensor size (stream resolution), events as int64 microsecond times with boolean
-    polarity (True = ON), 8-bit grey frames whose timestamp is the exposure start and whose exposure is
-    t_end - t_start (deeper frames lose their low bits). The mid-exposure time reads back as (start + end) // 2.
-    dv-processing runs in a child process (it aborts its process on a failed write): a full disk raises
-    atomic.DiskFullError naming `path`, another failure of it an OSError with its message.
+    polarity (True = ON), 8-bit grey frames (deeper frames lose their low bits). A frame's timestamp is its
+    exposure start (dv-processing's convention); its start and end of exposure are the exposure window; its start
+    and end of frame (readout) are the same window (the camera model has no readout time); its exposure is
+    t_end - t_start. The mid-exposure time reads back as (start + end) // 2. dv-processing runs in a child process
+    (it aborts its process on a failed write): a full disk raises atomic.DiskFullError naming `path`, another
+    failure of it an OSError with its message.
     """
     validate_recording(rec)
     if importlib.util.find_spec("dv_processing") is None:
         raise EvsimInputError("writing AEDAT4 needs the optional 'dv-processing' package "
                               "(pip install dv-processing)")
     nf = 0 if rec.frames is None else rec.frames.shape[0]
-    shift = max(rec.frame_bit_depth - 8, 0)
-    t_start = np.asarray(rec.frame_t_start_us if nf else [], np.int64)
-    t_end = np.asarray(rec.frame_t_end_us if nf else [], np.int64)
+    if nf and importlib.util.find_spec("lz4") is None:
+        raise EvsimInputError("writing AEDAT4 frames needs the optional 'lz4' package (pip install lz4)")
     path = Path(path)
     tmp_dir = temp_sibling(path, directory=True)  # dv-processing needs a name ending in .aedat4: <tmp_dir>/out.aedat4
     try:
         with _DvWriter(tmp_dir / "out.aedat4", rec.width, rec.height, nf > 0) as writer:
-            next_frame = 0
-
-            def frames_until(t_us: int | None) -> int:
-                i = next_frame
-                while i < nf and (t_us is None or t_start[i] <= t_us):
-                    img = np.ascontiguousarray(rec.frames[i] >> shift if shift else rec.frames[i], dtype=np.uint8)
-                    writer.frame(int(t_start[i]), int(t_end[i] - t_start[i]), img)
-                    i += 1
-                return i
-
             for chunk, _ in event_source if event_source is not None else recording_event_chunks(rec):
-                if chunk.size == 0:
-                    continue
-                next_frame = frames_until(int(chunk["t"][-1]))  # frames interleaved in time
-                writer.events(chunk)
-            next_frame = frames_until(None)
-        commit(tmp_dir / "out.aedat4", path)
+                if chunk.size:
+                    writer.events(chunk)
+        if nf:
+            add_frames(tmp_dir / "out.aedat4", tmp_dir / "framed.aedat4", rec)
+        commit(tmp_dir / ("framed.aedat4" if nf else "out.aedat4"), path)
     except BaseException as e:
         if is_disk_full(e):
             raise disk_full_error(e, path) from e
         raise
     finally:
         discard(tmp_dir)
+
+
+def add_frames(src: Path, dst: Path, rec: Recording) -> None:
+    """Copy the AEDAT4 file `src` (LZ4-compressed, a frame stream declared and empty) to `dst` with one FRME packet
+    per frame of `rec` put before the first event packet that starts after it, and a new FileDataTable. Packets
+    are copied one at a time."""
+    import lz4.frame
+
+    shift = max(rec.frame_bit_depth - 8, 0)
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        if f.read(len(MAGIC)) != MAGIC:
+            raise OSError(f"{src}: dv-processing did not write an AEDAT4 file")
+        (n,) = struct.unpack("<i", f.read(4))
+        header = bytearray(f.read(n))
+        compression, table_at, field_at, info = io_header_table(header)
+        if compression != 1:
+            raise OSError(f"{src}: expected LZ4 compression (1), found {compression}")
+        (frame_id,) = stream_ids(info, "FRME")
+        f.seek(table_at)
+        rows = read_data_table(lz4.frame.decompress(f.read()))
+        out.write(MAGIC + struct.pack("<i", n) + header)
+        new_rows, k = [], 0
+        t_start, t_end = (np.asarray(a, np.int64) for a in (rec.frame_t_start_us, rec.frame_t_end_us))
+
+        def frames_until(t_us: int | None) -> None:
+            nonlocal k
+            while k < t_start.size and (t_us is None or t_start[k] <= t_us):
+                img = rec.frames[k]
+                pixels = np.ascontiguousarray(img >> shift if shift else img, dtype=np.uint8).tobytes()
+                t0, t1 = int(t_start[k]), int(t_end[k])
+                body = lz4.frame.compress(frame_packet(t0, t0, t1, t0, t1, pixels, rec.width, rec.height))
+                new_rows.append(PacketEntry(out.tell() + 8, frame_id, len(body), 1, t0, t0))
+                out.write(struct.pack("<ii", frame_id, len(body)) + body)
+                k += 1
+
+        for row in sorted(rows, key=lambda r: r.byte_offset):
+            frames_until(row.t_start)
+            f.seek(row.byte_offset)
+            new_rows.append(PacketEntry(out.tell() + 8, row.stream_id, row.size, row.num_elements, row.t_start,
+                                        row.t_end))
+            out.write(struct.pack("<ii", row.stream_id, row.size) + f.read(row.size))
+        frames_until(None)
+        table = out.tell()
+        out.write(lz4.frame.compress(data_table_packet(new_rows)))
+        out.seek(len(MAGIC) + 4 + field_at)
+        out.write(struct.pack("<q", table))
 
 
 class _DvWriter:
@@ -204,10 +247,6 @@ class _DvWriter:
                    chunk["x"].astype("<u2").tobytes(), chunk["y"].astype("<u2").tobytes(),
                    (chunk["p"] > 0).astype(np.uint8).tobytes())
 
-    def frame(self, t_start: int, exposure: int, img: np.ndarray) -> None:
-        h, w = img.shape
-        self._send(b"F" + struct.pack("<qqII", t_start, exposure, h, w), img.tobytes())
-
     def _send(self, *parts: bytes) -> None:
         try:
             for part in parts:
@@ -223,6 +262,7 @@ class _DvWriter:
             pass
         code = self._proc.wait()
         self._drain.join()
+        self._proc.stderr.close()
         if code != 0 or not done:
             text = b"".join(self._err).decode(errors="replace")
             lines = [ln.strip() for ln in text.splitlines() if "rror" in ln] or [text.strip() or "no message"]
@@ -239,3 +279,9 @@ class _DvWriter:
         if self._proc.poll() is None:  # an error here, or SIGTERM/Ctrl-C: the child goes without finishing
             self._proc.kill()
         self._proc.wait()
+        self._drain.join(timeout=1.0)
+        for pipe in (self._proc.stdin, self._proc.stderr):
+            try:
+                pipe.close()
+            except OSError:  # (a broken pipe)
+                pass

@@ -25,8 +25,6 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-import scipy.io
-from scipy.io.matlab import MatReadError
 
 from sim import EvsimInputError
 
@@ -112,6 +110,8 @@ def write_akf_mat(rec: Recording, path: str | Path, *, ct: float | None = None, 
     if rec.event_labels is not None:
         data["evsim_event_labels"] = _column(np.asarray(rec.event_labels, np.uint8))
     with atomic_path(path) as tmp:
+        import scipy.io  # (here: `evsim info` and the other readers need not load scipy.io)
+
         scipy.io.savemat(tmp, data, do_compression=True, oned_as="column")
         with open(tmp, "r+b") as f:  # a fixed header text (scipy's holds the time of writing): the same file
             f.write(_MAT_DESCRIPTION)  # for the same recording, so that its SHA-256 can be checked against a rerun
@@ -128,9 +128,11 @@ def _load_mat(path: Path) -> dict:
     if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5, with arrays stored transposed
         with open_h5(path) as f:
             return {k: f[k][()].T for k in f if isinstance(f[k], h5py.Dataset)}
+    import scipy.io
+
     try:
         return scipy.io.loadmat(path)
-    except (MatReadError, ValueError, OSError, TypeError) as e:
+    except (scipy.io.matlab.MatReadError, ValueError, OSError, TypeError) as e:
         raise fail(path, f"not a readable MATLAB .mat file (truncated or corrupt?): {e}") from e
 
 

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
-from sim import EvsimInputError
+from sim import EVENT_DTYPE, EvsimInputError
 
 from .atomic import atomic_path
 from .common import fail
-from .recording import MAX_TIME_US
+from .recording import MAX_TIME_US, Recording
 
 TIMES_FILE = "timestamps.txt"
 
@@ -113,3 +113,12 @@ def read_exr_sequence(directory: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if len({im.shape for im in images}) != 1:
         raise fail(directory, "EXR frames differ in size")
     return np.stack(images), np.array(t, dtype=np.int64)
+
+
+def read_exr_recording(directory: str | Path) -> Recording:
+    """An EXR folder (read_exr_sequence) as a Recording that holds its frames as the reference and no events."""
+    images, t = read_exr_sequence(directory)
+    if not len(images):
+        raise fail(directory, f"{TIMES_FILE} lists no frames")
+    return Recording(events=np.zeros(0, EVENT_DTYPE), height=images.shape[1], width=images.shape[2],
+                     reference=images, reference_t_us=t, metadata={"exr_folder": str(directory)})

@@ -6,7 +6,7 @@ A folder holding:
     images.txt      lines "t images/frame_00000000.png": t = mid-exposure time in seconds
     images/         the frames as PNG (8-bit, or 16-bit for bit depth > 8), written and read with OpenCV
     exposures.txt   (extension) lines "t_start t_end" in seconds, one per line of images.txt (read also under
-                    the name frame_exposures.txt)
+                    the name frame_exposures.txt, as other exporters write it)
     evsim.json      (extension) height, width, frame_bit_depth, crf, metadata
     threshold_maps.npy   (extension) (2, H, W) float32 ON/OFF contrast thresholds
     event_labels.txt     (extension) one label per event line (0 signal, 1 shot, 2 leak, 3 hot)
@@ -52,6 +52,7 @@ from .native import recording_event_chunks
 from .recording import Recording, validate_recording
 
 _FORMAT_ROWS = 100_000  # events formatted per string operation
+EXPOSURE_FILES = ("exposures.txt", "frame_exposures.txt")  # frame exposure windows: evsim's name, then others'
 
 
 def seconds_text(t_us: int) -> str:
@@ -108,9 +109,6 @@ def write_ijrr(rec: Recording, directory: str | Path, *, event_source: Iterator 
 
 def is_ijrr(directory: Path) -> bool:
     return (Path(directory) / "events.txt").is_file()
-
-
-EXPOSURE_FILES = ("exposures.txt", "frame_exposures.txt")  # the names the exposures are read under, in order
 
 
 def _seconds_to_us(s) -> np.ndarray:
@@ -211,8 +209,8 @@ def _read_frames(d: Path):
     frames = np.stack(images)
     if frames.dtype.kind != "u":
         raise fail(path, f"images must be unsigned integer PNGs, got {frames.dtype}")
-    exp = next((d / n for n in EXPOSURE_FILES if (d / n).is_file()), None)
-    if exp is not None:
+    exp = next((d / n for n in EXPOSURE_FILES if (d / n).is_file()), d / EXPOSURE_FILES[0])
+    if exp.is_file():
         e = _load_table(exp, 2)
         if e.shape[0] != len(rows):
             raise fail(exp, f"{e.shape[0]} exposure lines for {len(rows)} images")

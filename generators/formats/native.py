@@ -6,6 +6,9 @@ Layout (all times int64 microseconds):
     /events/t (i8, relative), /events/x, /events/y (u2), /events/p (u1, 1 = ON, 0 = OFF, as DSEC stores it)
                       time-sorted events; the Python API (sim.EVENT_DTYPE) keeps p = -1/+1
     /events/label (u1, optional)                                      0 signal, 1 shot, 2 leak, 3 hot
+    /events attrs     summary (JSON, written at close): {"count", "on", "t_first_us", "t_last_us" (absolute),
+                      "labels": [count per label] or null}, so that `evsim info` need not read the events
+                      (event_summary checks it against the datasets' length and first and last times)
     /ms_to_idx (u8)   ms_to_idx[k] = index of the first event with events/t >= k * 1000 (i.e. absolute
                       t >= t_offset + k * 1000 us), for k = 0 .. events/t[-1] // 1000 + 1; the last entry is
                       the event count, so events of millisecond k are [ms_to_idx[k], ms_to_idx[k + 1]).
@@ -56,7 +59,7 @@ from .common import (
     to_json,
     validated,
 )
-from .recording import Recording, validate_recording
+from .recording import N_EVENT_LABELS, Recording, validate_recording
 
 FORMAT_NAME = "evsim-native"
 FORMAT_VERSION = 2  # 2: events/p stored 0/1 (DSEC); 1: stored -1/+1
@@ -144,7 +147,9 @@ class NativeWriter:
         self.update_metadata(metadata)
         self._crf = None
         self._n_events = 0
-        self._t_last = None
+        self._n_on = 0
+        self._label_counts = np.zeros(N_EVENT_LABELS, np.int64)
+        self._t_first = self._t_last = None
         self._has_labels = None
         self._ms_next = 0  # next ms_to_idx entry to fill
         self._t_offset = None  # fixed by the first non-empty chunk
@@ -209,6 +214,8 @@ class NativeWriter:
             if labels.shape != events.shape or labels.dtype != np.uint8:
                 raise EvsimInputError(f"labels must be uint8 of shape {events.shape}, got {labels.dtype} "
                                       f"{labels.shape}")
+            if labels.size and int(labels.max()) >= N_EVENT_LABELS:
+                raise EvsimInputError(f"labels must be in 0..{N_EVENT_LABELS - 1}, got {int(labels.max())}")
         if self._has_labels is None:
             self._has_labels = labels is not None
             if self._has_labels:
@@ -231,6 +238,10 @@ class NativeWriter:
             self._append("ms_to_idx", (n0 + np.searchsorted(t, ks, side="left")).astype(np.uint64))
             self._ms_next = k_last + 1
         self._n_events += n
+        self._n_on += int(np.count_nonzero(events["p"] > 0))
+        if labels is not None:
+            self._label_counts += np.bincount(labels, minlength=N_EVENT_LABELS)[:N_EVENT_LABELS]
+        self._t_first = int(events["t"][0]) if self._t_first is None else self._t_first
         self._t_last = int(events["t"][-1])
 
     def add_frame(self, image: np.ndarray, t_start_us: int, t_mid_us: int, t_end_us: int) -> None:
@@ -320,6 +331,9 @@ class NativeWriter:
             for appender in self._appenders.values():
                 appender.finish()
             f["t_offset"][()] = self._t_offset or 0
+            f["events"].attrs["summary"] = to_json(
+                {"count": self._n_events, "on": self._n_on, "t_first_us": self._t_first, "t_last_us": self._t_last,
+                 "labels": self._label_counts.tolist() if self._has_labels else None})
             f.attrs.update({"format": FORMAT_NAME, "format_version": FORMAT_VERSION,
                             "height": self.height, "width": self.width, "metadata": to_json(self._metadata)})
             if self._crf is not None:
@@ -408,6 +422,99 @@ def iter_native_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[tu
                 t_last = int(chunk["t"][-1]) if chunk.size else t_last
                 validated(path, Recording(events=chunk, height=h, width=w, event_labels=labels))
             yield chunk, labels
+
+
+def event_summary(path: str | Path) -> dict | None:
+    """The event summary a native file records (see the layout: count, on, t_first_us, t_last_us, labels), when
+    it agrees with the file: the count equals the event datasets' length and the first and last times equal the
+    stored first and last events' (two reads). None when the file records none (older files) or it disagrees:
+    then stream the events (iter_native_events)."""
+    with open_h5(path) as f:
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, ["events/t"])
+            ev = f["events"]
+            summary = json_attr(ev, "summary")
+            if not isinstance(summary, dict):
+                return None
+            t = ev["t"]
+            n, offset = t.shape[0], _t_offset(f)
+            if any(k not in summary for k in ("count", "on", "t_first_us", "t_last_us", "labels")) \
+                    or summary["count"] != n or not 0 <= summary["on"] <= n \
+                    or ((summary["labels"] is None) != ("label" not in ev)):
+                return None
+            if n and (summary["t_first_us"] != int(t[0]) + offset or summary["t_last_us"] != int(t[n - 1]) + offset):
+                return None
+            if summary["labels"] is not None and sum(summary["labels"]) != n:
+                return None
+    return summary
+
+
+def iter_native_columns(path: str | Path, names: tuple[str, ...] = ("t", "p"),
+                        size: int = EVENT_CHUNK) -> Iterator[dict[str, np.ndarray]]:
+    """Stream some event columns of a native file in chunks, {name: array}: t absolute int64 microseconds, x and
+    y uint16, p int8 -1/+1, label uint8. Lighter than iter_native_events (which builds and checks whole events)
+    for a pass that needs a few columns, e.g. an event rate from t and p; times are checked to be sorted."""
+    with open_h5(path) as f:
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, [f"events/{n}" for n in names])
+            ev, offset, version = f["events"], _t_offset(f), _layout_version(f)
+            n = ev["t"].shape[0]
+        t_last = None
+        for i in range(0, n, size):
+            with reading(path):
+                chunk = {name: ev[name][i : i + size] for name in names}
+                if "t" in chunk:
+                    t = chunk["t"] = add_offset(path, chunk["t"], offset)
+                    if t.size and ((t_last is not None and t[0] < t_last) or np.any(np.diff(t) < 0)):
+                        raise fail(path, f"events are not sorted by time (in events {i}..{i + t.size})")
+                    t_last = int(t[-1]) if t.size else t_last
+                if "p" in chunk:
+                    chunk["p"] = _decode_polarity(path, chunk["p"], version)
+            yield chunk
+
+
+def read_native_window(path: str | Path, t_start_us: int, t_end_us: int) -> np.ndarray:
+    """The events with t_start_us <= t < t_end_us (absolute microseconds) of a native file, read through its
+    ms_to_idx index (only the milliseconds that overlap the window are read; a file without the index is
+    searched by binary search on events/t)."""
+    with open_h5(path) as f:
+        with reading(path):
+            _require_complete(f, path)
+            require(f, path, ["events/t", "events/x", "events/y", "events/p"])
+            ev, offset, version = f["events"], _t_offset(f), _layout_version(f)
+            t, n = ev["t"], ev["t"].shape[0]
+            lo_t, hi_t = int(t_start_us) - offset, int(t_end_us) - offset
+            if "ms_to_idx" in f and f["ms_to_idx"].shape[0]:
+                idx = f["ms_to_idx"]
+                m = idx.shape[0]
+                lo = int(idx[min(max(lo_t // 1000, 0), m - 1)]) if lo_t > 0 else 0
+                hi = int(idx[min(max(-(-hi_t // 1000), 0), m - 1)]) if hi_t > 0 else 0
+                lo, hi = min(lo, n), min(max(hi, lo), n)
+            else:
+                lo, hi = _search(t, lo_t), _search(t, hi_t)
+            cols = [ev[k][lo:hi] for k in ("t", "x", "y", "p")]
+            cols[0] = add_offset(path, cols[0], offset)
+            cols[3] = _decode_polarity(path, cols[3], version)
+            h, w = _resolution(f, path)
+            events = events_from_columns(path, *cols)
+            validated(path, Recording(events=events, height=h, width=w))
+    from sim import slice_time
+
+    return slice_time(events, int(t_start_us), int(t_end_us))
+
+
+def _search(t: h5py.Dataset, value: int) -> int:
+    """The first index i of the sorted dataset t with t[i] >= value (binary search, one element per step)."""
+    lo, hi = 0, t.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if int(t[mid]) < value:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 def read_native(path: str | Path, *, events: bool = True) -> Recording:

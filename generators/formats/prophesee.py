@@ -16,9 +16,12 @@ Layouts (little-endian):
     EVT 2.0: 32-bit words, type in bits 31..28: 0x0 CD_OFF / 0x1 CD_ON with bits 27..22 time bits 5..0,
           21..11 x, 10..0 y; 0x8 TIME_HIGH with bits 27..0 = time bits 33..6 (2**34 us, about 4.8 h, per file).
           Other types (0xA trigger, 0xE, 0xF) are skipped.
-    .dat: "% " header lines (Version 2, Date, Height, Width, evsim's keys), then two bytes event type 0 (2D/CD)
-          and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28). 32-bit
-          times (2**32 us, about 71 min, per file). As prophesee-automotive-dataset-toolbox src/io/dat_events_tools.py.
+    .dat: as Prophesee's DAT spec (docs.prophesee.ai, "DAT File Format"): "% " header lines "% Data file
+          containing CD events", Date, Version 2, Width, Height (then evsim's keys), then two bytes, event type 0x0C
+          (EventCD) and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28).
+          32-bit times (2**32 us, about 71 min, per file). The Date is fixed (1970-01-01 00:00:00), so one recording
+          always gives the same bytes. The reader also takes event type 0 (Event2d: the same 8-byte layout) and
+          any first header line.
 """
 
 from __future__ import annotations
@@ -44,7 +47,8 @@ _WORD = {"evt3": np.dtype("<u2"), "evt2": np.dtype("<u4")}
 _DAT_EVENT = np.dtype([("t", "<u4"), ("xyp", "<u4")])
 _EVT2_TH_STEP = (1 << 28) // WRAP_WINDOW  # the longest TIME_HIGH step the EVT 2.0 writer makes (67 s)
 _DAT_MAX_STEP = (1 << 32) - (1 << 32) // WRAP_WINDOW  # .dat: no step between two events this long (71.3 min)
-_DAT_CD_TYPES = (0, 12)  # the .dat event type byte: 0 Event2D, 12 EventCD (same 8-byte layout); 14 is triggers
+_DAT_CD = 0x0C  # the .dat event type byte evsim writes: EventCD
+_DAT_CD_TYPES = (0, _DAT_CD)  # read: 0 Event2d, 12 EventCD (same 8-byte layout); 14 (triggers) is refused
 LAYOUT_VERSION = 1
 _DAT_DATE = "1970-01-01 00:00:00"
 _POPCOUNT = np.array([bin(i).count("1") for i in range(4096)], np.int64)  # set bits of 12-bit vector masks
@@ -81,7 +85,7 @@ class PropheseeWriter:
             self._f.write(np.array([0x8000_0000], "<u4").tobytes())
             self._th2 = 0
         else:
-            self._f.write(bytes([0, 8]))  # event type 0 (2D / CD events), 8 bytes per event
+            self._f.write(bytes([_DAT_CD, 8]))  # event type EventCD, 8 bytes per event
 
     def _header(self) -> str:
         h, w = self.height, self.width
@@ -90,8 +94,8 @@ class PropheseeWriter:
                  "% evsim_holds events, sensor size (no frames, reference, labels, thresholds, CRF, metadata)"]
         if self.fmt == "dat":
             # a fixed Date (not the time of writing): the same file for the same recording, checkable by SHA-256
-            return "\n".join(["% Data file containing Event2D events.", "% Version 2", f"% Date {_DAT_DATE}",
-                              f"% Height {h}", f"% Width {w}", *evsim]) + "\n"
+            return "\n".join(["% Data file containing CD events", f"% Date {_DAT_DATE}", "% Version 2",
+                              f"% Width {w}", f"% Height {h}", *evsim]) + "\n"
         version = "3.0" if self.fmt == "evt3" else "2.0"
         fmt = "EVT3" if self.fmt == "evt3" else "EVT2"
         return "\n".join([f"% evt {version}", f"% format {fmt};height={h};width={w}", f"% geometry {w}x{h}",
@@ -312,8 +316,8 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
             if len(head) < 2:
                 raise fail(path, "truncated: no event type and size bytes after the header")
             if head[0] not in _DAT_CD_TYPES:
-                raise fail(path, f".dat event type {head[0]}: only CD events are read (type 0 Event2D or 12 "
-                                 "EventCD)")
+                raise fail(path, f".dat event type {head[0]}: only CD events are read (type 12 EventCD, or 0 "
+                                 "Event2d); 14 is external triggers")
             if head[1] != 8:
                 raise fail(path, f".dat events of {head[1]} bytes: only 8-byte CD events are read")
             yield from _dat_chunks(path, f, offset, size)

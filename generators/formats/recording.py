@@ -41,6 +41,18 @@ class Recording:
     metadata: dict = field(default_factory=dict)
 
 
+def not_generated_hint(rec: Recording, part: str) -> str:
+    """" (generated with --outputs ...: ...)" when rec's generator was asked not to write `part` ("frames" or
+    "reference"; generators.ahdr.AHDRConfig.outputs, recorded in the metadata), else "": the end of a message
+    saying a recording lacks that part."""
+    config = rec.metadata.get("config") if isinstance(rec.metadata, dict) else None
+    outputs = config.get("outputs") if isinstance(config, dict) else None
+    if isinstance(outputs, list) and part not in outputs:
+        return (f" (it was generated with --outputs {','.join(map(str, outputs))}: generate or convert it again "
+                f"with --outputs events,frames,reference)")
+    return ""
+
+
 # ----- validation ----------------------------------------------------------------------------------------------
 
 MAX_SENSOR_PX = 1 << 16  # event coordinates are uint16: a sensor side is at most 65536 pixels

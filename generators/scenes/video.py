@@ -43,6 +43,7 @@ decoding from the first frame (generate_ahdr does this once, between its DVS pas
 from __future__ import annotations
 
 import hashlib
+import warnings
 from pathlib import Path
 
 import cv2
@@ -54,6 +55,8 @@ from sim.errors import check_int
 from ..choices import UPSAMPLE_MODES
 from ..formats.common import DatasetFormatError, fail
 from .base import Scene, positive
+from .capture_rate import capture_fps
+from .conditioning import ConditioningParams, InputConditioner
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
@@ -66,6 +69,14 @@ TIMESTAMPS_FILE = "timestamps.txt"
 WARM_UP_S = 0.5  # default DVS warm-up on the clip's start mirrored in time (seconds; see generators.ahdr)
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
 _HASH_CHUNK = 1 << 20
+RESIZE_POLICIES = ("crop", "pad", "stretch")
+SLOW_MOTION_MAX_CONTAINER_FPS = 60.0  # a container rate at or below which tiny motion per frame suggests slow motion
+SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixels) below which the warning is given
+
+
+class InputTimingWarning(UserWarning):
+    """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
+    contradicts the given rate)."""
 
 
 def _sha256(paths: list[Path]) -> str:
@@ -140,16 +151,18 @@ class _Frames:
 class _VideoFile(_Frames):
     kind = "video"
 
-    def __init__(self, path: Path, fps: float | None, timestamps, stop_us: int | None):
+    def __init__(self, path: Path, fps: float | None, timestamps, stop_us: int | None, slowmo: float | None = None):
         self.path = path
         cap = self._open()
         container_fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        container_fps = container_fps if np.isfinite(container_fps) and container_fps > 0 else None
         self.size = (int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)))
-        use_fps = fps if fps is not None else (container_fps if np.isfinite(container_fps) and container_fps > 0
-                                                else None)
+        self.capture = capture_fps(path)
+        use_fps, source = self._capture_rate(fps, timestamps, slowmo, container_fps)
         if timestamps is None and use_fps is None:
             cap.release()
-            raise fail(path, "the container gives no frame rate: pass fps (--fps) or a timestamps file")
+            raise fail(path, "the container gives no frame rate: pass --input-fps (scene key fps) or a timestamps "
+                             "file")
         # Count the frames by decoding (the container's count can be wrong), up to the stop time when known.
         last = None if stop_us is None or use_fps is None else int(np.floor(stop_us * use_fps / 1e6 + 1e-6))
         n = 0
@@ -160,9 +173,37 @@ class _VideoFile(_Frames):
         if n == 0:
             raise fail(path, "the video holds no frames (empty or unreadable)")
         self._set_times(n, use_fps, timestamps)
-        if fps is None and timestamps is None:
-            self.rate = {"fps": use_fps, "from": "container"}
+        if timestamps is None:
+            self.rate = {"fps": use_fps, "from": source}
+        if container_fps is not None:
+            self.rate["container_fps"] = container_fps
+        if self.capture is not None:
+            self.rate["capture_fps_metadata"] = {"fps": self.capture[0], "key": self.capture[1]}
         self.sha256 = _sha256([path])
+
+    def _capture_rate(self, fps, timestamps, slowmo, container_fps) -> tuple[float | None, str]:
+        """The rate the frames were captured at and where it comes from (module docstring, Frame rate); warns
+        when the metadata's capture rate contradicts a flag."""
+        if slowmo is not None:
+            if fps is not None or timestamps is not None:
+                raise EvsimInputError(f"{self.path}: slowmo cannot be combined with fps or timestamps: give the "
+                                      "capture rate one way")
+            if container_fps is None:
+                raise fail(self.path, "the container gives no frame rate for slowmo to multiply: pass the capture "
+                                      "rate as --input-fps (scene key fps)")
+            use, source = container_fps * positive("slowmo", slowmo, "video"), f"container rate x slowmo {slowmo:g}"
+        elif fps is not None:
+            use, source = float(fps), "fps"
+        elif timestamps is not None:
+            return None, "timestamps"
+        elif self.capture is not None and self.capture[0] > 0:
+            return float(self.capture[0]), f"capture-rate metadata ({self.capture[1]})"
+        else:
+            return container_fps, "container"
+        if self.capture is not None and abs(use / self.capture[0] - 1) > 0.02:
+            warnings.warn(f"{self.path.name}: its metadata says captured at {self.capture[0]:g} fps "
+                          f"({self.capture[1]}), but {use:g} fps is used as given", InputTimingWarning, stacklevel=2)
+        return use, source
 
     def _open(self):
         cap = cv2.VideoCapture(str(self.path))
@@ -288,19 +329,35 @@ class _NpyStack(_Frames):
 
 
 def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str | Path | None = None,
-                stop_us: int | None = None) -> _Frames:
+                stop_us: int | None = None, slowmo: float | None = None) -> _Frames:
     """The frame source for a video file, an image folder or a .npy stack (module docstring). stop_us lets a
-    video be counted only up to where it is used."""
+    video be counted only up to where it is used; slowmo (video files only) multiplies the container's rate."""
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
     if is_recording(path):
         return RecordingFrames(path)
+    if slowmo is not None and (path.is_dir() or path.suffix.lower() == ".npy"):
+        raise EvsimInputError(f"{path}: slowmo applies to video files; give an image folder or a stack its capture "
+                              "rate as fps or a timestamps file")
     if path.is_dir():
         return _ImageFolder(path, fps, timestamps)
     if path.suffix.lower() == ".npy":
         return _NpyStack(path, fps, timestamps)
-    return _VideoFile(path, fps, timestamps, stop_us)
+    return _VideoFile(path, fps, timestamps, stop_us, slowmo)
+
+
+def _conditioning_for(option: ConditioningParams | dict | str | None, kind: str) -> ConditioningParams:
+    """The conditioning of an input kind: by default temporal with key frames for video files, temporal for a
+    recording's frames (a real camera's read noise) and off for image folders and stacks (taken as clean); a mode
+    or table without key_frames gets key frames for video files only (a camera's frames have no codec)."""
+    if option is None:
+        option = "temporal" if kind in ("video", "recording") else "off"
+    if isinstance(option, str):
+        option = {"mode": option}
+    if isinstance(option, dict) and "key_frames" not in option:
+        option = {**option, "key_frames": kind == "video"}
+    return ConditioningParams.from_option(option)
 
 
 def input_size(path: str | Path) -> tuple[int, int]:
@@ -357,16 +414,21 @@ class VideoScene(Scene):
                  stop_s: float | None = None, upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium",
                  flow_scale: float = FLOW_SCALE, key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
                  input_crf: str | None = None, input_crf_params: dict | None = None,
-                 channel: str | int | None = None, log_eps: float | None = None, black_level: float = 0.0,
-                 warm_up_s: float = WARM_UP_S):
+                 channel: str | int | None = None, log_eps: float | None = None, slowmo: float | None = None,
+                 resize: str = "crop", conditioning: ConditioningParams | dict | str | None = None,
+                 black_level: float = 0.0, warm_up_s: float = WARM_UP_S):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
+        if resize not in RESIZE_POLICIES:
+            raise InvalidParameterError(f"resize must be one of {', '.join(RESIZE_POLICIES)}, got {resize!r}")
+        self.resize = resize
         start_us = int(round(positive("start_s", start_s, "VideoScene", allow_zero=True) * 1e6))
         stop_us = None if stop_s is None else int(round(positive("stop_s", stop_s, "VideoScene") * 1e6))
         if stop_us is not None and stop_us <= start_us:
             raise InvalidParameterError(f"VideoScene: start_s={start_s} must come before stop_s={stop_s}")
-        self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us)
+        self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us, slowmo=slowmo)
         self.path = Path(path)
+        self._conditioner = InputConditioner(_conditioning_for(conditioning, self._input.kind))
         t = self._input.times_us
         keep = np.flatnonzero((t >= start_us) & (t <= (t[-1] if stop_us is None else stop_us)))
         if keep.size < 2:
@@ -402,7 +464,9 @@ class VideoScene(Scene):
         elif width is None:
             width = max(1, round(height * w0 / h0))
         self._init_size(height, width, int(self.times[-1]))
-        self._crop = self._crop_box(h0, w0)
+        self._crop = self._crop_box(h0, w0) if resize == "crop" else (0, h0, 0, w0)
+        self._place = self._pad_box(h0, w0) if resize == "pad" else (0, self.height, 0, self.width)
+        self._timing_checked = False
         self._luts: dict = {}
         self._is_ldr = None
         first = self._luminance(next(iter(self._input.frames(self._first))), 0)
@@ -428,6 +492,16 @@ class VideoScene(Scene):
         ch = max(1, min(h0, round(w0 * self.height / self.width)))
         y0 = (h0 - ch) // 2
         return y0, y0 + ch, 0, w0
+
+    def _pad_box(self, h0: int, w0: int) -> tuple[int, int, int, int]:
+        """(y0, y1, x0, x1): where the whole input lands on the sensor when its aspect ratio is kept (centred)."""
+        if w0 * self.height > h0 * self.width:  # the input is wider: bars above and below
+            ih = max(1, min(self.height, round(self.width * h0 / w0)))
+            y0 = (self.height - ih) // 2
+            return y0, y0 + ih, 0, self.width
+        iw = max(1, min(self.width, round(self.height * w0 / h0)))
+        x0 = (self.width - iw) // 2
+        return 0, self.height, x0, x0 + iw
 
     def _linear(self, raw: np.ndarray) -> np.ndarray:
         """Linear radiance of a raw frame (any channels): the inverse CRF of integer values, floats as they are."""
@@ -465,13 +539,23 @@ class VideoScene(Scene):
             y = y * self._exposure_gain[index]
         y0, y1, x0, x1 = self._crop
         y = np.ascontiguousarray(y[y0:y1, x0:x1])
-        if y.shape != (self.height, self.width):
-            y = cv2.resize(y, (self.width, self.height), interpolation=cv2.INTER_AREA)
+        p0, p1, q0, q1 = self._place
+        if y.shape != (p1 - p0, q1 - q0):
+            y = cv2.resize(y, (q1 - q0, p1 - p0), interpolation=cv2.INTER_AREA)
+        if y.shape != (self.height, self.width):  # pad: black bars around the whole input
+            out = np.zeros((self.height, self.width), np.float32)
+            out[p0:p1, q0:q1] = y
+            y = out
         return y
 
-    def _process(self, raw: np.ndarray, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """(linear luminance, log(luminance + log_eps)) of a raw frame at the sensor size."""
+    def _process(self, raw: np.ndarray, index: int, conditioner: InputConditioner) -> tuple[np.ndarray, np.ndarray]:
+        """(linear luminance, log(luminance + log_eps)) of a raw frame at the sensor size, conditioned
+        (scenes.conditioning) in the input's code values when the input is integer (LDR)."""
         y = self._luminance(raw, index)
+        if self._is_ldr and conditioner.params.mode != "off":
+            lut = self._luts[raw.dtype]
+            codes = np.arange(lut.size, dtype=np.float32)
+            y = np.interp(conditioner(np.interp(y, lut, codes)), codes, lut).astype(np.float32)
         return y, np.log(y + np.float32(self.log_eps))
 
     # ----- the sliding window --------------------------------------------------------------------------
@@ -479,6 +563,7 @@ class VideoScene(Scene):
         """Decode from the first frame of the clip again (forgetting the window)."""
         self._window.clear()
         self._pairs.clear()
+        self._conditioner.reset()
         self._raw = iter(self._input.frames(self._first))
         self._next = 0
 
@@ -492,7 +577,7 @@ class VideoScene(Scene):
             raw = next(self._raw, None)
             if raw is None:
                 raise fail(self.path, f"the input ended before frame {self._first + self._next}")
-            self._window[self._next] = self._process(raw, self._next)
+            self._window[self._next] = self._process(raw, self._next, self._conditioner)
             self._next += 1
             while len(self._window) > 3:
                 self._window.pop(min(self._window))
@@ -544,6 +629,11 @@ class VideoScene(Scene):
         j = int((t_us - t0) * keys // (t1 - t0)) + 1  # the first key after t_us
         return min(t0 + -(-(j * (t1 - t0)) // keys), t1)  # rounded up to the microsecond
 
+    @property
+    def capture_fps(self) -> float:
+        """The rate the clip's frames were captured at (frames per second): frames used over their time span."""
+        return float((self.times.size - 1) * 1e6 / self.times[-1])
+
     def max_speed_px_per_s(self) -> float:
         """flow: the largest optical-flow speed over the clip (intervals not yet decoded are scanned first, so
         asking before the first pass costs one pass of flow); otherwise one pixel per shortest input interval."""
@@ -552,15 +642,33 @@ class VideoScene(Scene):
             return 1e6 / float(intervals.min())
         if np.isnan(self._pair_motion).any():
             self._scan_motion()
+        self._check_timing()
         return float(np.max(self._pair_motion * 1e6 / intervals))
+
+    def _check_timing(self) -> None:
+        """Warn (InputTimingWarning, once) when a video taken at its container's low rate moves implausibly
+        little per frame: the median over frame pairs of the largest motion, in input pixels, below
+        SLOW_MOTION_MOTION_PX, over at least 16 pairs with some motion somewhere, looks like slow motion."""
+        rate = self._input.rate
+        if self._timing_checked or rate.get("from") != "container" or self.times.size < 17:
+            return
+        self._timing_checked = True
+        scale = max(self._input.size[1] / self.width, self._input.size[0] / self.height)
+        motion = self._pair_motion * scale
+        if (rate["fps"] <= SLOW_MOTION_MAX_CONTAINER_FPS and np.median(motion) < SLOW_MOTION_MOTION_PX
+                and np.max(motion) * (self.times.size - 1) > 4 * SLOW_MOTION_MOTION_PX):
+            warnings.warn(f"{self.path.name}: at its container rate of {rate['fps']:g} fps it moves only "
+                          f"{np.median(motion):.2f} px per frame (median): if it is a slow-motion clip, pass "
+                          "--slowmo FACTOR or --input-fps (scene keys slowmo, fps)", InputTimingWarning, stacklevel=3)
 
     def _scan_motion(self) -> None:
         """Fill _pair_motion for the intervals not yet seen, with a separate decoder (the window is untouched)."""
         prev = None
+        conditioner = InputConditioner(self._conditioner.params)
         for i, raw in enumerate(self._input.frames(self._first)):
             if i >= self.times.size:
                 break
-            cur = self._process(raw, i)[1]
+            cur = self._process(raw, i, conditioner)[1]
             if prev is not None and np.isnan(self._pair_motion[i - 1]):
                 self._pair_motion[i - 1] = self._flow.pair(prev, cur).max_motion_px
             prev = cur
@@ -584,11 +692,16 @@ class VideoScene(Scene):
             "input": {"path": str(self.path), "kind": inp.kind, "sha256": inp.sha256, "size": list(inp.size),
                       ("n_frames" if inp.counted_to_end else "n_frames_read"): int(inp.times_us.size), **inp.rate},
             "frames_used": [self._first, self._first + int(self.times.size) - 1],
-            "frame_rate_hz": float((self.times.size - 1) * 1e6 / self.times[-1]),
             "start_s": self.start_s, "stop_s": self.stop_s,
             "linearisation": {"method": lin, **({"crf": self.input_crf} if self._is_ldr else {})},
             "luminance": ("Rec. 709: Y = {:.4f} R + {:.4f} G + {:.4f} B".format(*REC709_WEIGHTS) if self.channel is None
                           else f"channel {self.channel}"),
-            "crop": list(self._crop), "resize": "cv2.INTER_AREA (area integration in linear radiance)",
+            "capture_fps": self.capture_fps,
+            "crop": list(self._crop),
+            "resize": {"policy": self.resize, "placement": list(self._place),
+                       "method": "cv2.INTER_AREA (area integration in linear radiance)"
+                                 + (", black (0) bars around the input" if self.resize == "pad" else "")},
+            "conditioning": (self._conditioner.describe() if self._is_ldr else
+                             {"mode": "off", "why": "float input is taken as clean linear radiance"}),
             "upsample": up, "log_eps": self.log_eps,
         }

@@ -1,0 +1,128 @@
+"""DVS video (`evsim plot events --video`): the written file, decoded back (Pillow for GIF, OpenCV for MP4), has
+one frame per interval of the events' span, and each frame's pixel colours are those of the events in its window,
+counted here independently; rendering streams (memory does not grow with the number of frames)."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from evsim_app.cli import main
+from evsim_app.plots.common import OFF_COLOUR, ON_COLOUR
+from evsim_app.plots.video import event_frames, write_video
+from generators.formats.native import write_native
+from generators.formats.recording import Recording
+from sim import EVENT_DTYPE, EvsimInputError
+
+H, W = 12, 16
+FRAME_US = 10_000
+FULL = 3
+
+
+def events(seed=0, n=3000, span_us=1_000_000, t0=5_000_123):
+    """Events over 1 s starting at t0 (not a frame multiple), with a 300 ms silence in the middle."""
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = t0 + np.sort(rng.integers(0, span_us, n))
+    ev["t"][n // 2 :] += 300_000
+    ev["t"][-1] = ev["t"][-2] + 1
+    ev["x"], ev["y"] = rng.integers(0, W, n), rng.integers(0, H, n)
+    ev["p"] = rng.choice(np.array([-1, 1], np.int8), n)
+    return ev
+
+
+def expected_rgb(ev, k, frame_us=FRAME_US):
+    """Colours of frame k, from the events with t0 + k dt <= t < t0 + (k + 1) dt: white, moving towards the ON
+    colour by min(on, FULL) / FULL and towards the OFF colour by min(off, FULL) / FULL (uint8, rounded)."""
+    t0 = int(ev["t"][0])
+    sel = ev[(ev["t"] >= t0 + k * frame_us) & (ev["t"] < t0 + (k + 1) * frame_us)]
+    on = np.zeros((H, W))
+    off = np.zeros((H, W))
+    np.add.at(on, (sel["y"][sel["p"] > 0], sel["x"][sel["p"] > 0]), 1)
+    np.add.at(off, (sel["y"][sel["p"] < 0], sel["x"][sel["p"] < 0]), 1)
+    a, b = np.minimum(on / FULL, 1)[..., None], np.minimum(off / FULL, 1)[..., None]
+    rgb = 1 + a * (np.array(ON_COLOUR) - 1) + b * (np.array(OFF_COLOUR) - 1)
+    return np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+
+
+@pytest.fixture
+def native(tmp_path):
+    ev = events()
+    path = tmp_path / "seq.h5"
+    write_native(Recording(events=ev, height=H, width=W), path)
+    return path, ev
+
+
+def test_gif_has_one_frame_per_interval_and_the_colours_of_its_events(native, tmp_path):
+    from PIL import Image, ImageSequence
+
+    path, ev = native
+    r = write_video(path, tmp_path / "v.gif", frame_ms=FRAME_US / 1e3, full_scale=FULL, progress=False)
+    n = (int(ev["t"][-1]) - int(ev["t"][0])) // FRAME_US + 1
+    assert r["frames"] == n and n >= 125 and r["events"] == ev.size
+    frames = [np.asarray(f.convert("RGB")) for f in ImageSequence.Iterator(Image.open(tmp_path / "v.gif"))]
+    assert len(frames) == n
+    for k in (0, 1, 40, 70, 100, n - 1):  # 70: in the silence, blank
+        np.testing.assert_array_equal(frames[k], expected_rgb(ev, k), err_msg=f"frame {k}")
+    assert (frames[70] == 255).all() and not (frames[100] == 255).all()
+
+
+def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    path, ev = native
+    scale = 8  # MPEG-4 blurs colour across 2x2 pixels: compare block centres
+    r = write_video(path, tmp_path / "v.mp4", frame_ms=20, full_scale=FULL, scale=scale, progress=False)
+    n = (int(ev["t"][-1]) - int(ev["t"][0])) // 20_000 + 1
+    cap = cv2.VideoCapture(str(tmp_path / "v.mp4"))
+    frames = []
+    while True:
+        ok, bgr = cap.read()
+        if not ok:
+            break
+        frames.append(bgr[scale // 2 :: scale, scale // 2 :: scale, ::-1].astype(int))
+    assert r["frames"] == len(frames) == n
+    for k in (0, 10, 60):
+        want = expected_rgb(ev, k, 20_000).astype(int)
+        err = np.abs(frames[k] - want)
+        assert np.median(err) <= 4 and err.max() <= 40, (k, np.median(err), err.max())
+
+
+def test_frames_stream_memory_does_not_grow_with_the_number_of_frames():
+    def peak(n_frames):
+        def chunks():
+            for i in range(n_frames // 100):  # chunks of 100 frames, 2000 events each
+                ev = np.zeros(2000, EVENT_DTYPE)
+                ev["t"] = i * 100 * FRAME_US + np.linspace(0, 100 * FRAME_US - 1, 2000).astype(np.int64)
+                ev["x"], ev["y"], ev["p"] = 3, 4, 1
+                yield ev
+
+        tracemalloc.start()
+        count = sum(1 for _ in event_frames(chunks(), H, W, FRAME_US))
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        assert count == n_frames
+        return top
+
+    short, long = peak(1000), peak(8000)
+    assert long < 1.2 * short, (short, long)
+
+
+def test_cli_writes_the_video_and_refuses_bad_options(native, tmp_path, capsys):
+    path, ev = native
+    out = tmp_path / "cli.gif"
+    assert main(["plot", "events", str(path), "--video", str(out), "--frame-ms", "50", "--no-progress"]) == 0
+    assert "wrote" in capsys.readouterr().out and out.is_file()
+    assert not (tmp_path / "seq_events.png").exists()  # --video alone writes the video only
+    for argv, message in [(["--video", str(tmp_path / "v.avi")], ".mp4 or .gif"),
+                          (["--video", str(out), "--frame-ms", "0"], "--frame-ms must be"),
+                          (["--video", str(out), "--full-scale", "16"], "--full-scale must be 1..15")]:
+        assert main(["plot", "events", str(path), *argv]) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("evsim: error:") and message in err and "Traceback" not in err
+    empty = tmp_path / "empty.h5"
+    write_native(Recording(events=np.zeros(0, EVENT_DTYPE), height=H, width=W), empty)
+    with pytest.raises(EvsimInputError, match="no events to draw"):
+        write_video(empty, tmp_path / "e.gif", progress=False)
+    assert not (tmp_path / "e.gif").exists()
