@@ -3,7 +3,8 @@
 Exports:
 - the filter: reconstruct, AKFParams; augmented_measurement, AugmentedMeasurement (its frame augmentation);
 - baselines (reconstruct's inputs and outputs): complementary_filter, frames_only, direct_integration, and the
-  events-only high_pass_filter; estimate_contrast, ContrastEstimate (the contrast threshold from the data);
+  events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
+  the pixel's log offset from the data);
 - metrics: mse, psnr, ssim, mse01, ssim01, log_mse, pu21_encode, pu21_psnr, pu21_ssim, score, METRICS (by name),
   NORMALISATION (how each one normalises);
 - evaluation and tuning: evaluate_sequence, METHODS (name -> method); tune, Tuned, SEARCH_SPACES.

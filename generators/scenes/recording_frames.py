@@ -9,11 +9,26 @@ so that simulated events can be written at the times the real ones carry), and e
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ..formats.common import fail
+
+
+def sha256_of(paths: list[Path]) -> str:
+    """sha256 of one file's bytes, or of the names and bytes of several files in order."""
+    h = hashlib.sha256()
+    for p in paths:
+        if len(paths) > 1:
+            h.update(p.name.encode() + b"\0")
+        with open(p, "rb") as f:
+            while chunk := f.read(1 << 20):
+                h.update(chunk)
+    return h.hexdigest()
+
 
 RECORDING_SUFFIXES = (".aedat4", ".h5", ".hdf5")  # files read as recordings (native or E2VID HDF5, AEDAT4)
 
@@ -38,7 +53,6 @@ class RecordingFrames:
 
     def __init__(self, path: Path):
         from ..formats import load
-        from .video import _sha256
 
         self.path = path
         rec = load(path)
@@ -55,9 +69,9 @@ class RecordingFrames:
         self.bit_depth = int(rec.frame_bit_depth)
         self.crf = dict(rec.crf) if rec.crf else {"name": "linear", "params": {}}
         self.size = tuple(self._frames.shape[1:3])
-        self.sha256 = _sha256(sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path])
+        self.sha256 = sha256_of(sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path])
         self.rate = {"timestamps": "the recording's frame mid-exposure times", "unit": "us"}
 
-    def frames(self, first: int = 0):
+    def frames(self, first: int = 0) -> Iterator[np.ndarray]:
         for k in range(first, self._frames.shape[0]):
             yield self._frames[k]

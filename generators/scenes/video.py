@@ -42,7 +42,6 @@ decoding from the first frame (generate_ahdr does this once, between its DVS pas
 
 from __future__ import annotations
 
-import hashlib
 import warnings
 from pathlib import Path
 
@@ -60,7 +59,7 @@ from .conditioning import ConditioningParams, InputConditioner
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
-from .recording_frames import RecordingFrames, is_recording
+from .recording_frames import RecordingFrames, is_recording, sha256_of
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
@@ -68,7 +67,6 @@ HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
 WARM_UP_S = 0.5  # default DVS warm-up on the clip's start mirrored in time (seconds; see generators.ahdr)
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
-_HASH_CHUNK = 1 << 20
 RESIZE_POLICIES = ("crop", "pad", "stretch")
 SLOW_MOTION_MAX_CONTAINER_FPS = 60.0  # a container rate at or below which tiny motion per frame suggests slow motion
 SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixels) below which the warning is given
@@ -77,18 +75,6 @@ SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixe
 class InputTimingWarning(UserWarning):
     """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
     contradicts the given rate)."""
-
-
-def _sha256(paths: list[Path]) -> str:
-    """sha256 of one file's bytes, or of the names and bytes of several files in order."""
-    h = hashlib.sha256()
-    for p in paths:
-        if len(paths) > 1:
-            h.update(p.name.encode() + b"\0")
-        with open(p, "rb") as f:
-            while chunk := f.read(_HASH_CHUNK):
-                h.update(chunk)
-    return h.hexdigest()
 
 
 def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
@@ -179,7 +165,7 @@ class _VideoFile(_Frames):
             self.rate["container_fps"] = container_fps
         if self.capture is not None:
             self.rate["capture_fps_metadata"] = {"fps": self.capture[0], "key": self.capture[1]}
-        self.sha256 = _sha256([path])
+        self.sha256 = sha256_of([path])
 
     def _capture_rate(self, fps, timestamps, slowmo, container_fps) -> tuple[float | None, str]:
         """The rate the frames were captured at and where it comes from (module docstring, Frame rate); warns
@@ -285,7 +271,7 @@ class _ImageFolder(_Frames):
         self.size = next(iter(sizes))
         self._set_times(len(self.paths), fps, timestamps, folder / TIMESTAMPS_FILE)
         ts = [Path(self.rate["timestamps"])] if "timestamps" in self.rate else []
-        self.sha256 = _sha256(self.paths + ts)
+        self.sha256 = sha256_of(self.paths + ts)
 
     def frames(self, first: int = 0):
         for p in self.paths[first:]:
@@ -304,7 +290,7 @@ class _NpyStack(_Frames):
         self._stack = s = self._load(path)
         self.size = tuple(s.shape[1:3])
         self._set_times(s.shape[0], fps, timestamps)
-        self.sha256 = _sha256([path])
+        self.sha256 = sha256_of([path])
 
     @staticmethod
     def _load(path: Path) -> np.ndarray:
