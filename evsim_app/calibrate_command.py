@@ -25,6 +25,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", help="the sensor's name (default: the output file's stem)")
     p.add_argument("--black-level", type=float, help="the frames' value for no light in DN (default: the "
                                                      "recording's darkest 0.01 %% of frame values)")
+    p.add_argument("--input-conditioning", choices=("temporal", "off"),
+                   help="the frames' input conditioning (default temporal, as convert: a real camera's read noise "
+                        "held out of the DVS; off for noise-free simulated frames)")
     p.add_argument("--max-evaluations", type=int, default=120,
                    help="simulations of the Nelder-Mead stage (default 120)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulations (default 0)")
@@ -37,8 +40,8 @@ def run(args: argparse.Namespace) -> int:
     from evsim_eval.calibrate import calibrate, fit_table, write_calibration
 
     cal = calibrate(args.recording, tuple(args.window), preset=args.preset, black_level=args.black_level,
-                    seed=args.seed, max_evaluations=args.max_evaluations, progress=not args.no_progress,
-                    log=print)
+                    conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
+                    progress=not args.no_progress, log=print)
     print(fit_table(cal))
     print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
     out = write_calibration(cal, args.out, args.name)

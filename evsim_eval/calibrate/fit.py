@@ -206,12 +206,14 @@ def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVS
 
 
 def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, preset: str = "davis346",
-              black_level: float | None = None, seed: int = 0, max_evaluations: int = 120,
+              black_level: float | None = None, conditioning: str | None = None, seed: int = 0,
+              max_evaluations: int = 120,
               progress: bool = True, log: Callable[[str], None] | None = None) -> Calibration:
     """Fit the DVS model to the recording at `path` (an AEDAT4 file or IJRR folder with frames, or any hybrid
     layout generators.formats reads) over window_s (seconds from its first frame's exposure start), starting from
     `preset`. black_level: the frames' value for no light (default: the recording's darkest 0.01 % of frame
-    values, the floor a black pixel reads). max_evaluations bounds stage 2's simulations. See the module."""
+    values, the floor a black pixel reads). conditioning: the input conditioning of the frames (None: temporal, as
+    convert does; "off" for noise-free frames). max_evaluations bounds stage 2's simulations. See the module."""
     from tqdm.auto import tqdm
 
     from evsim_eval.realism import measure_recording
@@ -223,7 +225,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         raise sim.EvsimInputError(f"{path}: calibration needs a recording with frames (at least 3)")
     if black_level is None:
         black_level = float(np.percentile(np.asarray(rec.frames), 0.01))
-    settings = InputSettings(black_level=black_level)
+    settings = InputSettings(black_level=black_level, conditioning=conditioning)
     say = log or (lambda s: None)
     say(f"upsampling the {rec.frames.shape[0]} frames of {path.name} (flow) ...")
     simulation = RecordingSimulation(path, settings)

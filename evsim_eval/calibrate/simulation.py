@@ -26,13 +26,14 @@ from generators.scenes.video import VideoScene
 class InputSettings:
     """How the recording's frames become radiance (what a sensor file's [input] table holds).
 
-    black_level: the frames' value for no light (DN, subtracted before linearising); upsample, flow_preset: as for
-    generators.scenes.VideoScene.
+    black_level: the frames' value for no light (DN, subtracted before linearising); upsample, flow_preset,
+    conditioning: as for generators.scenes.VideoScene (conditioning None: temporal for a recording's frames).
     """
 
     black_level: float = 0.0
     upsample: str = "flow"
     flow_preset: str = "medium"
+    conditioning: str | None = None
 
 
 class RecordingSimulation:
@@ -48,7 +49,7 @@ class RecordingSimulation:
         self.path = Path(path)
         self.settings = settings = settings or InputSettings()
         self.scene = scene = VideoScene(self.path, upsample=settings.upsample, flow_preset=settings.flow_preset,
-                                        black_level=settings.black_level)
+                                        black_level=settings.black_level, conditioning=settings.conditioning)
         self.height, self.width = scene.height, scene.width
         base = sim.DVSParams.preset("davis346")
         dvs = resolve_sensors(scene, AHDRConfig(dvs=base, auto_exposure=False))[0]

@@ -21,7 +21,8 @@ is then cropped to the sensor's aspect ratio (centred) and area-integrated to he
 linear radiance. The clip runs from the first input frame at or after start_s to the last at or before stop_s
 (seconds from the input's first frame); the scene's time 0 is that first frame, at time_origin_us in the input's
 own time base (a timestamps file's, a recording's), from which generation writes its times. The DVS is warmed up
-on the clip's first warm_up_s mirrored in time (a camera was running before the clip began: no start-up burst).
+on the clip's first warm_up_s mirrored in time (a recording's frames: its camera was running before the clip began;
+no start-up burst).
 
 Between input frames (`upsample`):
 - "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
@@ -65,7 +66,7 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpe
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
-WARM_UP_S = 0.5  # default DVS warm-up on the clip's start mirrored in time (seconds; see generators.ahdr)
+WARM_UP_S = 0.5  # DVS warm-up of a recording's frames on the clip's start mirrored in time (s; generators.ahdr)
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
 RESIZE_POLICIES = ("crop", "pad", "stretch")
 SLOW_MOTION_MAX_CONTAINER_FPS = 60.0  # a container rate at or below which tiny motion per frame suggests slow motion
@@ -389,7 +390,8 @@ class VideoScene(Scene):
     black_level: the integer input's value for no light (subtracted before linearising: the normalised value is
         (raw - black_level) / (max - black_level), clipped to [0, 1]).
     warm_up_s: the DVS is warmed up on this much of the clip's start mirrored in time (the camera was running
-        before the first frame; generators.ahdr.warm_up_input), at most the clip's length.
+        before the first frame; generators.ahdr.warm_up_input), at most the clip's length; default WARM_UP_S for a
+        recording's frames, 0 for other inputs.
     Frames whose exposure times the input records (a recording) are scaled to the first frame's exposure. The
     scene's time_origin_us is the time of its t = 0 in the input's own time base (a timestamps file's first time,
     a recording's first mid-exposure): generation writes its times from there.
@@ -402,7 +404,7 @@ class VideoScene(Scene):
                  input_crf: str | None = None, input_crf_params: dict | None = None,
                  channel: str | int | None = None, log_eps: float | None = None, slowmo: float | None = None,
                  resize: str = "crop", conditioning: ConditioningParams | dict | str | None = None,
-                 black_level: float = 0.0, warm_up_s: float = WARM_UP_S):
+                 black_level: float = 0.0, warm_up_s: float | None = None):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
         if resize not in RESIZE_POLICIES:
@@ -434,6 +436,8 @@ class VideoScene(Scene):
             self.input_crf = {"name": input_crf or "srgb", "params": dict(input_crf_params or {})}
         self.black_level = positive("black_level", black_level, "VideoScene", allow_zero=True)
         # the clip was running before its first frame: the DVS is warmed up on its start mirrored (generators.ahdr)
+        if warm_up_s is None:
+            warm_up_s = WARM_UP_S if self._input.kind == "recording" else 0.0
         self.warm_up_us = min(int(round(positive("warm_up_s", warm_up_s, "VideoScene", allow_zero=True) * 1e6)),
                               int(self.times[-1]))
         # the scene's time 0 in the input's own time base (a timestamps file's, a recording's)
