@@ -140,17 +140,18 @@ PRESETS: dict[str, DVSParams] = {
     # A DAVIS346-like sensor under indoor light (the DVSParams defaults): 0.2 log thresholds with 0.03 mismatch,
     # 100 us refractory, 300 Hz photoreceptor at full illumination, 0.1 Hz background activity rising to 1.1 Hz in
     # darkness, 0.1 Hz leak, 0.05 % hot pixels at 50 Hz. A GUESS from typical published figures (v2e's defaults,
-    # DAVIS papers), not fitted to any recording: on the real DAVIS346 road recording it gives 3.5x the events and
-    # 100x the static noise (docs/guide/calibrate.md); "davis346_road" is the fitted one.
+    # DAVIS papers), not fitted to any recording: on the real DAVIS346 road recording it gives 2x the events and
+    # 75x the static noise (docs/guide/calibrate.md); "davis346_road" is the fitted one.
     "davis346": DVSParams(),
     # FITTED: the DAVIS346 of ../shared/data/events/davis346_road (iniVation DV, daylight road, 25 fps APS frames
     # with a 500 us exposure; MIT, from neuromorphicsystems/aedat) by `evsim calibrate davis346_road.aedat4
-    # --window 0.4 2.32` (evsim_eval.calibrate: the recording's own frames simulated, the realism statistics of
-    # the events matched). dark_fraction is relative to the 99th percentile of the first frame (convert's auto
-    # illumination): a log offset of ~35 DN of the 8-bit frames. Fit and scores: docs/guide/calibrate.md.
+    # --window 0.4 2.32` (evsim_eval.calibrate: the recording's own frames simulated as convert does, with its
+    # temporal input conditioning, and the realism statistics of the events matched; loss 0.98, 147 simulations).
+    # dark_fraction is relative to the 99th percentile of the first frame (convert's auto illumination): a log
+    # offset of 10 DN of the 8-bit frames. Fit table and scores: docs/guide/calibrate.md.
     "davis346_road": DVSParams(
-        pos_threshold=0.1675, neg_threshold=0.2088, threshold_sigma=0.0318, refractory_us=125, cutoff_hz=361.0,
-        dark_fraction=0.1369, shot_noise_hz=0.0, dark_shot_noise_hz=0.0, leak_hz=0.0,
+        pos_threshold=0.1956, neg_threshold=0.2542, threshold_sigma=0.0454, refractory_us=71, cutoff_hz=431.8,
+        dark_fraction=0.03925, shot_noise_hz=0.0, dark_shot_noise_hz=0.0, leak_hz=0.0,
         hot_pixel_fraction=1.1e-5, hot_pixel_hz=5.73,
     ),
     # The same sensor with the noise of v2e's "noisy" setting (5 Hz shot noise) and more leak and hot pixels.
