@@ -49,7 +49,7 @@ from .simulation import InputSettings, RecordingSimulation
 OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
 HOT_FACTOR = 50.0  # a static pixel firing this many times the quiet static rate (and >= HOT_MIN_EVENTS) is hot
 HOT_MIN_EVENTS = 10
-WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.1, "passages": 0.1}
+WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.1, "passages": 0.1}  # of loss_of
 
 
 @dataclass
