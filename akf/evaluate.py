@@ -15,7 +15,7 @@ from .baselines import BASELINES
 from .exposure import exposure_average
 from .filter import reconstruct
 from .inputs import as_crf
-from .metrics import METRICS, PER_PIXEL, score, score_map
+from .metrics import METRICS, PER_PIXEL, SSIM_MAPS, score, score_map
 from .pixel_classes import CLASSES, TIME_CLASSES, nearest_frames, pixel_classes, time_classes, valid_region
 from .tuning import setting_options
 
@@ -145,8 +145,10 @@ class Case:
         return out
 
     def classes(self, k: int) -> dict[str, np.ndarray]:
-        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel and time classes), cached."""
-        if k not in self._classes:
+        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel and time classes), cached per
+        white level (the flat class depends on it)."""
+        key = (k, self.white)
+        if key not in self._classes:
             mid = (np.asarray(self.t_start, np.int64) + np.asarray(self.t_end, np.int64)) // 2
             before, after = nearest_frames(mid, int(self.times[k]))
             masks = pixel_classes(np.asarray(self.frames[before]), np.asarray(self.frames[after]), as_crf(self.crf),
@@ -154,8 +156,8 @@ class Case:
             when = time_classes(int(self.times[k]), self.t_start, self.t_end)
             for name in TIME_CLASSES:
                 masks[name] = np.full(self.truth.shape[1:], name == when)
-            self._classes[k] = masks
-        return self._classes[k]
+            self._classes[key] = masks
+        return self._classes[key]
 
     def _class_scores(self, images: np.ndarray, index: np.ndarray, metrics: list[str]) -> dict[str, float]:
         shape = self.truth.shape[1:]
@@ -169,13 +171,13 @@ class Case:
                     counts[ssim, c] += int(np.count_nonzero(masks[c] & region))
             for m in metrics:
                 smap = score_map(m, img, self.truth[k], self.white)
-                region = regions["ssim" in m]
+                region = regions[m in SSIM_MAPS]
                 for c in CLASSES:
                     sums[m, c] += float(smap[masks[c] & region].sum())
         out = {}
         for m in metrics:
             for c in CLASSES:
-                n = counts["ssim" in m, c]
+                n = counts[m in SSIM_MAPS, c]
                 out[f"{m}@{c}"] = sums[m, c] / n if n else math.nan
         total = index.size * shape[0] * shape[1]
         out.update({f"share@{c}": counts[False, c] / total for c in CLASSES})

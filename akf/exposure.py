@@ -33,7 +33,7 @@ __all__ = ["MIN_SAMPLES", "MAX_SAMPLES", "SAMPLES_PER_EVENT", "sample_count", "s
 MIN_SAMPLES = 8  # samples per window at least (few events: the output changes smoothly)
 MAX_SAMPLES = 64  # samples per window at most (each is a reconstruction)
 SAMPLES_PER_EVENT = 4  # per event of the busiest pixels: each step placed within 1/8 of its share of the window
-_CHUNK_SAMPLES = 512  # reconstructions per method call (memory: this many (H, W) float32 images)
+_CHUNK_BYTES = 1 << 28  # reconstructions per method call: about 256 MB of float32 images (at least MAX_SAMPLES)
 
 
 def sample_count(events: np.ndarray, t_start_us: int, t_end_us: int, shape: tuple[int, int]) -> int:
@@ -64,20 +64,21 @@ def exposure_average(reconstruct: Callable[[np.ndarray], np.ndarray], events: np
                      windows: npt.ArrayLike, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """(images, counts): the mean linear reconstruction over each window (K, 2) of int64 [t_start, t_end] us (in
     time order, not overlapping), float32 (K, H, W), and the number of samples of each. reconstruct(times) is the
-    method at int64 times, returning (T, H, W) linear intensity; it is called on groups of windows of at most
-    about _CHUNK_SAMPLES samples (each call runs the method from its start)."""
+    method at int64 times, returning (T, H, W) linear intensity; it is called on groups of consecutive windows
+    whose samples fit in about 256 MB of float32 images (each call runs the method from its start)."""
     windows = np.asarray(windows, np.int64).reshape(-1, 2)
     counts = np.array([sample_count(events, a, b, shape) for a, b in windows], np.int64)
+    budget = max(MAX_SAMPLES, _CHUNK_BYTES // (4 * shape[0] * shape[1]))
     out = np.empty((windows.shape[0], *shape), np.float32)
     k = 0
     while k < windows.shape[0]:
         stop = k + 1
-        while stop < windows.shape[0] and counts[k:stop + 1].sum() <= _CHUNK_SAMPLES:
+        while stop < windows.shape[0] and counts[k:stop + 1].sum() <= budget:
             stop += 1
         times = np.concatenate([sample_times(a, b, n) for (a, b), n in zip(windows[k:stop], counts[k:stop])])
-        images = np.asarray(reconstruct(times), np.float64)
+        images = reconstruct(times)
         bounds = np.concatenate([[0], np.cumsum(counts[k:stop])])
         for i in range(stop - k):
-            out[k + i] = images[bounds[i]:bounds[i + 1]].mean(axis=0)
+            out[k + i] = images[bounds[i]:bounds[i + 1]].mean(axis=0, dtype=np.float64)
         k = stop
     return out, counts

@@ -181,6 +181,8 @@ SSIM_WINDOW = 7
 SSIM_MARGIN = (SSIM_WINDOW - 1) // 2
 #: the metrics that are a mean of a per-pixel map (score_map), so that they can be averaged over a pixel class
 PER_PIXEL = frozenset({"mse01", "ssim01", "mse", "ssim", "log_mse", "pu21_ssim"})
+#: the PER_PIXEL metrics whose map is a local SSIM (valid SSIM_MARGIN pixels in from the border)
+SSIM_MAPS = frozenset({"ssim01", "ssim", "pu21_ssim"})
 
 
 def _ssim_map(x: np.ndarray, ref: np.ndarray, data_range: float) -> npt.NDArray[np.float64]:

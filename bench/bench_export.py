@@ -25,7 +25,7 @@ import warnings
 from pathlib import Path
 
 SUFFIX = {"native": ".h5", "e2vid": ".h5", "ijrr": "", "akf-mat": ".mat", "exr": "", "e2vid-txt": ".zip",
-          "aedat4": ".aedat4", "evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
+          "aedat4": ".aedat4", "aedat2": ".aedat2", "evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
 
 
 def _generate(duration_s: float, out: Path) -> None:
@@ -93,7 +93,7 @@ def _n_events(path: Path) -> int:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--duration-s", type=float, default=10.0)
-    ap.add_argument("--formats", default="evt3,evt2,dat,aedat4,e2vid-txt,e2vid,ijrr,native",
+    ap.add_argument("--formats", default="evt3,evt2,dat,aedat4,aedat2,e2vid-txt,e2vid,ijrr,native",
                     help="comma-separated export formats")
     ap.add_argument("--keep", type=Path, help="folder to keep the generated native files in (reused if present)")
     ap.add_argument("--child", nargs=3, metavar=("SRC", "FMT", "OUT"), help=argparse.SUPPRESS)

@@ -20,8 +20,8 @@ def add_realism_flags(parser: argparse.ArgumentParser) -> None:
                    help="the simulated recording to score against DATASET (any layout evsim reads; a dataset folder "
                         "of one sequence), simulated at the real sensor's size on the same time axis")
     g.add_argument("--window", type=float, nargs=2, metavar=("START_S", "END_S"),
-                   help="score [START_S, END_S) seconds from each recording's origin (its first frame's mid-"
-                        "exposure time, else its first event; default: the real recording's whole event stream)")
+                   help="score [START_S, END_S) seconds from each recording's origin (its first frame's "
+                        "exposure start, else its first event; default: the real recording's whole event stream)")
 
 
 def check_realism_args(args: argparse.Namespace) -> None:

@@ -4,7 +4,9 @@ supplementary Table 2).
 evaluate_dataset tunes, when asked, in this process (the search scores every sequence for each setting), then
 scores every sequence as one task of generators.runner: serially, on local workers or on a Dask cluster, with the
 same result. The per-sequence task is evaluate_sequence_file: evaluate_recording of the loaded file. What every
-method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by akf.evaluate.Case.
+method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by akf.evaluate.Case:
+exposure-matched against held-out frames unless exposure_matched=False, and per pixel/time class
+(akf.pixel_classes) as "metric@class" beside every per-pixel metric.
 
 Tuning (tune=True, `evsim evaluate --tune`): the tuning split is the first tune_fraction of every sequence's scored
 times; akf.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean of

@@ -4,7 +4,7 @@ A configuration describes a dataset of sequences. Every key is optional except [
 
     seed = 0                      # root seed (numpy SeedSequence entropy); sequence i gets its i-th child
     format = "native"             # extra export per sequence: native | e2vid | ijrr | akf-mat | e2vid-txt |
-                                  # aedat4 | evt3 | evt2 | dat
+                                  # aedat4 | aedat2 | evt3 | evt2 | dat
 
     [defaults]                    # applies to every sequence; a sequence may override any of these keys
     duration_s = 1.0              # seconds

@@ -43,7 +43,8 @@ from .suggest import did_you_mean, unknown_name
 __all__ = ["Sensor", "load_sensor", "parse_sensor", "write_sensor", "sensor_toml", "check_dvs_fields",
            "check_camera_fields", "TABLES", "DEFAULT_BASE"]
 
-DEFAULT_BASE = "davis346"  # the DVS preset a sensor file modifies when it names no base
+#: the preset a sensor file without `base` modifies
+DEFAULT_BASE = "davis346"
 MAX_SENSOR_FILE_BYTES = 1 << 20  # a sensor file is a few hundred bytes: a larger file is not one
 _TOP_KEYS = {"name": "the sensor's name", "base": "a DVS preset", "description": "text"}
 

@@ -204,8 +204,8 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf method only"),
     (["reconstruct", "{ijrr_noframes}", "--out", "{out}", "--times", "fps:10"],
-     "at least 1 frame, the recording has 0"),
-    (["evaluate", "{ijrr_noframes}", "--protocol", "interleave"], "at least 3 frames, the recording has 0"),
+     "at least 1 LDR frame, the recording has 0"),
+    (["evaluate", "{ijrr_noframes}", "--protocol", "interleave"], "at least 3 LDR frames, the recording has 0"),
 ])
 def test_bad_inputs_exit_2_with_a_message(dataset, tmp_path, capsys, argv, message):
     rec = load(dataset / "a.h5")

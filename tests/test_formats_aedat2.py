@@ -147,7 +147,7 @@ def test_aps_samples_of_a_real_davis_file_are_skipped(tmp_path):
     write(ev, tmp_path / "e.aedat2")
     data = bytearray((tmp_path / "e.aedat2").read_bytes())
     cut = len(data) - 8 * 10
-    aps = (0x80000000 | 5 << 22 | 7 << 12 | 1 << 10 | 512).to_bytes(4, "big") + data[cut + 4 : cut + 8]
+    aps = (0x80000000 | 5 << 22 | 7 << 12 | 1 << 10 | 512).to_bytes(4, "big") + bytes(4)  # at t = 0: not read
     (tmp_path / "aps.aedat2").write_bytes(bytes(data[:cut]) + aps + bytes(data[cut:]))
     rec = load(tmp_path / "aps.aedat2")
     np.testing.assert_array_equal(rec.events, ev)

@@ -306,7 +306,7 @@ def originals(tmp_path_factory):
 
 
 EVENTS_ONLY = {"evt3.raw": "evt3", "evt2.raw": "evt2", "td.dat": "dat", "events.txt.zip": "e2vid-txt",
-               "e2vid.txt": "e2vid-txt"}
+               "e2vid.txt": "e2vid-txt", "jaer.aedat2": "aedat2"}
 # layout: (original, mutator, reader)
 LAYOUTS = {
     "native-structure": ("native.h5", fm.mutate_h5, "load"),
@@ -326,6 +326,7 @@ LAYOUTS = {
     "evt2-time": ("evt2.raw", fm.mutate_time_prophesee, "load"),
     "dat-bytes": ("td.dat", fm.mutate_bytes, "load"),
     "dat-time": ("td.dat", fm.mutate_time_prophesee, "load"),
+    "aedat2-bytes": ("jaer.aedat2", fm.mutate_bytes, "load"),
     "e2vid-txt-zip-bytes": ("events.txt.zip", fm.mutate_bytes, "load"),
     "e2vid-txt-zip-time": ("events.txt.zip", fm.mutate_time_e2vid_text, "load"),
     "e2vid-txt-text": ("e2vid.txt", fm.mutate_text, "load"),

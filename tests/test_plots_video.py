@@ -69,6 +69,20 @@ def test_gif_has_one_frame_per_interval_and_the_colours_of_its_events(native, tm
     assert (frames[70] == 255).all() and not (frames[100] == 255).all()
 
 
+@pytest.mark.parametrize("fmt,name", [("dat", "e.dat"), ("aedat2", "e.aedat2"), ("e2vid-txt", "e.txt")])
+def test_every_readable_layout_gives_the_same_video(native, tmp_path, fmt, name):
+    # .dat and .aedat2 are streamed chunk by chunk like native files; E2VID text is loaded whole
+    from generators.formats import export
+    from generators.formats.streaming import open_event_stream
+
+    path, ev = native
+    export(path, tmp_path / name, fmt)
+    assert open_event_stream(tmp_path / name).streamed == (fmt != "e2vid-txt")
+    write_video(path, tmp_path / "a.gif", frame_ms=7, progress=False)
+    write_video(tmp_path / name, tmp_path / "b.gif", frame_ms=7, progress=False)
+    assert (tmp_path / "a.gif").read_bytes() == (tmp_path / "b.gif").read_bytes()
+
+
 def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
     cv2 = pytest.importorskip("cv2")
     path, ev = native
@@ -87,6 +101,20 @@ def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
         want = expected_rgb(ev, k, 20_000).astype(int)
         err = np.abs(frames[k] - want)
         assert np.median(err) <= 4 and err.max() <= 40, (k, np.median(err), err.max())
+
+
+def test_mp4_of_an_odd_sized_sensor_keeps_its_last_row_and_column(tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    ev = np.zeros(2, EVENT_DTYPE)
+    ev["t"], ev["x"], ev["y"], ev["p"] = [0, 1], [32, 0], [24, 0], [1, -1]  # the far corner, then the near one
+    write_native(Recording(events=ev, height=25, width=33), tmp_path / "odd.h5")
+    write_video(tmp_path / "odd.h5", tmp_path / "odd.mp4", full_scale=1, scale=3, progress=False)  # 99 x 75
+    ok, bgr = cv2.VideoCapture(str(tmp_path / "odd.mp4")).read()
+    assert ok and bgr.shape == (76, 100, 3)  # one blank row and column added: MPEG-4 frames have even sides
+    rgb = bgr[..., ::-1].astype(int)
+    assert rgb[73, 97, 0] > rgb[73, 97, 2] + 60  # the ON event at the far corner (its 3x3 block's centre) is red
+    assert rgb[1, 1, 2] > rgb[1, 1, 0] + 60  # the OFF event is blue
+    assert (rgb[75, :90] > 200).all() and (rgb[:66, 99] > 200).all()  # the padding is blank
 
 
 def test_frames_stream_memory_does_not_grow_with_the_number_of_frames():
@@ -126,3 +154,22 @@ def test_cli_writes_the_video_and_refuses_bad_options(native, tmp_path, capsys):
     with pytest.raises(EvsimInputError, match="no events to draw"):
         write_video(empty, tmp_path / "e.gif", progress=False)
     assert not (tmp_path / "e.gif").exists()
+
+
+def test_writing_a_gif_keeps_memory_flat_in_the_number_of_frames(tmp_path):
+    # Pillow's own multi-frame GIF writer keeps every frame; evsim's joins one-frame files as it goes
+    def peak(n_frames):
+        ev = np.zeros(n_frames, EVENT_DTYPE)  # one event a frame
+        ev["t"] = np.arange(n_frames) * 1000
+        ev["x"], ev["y"], ev["p"] = np.arange(n_frames) % W, np.arange(n_frames) % H, 1
+        write_native(Recording(events=ev, height=H * 4, width=W * 4), tmp_path / f"s{n_frames}.h5")
+        tracemalloc.start()
+        r = write_video(tmp_path / f"s{n_frames}.h5", tmp_path / f"v{n_frames}.gif", frame_ms=1, scale=4,
+                        progress=False)
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        assert r["frames"] == n_frames
+        return top
+
+    short, long = peak(500), peak(2000)
+    assert long < 1.3 * short, (short, long)

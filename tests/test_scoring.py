@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import akf
+import akf.exposure
 import crf_models
 import sim
 from akf.evaluate import Case, output_bound, reachable_white
@@ -65,7 +66,7 @@ def test_exposure_matched_scoring_gives_the_truth_a_zero_score_where_point_scori
     assert point["mse01"] > 100 * matched["mse01"] and point["ssim01"] < 0.99
 
 
-def test_exposure_average_is_the_mean_of_midpoint_samples_and_the_count_follows_the_events():
+def test_exposure_average_is_the_mean_of_midpoint_samples_and_the_count_follows_the_events(monkeypatch):
     assert sample_times(1000, 2000, 4).tolist() == [1125, 1375, 1625, 1875]
     ev = np.zeros(0, EVENT_DTYPE)
     assert sample_count(ev, 0, 1000, (2, 2)) == MIN_SAMPLES  # no events: smooth, the minimum
@@ -82,6 +83,19 @@ def test_exposure_average_is_the_mean_of_midpoint_samples_and_the_count_follows_
                                       ev, [[0, 1000], [2000, 2600]], (2, 2))
     assert counts.tolist() == [MIN_SAMPLES, MIN_SAMPLES]
     np.testing.assert_allclose(images[:, 0, 0], [500, 2300], atol=0.5)
+    # windows are reconstructed in groups that fit the memory budget: the same averages, in more calls
+    windows = [[k * 1000, k * 1000 + 600] for k in range(20)]
+    calls = []
+
+    def ramp(t):
+        calls.append(len(t))
+        return np.asarray(t, np.float64)[:, None, None] * np.ones((1, 2, 2))
+    whole, _ = exposure_average(ramp, ev, windows, (2, 2))
+    monkeypatch.setattr(akf.exposure, "_CHUNK_BYTES", 1)  # budget: MAX_SAMPLES samples per call
+    parts, _ = exposure_average(ramp, ev, windows, (2, 2))
+    assert calls[0] == 20 * MIN_SAMPLES and calls[1:] == [MAX_SAMPLES] * 2 + [20 * MIN_SAMPLES - 2 * MAX_SAMPLES]
+    np.testing.assert_array_equal(parts, whole)
+    np.testing.assert_allclose(whole[:, 0, 0], [k * 1000 + 300 for k in range(20)], atol=0.5)
 
 
 def test_point_scoring_flag_and_the_table_and_json_say_which(blurred, tmp_path, capsys):

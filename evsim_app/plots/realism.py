@@ -133,7 +133,7 @@ def add_realism_plot_parser(psub: argparse._SubParsersAction, epilog: str) -> No
     r.add_argument("real", type=Path, help="the real recording (AEDAT4, IJRR folder, native HDF5, ...)")
     r.add_argument("sim", type=Path, help="the simulated recording (same sensor size and time axis)")
     r.add_argument("--window", type=float, nargs=2, metavar=("START_S", "END_S"),
-                   help="scored time in s from each recording's origin (first mid-exposure; default: all)")
+                   help="scored time in s from each recording's origin (first exposure start; default: all)")
     r.add_argument("--at-s", type=float, help="middle of the event frames in s (default: the real recording's "
                                               "busiest 10 ms)")
     r.add_argument("--window-ms", type=float, default=20.0, help="event-frame window in ms (default 20)")

@@ -7,7 +7,8 @@ every evsim event figure (plots.events.event_frame_rgb): white where no event, t
 towards blue with the OFF count, full at `full_scale` events of a polarity in the frame (a fixed scale, so one
 colour means one pair of counts in every frame). Each sensor pixel becomes a `scale` x `scale` block.
 
-MP4 is written with OpenCV's VideoWriter (MPEG-4 part 2, fourcc mp4v: lossy, so colours are near, not exact);
+MP4 is written with OpenCV's VideoWriter (MPEG-4 part 2, fourcc mp4v: lossy, so colours are near, not exact;
+an odd side gets one blank row or column at the bottom or right, as MPEG-4 frames have even sides);
 GIF with Pillow, one frame at a time with a fixed palette (lossless; GIF frame delays are whole centiseconds).
 The file is written to a temporary folder beside OUT and moved into place when complete.
 """
@@ -76,11 +77,15 @@ class _Mp4:
         lut = np.zeros((256, 1, 3), np.uint8)
         lut[: len(colours), 0] = colours[:, ::-1]  # BGR
         self._lut = lut
-        self._w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        self._size = (size[0] + size[0] % 2, size[1] + size[1] % 2)  # MPEG-4 drops an odd last row or column
+        self._w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, self._size)
         if not self._w.isOpened():
             raise EvsimInputError("OpenCV cannot write MP4 (mp4v) here; write a .gif instead")
 
     def add(self, index: np.ndarray) -> None:
+        h, w = index.shape
+        if (w, h) != self._size:  # pad with the blank colour (index 0) to even sides
+            index = np.pad(index, ((0, self._size[1] - h), (0, self._size[0] - w)))
         self._w.write(self._cv2.LUT(self._cv2.merge((index, index, index)), self._lut))
 
     def close(self) -> None:

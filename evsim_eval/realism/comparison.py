@@ -62,6 +62,8 @@ class Comparison:
 
 
 def _ratio(sim: float, real: float) -> float:
+    if math.isnan(sim) or math.isnan(real):  # not measured (no pixel classes)
+        return float("nan")
     if real > 0:
         return sim / real
     return float("nan") if sim == 0 else float("inf")
@@ -69,9 +71,9 @@ def _ratio(sim: float, real: float) -> float:
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
     a, b = a.ravel().astype(np.float64), b.ravel().astype(np.float64)
-    a, b = a - a.mean(), b - b.mean()
-    den = math.sqrt(float(a @ a) * float(b @ b))
-    return float(a @ b) / den if den > 0 else float("nan")
+    a, b = a - a.mean(), b - b.mean()  # sums of products, not BLAS dot: its threads spin on a busy machine
+    den = math.sqrt(float(np.sum(a * a)) * float(np.sum(b * b)))
+    return float(np.sum(a * b)) / den if den > 0 else float("nan")
 
 
 def _blur(counts: np.ndarray) -> np.ndarray:
@@ -117,7 +119,7 @@ def _seed_noise(real: RealismStats, sim: RealismStats) -> dict:
         "count_corr": _poisson_corr_shortfall(*total),
         "count_corr_blurred": _poisson_corr_shortfall(*total, noise_scale=1 / BLUR_PX ** 2),
         "rate_corr": _poisson_corr_shortfall(rc, sc),
-        "rate_rel_rmse": math.sqrt(float((rc + sc).sum()) / float(rc @ rc)) if rc.any() else float("nan"),
+        "rate_rel_rmse": math.sqrt(float((rc + sc).sum()) / float(np.sum(rc * rc))) if rc.any() else float("nan"),
         "interval_l1": l1,
         "passage_median_diff": math.hypot(_median_sd(real.passages), _median_sd(sim.passages)),
     }
@@ -151,8 +153,8 @@ def compare(real: RealismStats, sim: RealismStats) -> Comparison:
         "passage_median_diff": sim.passage_median - real.passage_median,
     }
     notes = [f"real: {n}" for n in real.notes] + [f"simulation: {n}" for n in sim.notes]
-    if real.masks is None:
-        notes.append("the real recording has no frames: noise rates and passages are not scored")
+    if real.masks is None and not real.notes:
+        notes.append("no pixel classes (measured without frames): noise rates and passages are not scored")
     return Comparison(real, sim, scores, _seed_noise(real, sim), notes)
 
 

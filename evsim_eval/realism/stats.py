@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim import EvsimInputError
+from sim import EvsimInputError, validate_events
 
 from .kernels import pixel_runs
 from .masks import FrameMasks, frame_masks
@@ -186,6 +186,14 @@ def _describe_gaps(gaps_us: np.ndarray, windows_us: np.ndarray) -> str:
             f"bins without events in a busy stream ({listed} s, times as in the file) are not scored")
 
 
+def _check_events(events: np.ndarray, height: int, width: int) -> None:
+    """EvsimInputError unless events are sim.EVENT_DTYPE, sorted by time and inside the height x width sensor."""
+    validate_events(events)
+    if events.size and (int(events["x"].max()) >= width or int(events["y"].max()) >= height):
+        raise EvsimInputError(f"events outside the {width}x{height} sensor (max x {int(events['x'].max())}, max y "
+                              f"{int(events['y'].max())}): simulate at the real sensor's size")
+
+
 def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = None, *, height: int | None = None,
             width: int | None = None, masks: FrameMasks | None = None, like: RealismStats | None = None,
             detect_gaps: bool = False) -> RealismStats:
@@ -207,6 +215,7 @@ def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = N
     else:
         origin = 0
     windows = as_windows(windows_us)
+    _check_events(events, height, width)
     t = events["t"]
     gaps = np.zeros((0, 2), np.int64)
     notes = []
@@ -268,11 +277,10 @@ def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
 
 
 def recording_origin_us(rec: object) -> int:
-    """Time zero of a recording (us): its first frame's mid-exposure time, else its first event's time (0 without
-    events). Windows given in seconds count from it. The mid-exposure time is what every layout with frames
-    records (IJRR images.txt holds no exposure start), so one recording read from two layouts gets one origin."""
-    if getattr(rec, "frames", None) is not None and len(rec.frame_t_mid_us):
-        return int(rec.frame_t_mid_us[0])
+    """Time zero of a recording (us): its first frame's exposure start (t0 of the IJRR layout), else its first
+    event's time (0 without events). Windows given in seconds count from it."""
+    if getattr(rec, "frames", None) is not None and len(rec.frame_t_start_us):
+        return int(rec.frame_t_start_us[0])
     return int(rec.events["t"][0]) if rec.events.size else 0
 
 
@@ -284,6 +292,9 @@ def measure_recording(rec: object, window_s: tuple[float, float] | None = None, 
     Coverage gaps are cut out (detect_gaps)."""
     origin = recording_origin_us(rec)
     if like is not None:
+        if (rec.height, rec.width) != (like.height, like.width):
+            raise EvsimInputError(f"the simulation is {rec.width}x{rec.height} pixels, the real recording "
+                                  f"{like.width}x{like.height}: simulate at the real sensor's size")
         return measure(rec.events, like=shifted(like, origin), detect_gaps=detect_gaps)
     if window_s is None:
         t = rec.events["t"]

@@ -25,7 +25,8 @@ First data byte: readers take a first byte '#' (0x23) for one more header line; 
     events. evsim's writer puts first an event of the first timestamp whose address does not start with 0x23;
     when every event of that timestamp does (y field 140..143), it writes an external-input (special) event at
     that time first, which jAER and evsim's reader skip.
-Reading: special events, APS samples and IMU words are skipped (their count is in the Recording's metadata); a
+Reading: special events, APS samples and IMU words are skipped (their count is in the Recording's metadata; the
+    time order is checked on the DVS events alone, the words that are read); a
     header without "#!AER-DAT2.0", a chip other than a DAVIS, an unknown sensor size, a truncated event, a time
     that goes back or a coordinate outside the sensor are DatasetFormatError naming the file.
 """
@@ -224,6 +225,12 @@ def read_header(path: str | Path) -> tuple[list[str], int]:
     return lines, pos
 
 
+def sensor_size(path: str | Path) -> tuple[int, int]:
+    """(height, width) of an AEDAT 2.0 file, from its header (see _geometry)."""
+    lines, _ = read_header(path)
+    return _geometry(Path(path), _keys(lines))
+
+
 def _keys(lines: list[str]) -> dict[str, str]:
     keys = {}
     for line in lines:
@@ -277,7 +284,7 @@ def iter_aedat2_events(path: str | Path, size: int = EVENT_CHUNK, counts: dict |
     offset = _offset(path, keys)
     counts = {} if counts is None else counts
     counts.update(special=0, aps_imu=0)
-    wraps, prev, last_ev = 0, None, None
+    wraps, prev = 0, None
     with open(path, "rb") as f:
         f.seek(start)
         while True:
@@ -288,35 +295,32 @@ def iter_aedat2_events(path: str | Path, size: int = EVENT_CHUNK, counts: dict |
             if len(raw) % _EVENT.itemsize:
                 raise fail(path, f"truncated: {len(raw) % _EVENT.itemsize} trailing bytes after the last whole event")
             d = np.frombuffer(raw, _EVENT)
-            t = d["t"].astype(np.int64)
+            a = d["a"].astype(np.int64)
+            aps = (a >> APS_BIT) & 1 == 1
+            special = ~aps & ((a >> SPECIAL_BIT) & 1 == 1)
+            counts["aps_imu"] += int(aps.sum())
+            counts["special"] += int(special.sum())
+            at = np.flatnonzero(~aps & ~special)  # DVS events; their times alone are checked and unwrapped
+            if at.size == 0:
+                continue
+            a, t = a[at], d["t"][at].astype(np.int64)
             before = np.empty_like(t)
             before[1:] = t[:-1]
             before[0] = t[0] if prev is None else prev
             ok = time_step_ok(before, t, _PERIOD)
             if not ok.all():
                 i = int(np.argmin(ok))
-                raise fail(path, f"time goes back at byte {pos + 8 * i}: timestamp {int(t[i])} after "
+                raise fail(path, f"time goes back at byte {pos + 8 * int(at[i])}: timestamp {int(t[i])} after "
                                  f"{int(before[i])} (unsigned 32-bit) is neither a step forward nor a wrap of the "
                                  "32-bit time: a corrupt file")
             k = np.cumsum(t < before)
-            t = t + ((wraps + k) << 32) + offset
-            prev, wraps = int(d["t"][-1]), wraps + int(k[-1])
-            a = d["a"].astype(np.int64)
-            aps = (a >> APS_BIT) & 1 == 1
-            special = ~aps & ((a >> SPECIAL_BIT) & 1 == 1)
-            counts["aps_imu"] += int(aps.sum())
-            counts["special"] += int(special.sum())
-            dvs = ~aps & ~special
-            a, t = a[dvs], t[dvs]
+            prev, t = int(t[-1]), t + ((wraps + k) << 32) + offset
+            wraps += int(k[-1])
             xf, yf = (a >> X_SHIFT) & 0x3FF, (a >> Y_SHIFT) & 0x1FF
             bad = np.flatnonzero((xf >= w) | (yf >= h))
             if bad.size:
-                i = int(np.flatnonzero(dvs)[bad[0]])
-                raise fail(path, f"event at byte {pos + 8 * i}: x field {int(xf[bad[0]])}, y field "
+                raise fail(path, f"event at byte {pos + 8 * int(at[bad[0]])}: x field {int(xf[bad[0]])}, y field "
                                  f"{int(yf[bad[0]])} outside the {w}x{h} sensor")
-            if t.size and last_ev is not None and t[0] < last_ev:
-                raise fail(path, f"time goes back at byte {pos}: an event at {int(t[0])} us after one at {last_ev} us")
-            last_ev = int(t[-1]) if t.size else last_ev
             yield events_from_columns(path, t, w - 1 - xf, h - 1 - yf,
                                       np.where((a >> POL_BIT) & 1, 1, -1).astype(np.int8))
 
@@ -328,7 +332,7 @@ def read_aedat2(path: str | Path) -> Recording:
     chunks = list(iter_aedat2_events(path, counts=counts))
     events = np.concatenate(chunks) if chunks else events_from_columns(path, [], [], [], [])
     lines, _ = read_header(path)
-    h, w = _geometry(path, _keys(lines))
+    h, w = sensor_size(path)
     return Recording(events=events, height=h, width=w,
                      metadata={"source": {"format": "aedat2", "path": str(path), "header": lines,
                                           "skipped_words": counts}})

@@ -12,9 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .aedat2 import _geometry as _aedat2_geometry
-from .aedat2 import _keys as _aedat2_keys
-from .aedat2 import iter_aedat2_events, read_header
+from .aedat2 import iter_aedat2_events
+from .aedat2 import sensor_size as aedat2_sensor_size
 from .common import EVENT_CHUNK, open_h5, reading
 from .native import _resolution, _t_offset, iter_native_events, recording_event_chunks
 from .prophesee import PROPHESEE_FORMATS, _read_header, iter_prophesee_events
@@ -54,8 +53,7 @@ def open_event_stream(path: str | Path, size: int = EVENT_CHUNK) -> EventStream:
         if h is not None:
             return EventStream(h, w, lambda: iter_prophesee_events(path, size), None, True)
     if kind == "aedat2":
-        lines, _ = read_header(path)
-        h, w = _aedat2_geometry(path, _aedat2_keys(lines))
+        h, w = aedat2_sensor_size(path)
         return EventStream(h, w, lambda: iter_aedat2_events(path, size), None, True)
     rec = load(path)
     t_range = (int(rec.events["t"][0]), int(rec.events["t"][-1])) if rec.events.size else None
