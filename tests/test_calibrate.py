@@ -131,3 +131,18 @@ def test_black_level_and_sensor_input_table(tmp_path):
     assert cfg.sequences[0].scene["black_level"] == 10.0
     with pytest.raises(sim.InvalidParameterError, match="offset_dn"):
         sim.Sensor(name="cam", tables={"input": {"offset_dn": 0.0}})
+
+
+def test_calibrate_refuses_bad_windows_and_recordings_without_frames(tmp_path):
+    from evsim_eval.calibrate import calibrate
+    from generators.formats import export
+    from generators.formats.recording import Recording
+
+    with pytest.raises(sim.EvsimInputError, match="0 <= start < end"):
+        calibrate(tmp_path / "any.h5", (2.0, 1.0), progress=False)
+    events = np.zeros(3, sim.EVENT_DTYPE)
+    events["t"] = [10, 20, 30]
+    events["p"] = 1
+    export(Recording(events=events, height=4, width=4), tmp_path / "ev.h5", "native")
+    with pytest.raises(sim.EvsimInputError, match="needs a recording with frames"):
+        calibrate(tmp_path / "ev.h5", (0.0, 1.0), progress=False)

@@ -220,6 +220,9 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
+    start_s, end_s = (float(v) for v in window_s)
+    if not (math.isfinite(start_s) and math.isfinite(end_s) and 0 <= start_s < end_s):
+        raise sim.EvsimInputError(f"the window must satisfy 0 <= start < end seconds, got {start_s} .. {end_s}")
     rec: Recording = load(path)
     if rec.frames is None or rec.frames.shape[0] < 3:
         raise sim.EvsimInputError(f"{path}: calibration needs a recording with frames (at least 3)")
