@@ -19,8 +19,8 @@ Noise parameters are fitted with noise-free signal parameters, whose counts on s
 
 The loss (loss_of) weighs: squared log count ratios ON and OFF (x 10), 1 - blurred per-pixel count correlation
 (x 5), the squared relative RMS error of the 10 ms rate curve (x 2), the interval-histogram L1 distance (x 1), the
-squared log ratios of the quiet static noise counts (x 0.1, one event added to each side) and the passage median
-difference (x 0.1).
+squared log ratios of the quiet static noise counts (x 0.5, one event added to each side; in stage 3 only) and the
+passage median difference (x 0.1).
 
 References (full citations also in docs/models/references.md):
 
@@ -49,7 +49,7 @@ from .simulation import InputSettings, RecordingSimulation
 OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
 HOT_FACTOR = 50.0  # a static pixel firing this many times the quiet static rate (and >= HOT_MIN_EVENTS) is hot
 HOT_MIN_EVENTS = 10
-WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.1, "passages": 0.1}  # of loss_of
+WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.5, "passages": 0.1}  # of loss_of
 
 
 @dataclass
@@ -92,9 +92,10 @@ class Calibration:
                 "seed": self.seed, "evaluations": self.evaluations, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
 
 
-def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int]) -> float:
+def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int], noise: bool = True) -> float:
     """The calibration loss of realism scores (module docstring); real_quiet, sim_quiet: (ON, OFF) events on the
-    quiet static pixels."""
+    quiet static pixels; noise=False leaves out the quiet-noise term (the signal stages, which simulate without
+    noise: what the noise stage adds is not theirs to match)."""
     def log_ratio(r):
         return math.log(r) if r > 0 and math.isfinite(r) else 5.0
 
@@ -106,7 +107,7 @@ def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int
         "quiet": sum(math.log((s + 1) / (r + 1)) ** 2 for s, r in zip(sim_quiet, real_quiet)),
         "passages": abs(_finite(scores["passage_median_diff"], 10.0)),
     }
-    return float(sum(WEIGHTS[k] * v for k, v in terms.items()))
+    return float(sum(WEIGHTS[k] * v for k, v in terms.items() if noise or k != "quiet"))
 
 
 def _finite(v: float, default: float) -> float:
@@ -121,7 +122,7 @@ class _Objective:
 
         self._compare, self._measure = compare, measure
         self.simulation, self.real, self.seed, self.bar = simulation, real, seed, bar
-        self.evaluations, self.history = 0, []
+        self.evaluations, self.history, self.noise = 0, [], False
         self.best: tuple[float, sim.DVSParams | None, dict | None] = (math.inf, None, None)
 
     def stats(self, dvs: sim.DVSParams):
@@ -131,7 +132,7 @@ class _Objective:
     def __call__(self, dvs: sim.DVSParams, stage: str) -> tuple[float, dict, object]:
         stats = self.stats(dvs)
         scores = self._compare(self.real, stats).scores
-        value = loss_of(scores, self.real.quiet_counts, stats.quiet_counts)
+        value = loss_of(scores, self.real.quiet_counts, stats.quiet_counts, self.noise)
         self.evaluations += 1
         self.history.append((stage, value))
         if value < self.best[0]:
@@ -238,7 +239,9 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
                disable=not progress, leave=False)
     objective = _Objective(simulation, real, seed, bar)
     try:
+        objective.noise = True
         preset_scores = objective(start, "preset")[1]
+        objective.noise = False
         objective.best = (math.inf, None, None)  # the search's best: noise-free parameters
         noiseless = start.replace(shot_noise_hz=0.0, dark_shot_noise_hz=0.0, leak_hz=0.0, hot_pixel_fraction=0.0)
         # stage 1: offset grid with count-matched thresholds
@@ -254,7 +257,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         # stage 2: Nelder-Mead on the signal parameters
         dvs = _nelder_mead(objective, dvs, max_evaluations)
         # stage 3: noise candidates by moments, each with its thresholds matched again; the best is kept
-        objective.best = (math.inf, None, None)
+        objective.best, objective.noise = (math.inf, None, None), True
         for candidate in _noise_candidates(objective, dvs):
             _match_counts(objective, candidate, "noise", steps=1)
         loss, final, fitted_scores = objective.best
