@@ -85,7 +85,7 @@ class TexturedScene:
 def run(height: int, width: int, n_frames: int, preset: str, fps: float, block: int, speed: float) -> dict:
     scene = TexturedScene(height, width, speed_px=speed)
     dt = int(round(1e6 / fps))
-    emu = sim.DVSEmulator(height, width, sim.DVSParams.preset(preset), seed=0)
+    emu = sim.DVSEmulator(height, width, sim.load_sensor(preset).dvs, seed=0)
     warm = 10
     first = scene.frames(0, warm)
     q = np.percentile(first[0], [0.1, 99.9])
@@ -153,7 +153,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=3000, help="frames timed at 346x260 (default 3000; 0 skips)")
     ap.add_argument("--frames-hd", type=int, default=300, help="frames timed at 1280x720 (default 300; 0 skips)")
-    ap.add_argument("--preset", default="davis346", help="DVS preset (default davis346)")
+    ap.add_argument("--preset", default="davis346", help="DVS preset or sensor file (default davis346)")
     ap.add_argument("--fps", type=float, default=1000.0, help="frame rate of the input video (default 1000)")
     ap.add_argument("--block", type=int, default=0, help="frames per feed() call (default: the emulator's block)")
     ap.add_argument("--speed", type=float, default=0.2, help="scene motion in pixels per frame (default 0.2)")

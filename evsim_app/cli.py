@@ -20,15 +20,17 @@ from pathlib import Path
 
 import sim
 from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
-from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, UPSAMPLE_MODES
+from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, OUTPUTS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 
 from . import export_command
 from .calibrate_command import add_parser as add_calibrate_parser
+from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, sensor_size
 from .plots.cli import add_plot_parser
 from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
 from .sigterm import Watchdog, end_now
+from .suggesting_parser import SuggestingParser
 
 EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
           "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
@@ -43,15 +45,22 @@ SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) o
 
 def _settings_from_flags(args) -> dict:
     """Sequence settings (generators.config schema) from the flags that were given."""
-    s = {k: getattr(args, k) for k in ("duration_s", "height", "width", "sensor") if getattr(args, k) is not None}
-    s["camera"] = {k: getattr(args, k) for k in ("fps", "exposure_us") if getattr(args, k) is not None}
+    from generators.config import resolve_sensor
+
+    height, width = sensor_size(args)
+    s = {k: v for k, v in (("duration_s", args.duration_s), ("height", height), ("width", width)) if v is not None}
+    if args.sensor is not None:
+        s["sensor"] = resolve_sensor("--sensor", args.sensor)
+    s["dvs"] = dvs_overrides(args)
+    s["camera"] = camera_overrides(args, {getattr(args, "fps_flag", "--fps"): ("fps", args.fps),
+                                          "--exposure-us": ("exposure_us", args.exposure_us)})
     if args.crf is not None:
         s["crf"] = {"name": args.crf, "params": {}}
     if args.sampling is not None:
         s["sampling"] = {"mode": args.sampling}
     if args.sampling_quantile is not None:
         s.setdefault("sampling", {})["quantile"] = args.sampling_quantile
-    s["output"] = {"labels": args.labels}
+    s["output"] = {"labels": True} if args.labels else {}
     if args.outputs is not None:
         s["output"]["outputs"] = args.outputs
     if args.reference_rate_hz is not None:
@@ -76,8 +85,8 @@ def _scene_sequences(args) -> list[dict]:
     return [dict(by_name[args.scene])]
 
 
-_SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "fps", "exposure_us", "crf", "labels",
-                "reference_rate_hz", "sampling", "outputs")
+_SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "sensor_size", "fps", "exposure_us", "crf",
+                "labels", "reference_rate_hz", "sampling", "outputs")
 
 
 def _dataset_config(args):
@@ -89,10 +98,13 @@ def _dataset_config(args):
             raise sim.EvsimInputError(f"--{given[0].replace('_', '-')} cannot be combined with --config: "
                                       "set it in the configuration file")
         cfg = load_config(args.config)
-        if args.sensor is not None:
-            sensor = resolve_sensor("--sensor", args.sensor)
-            for spec in cfg.sequences:
+        sensor = None if args.sensor is None else resolve_sensor("--sensor", args.sensor)
+        dvs, camera = dvs_overrides(args), camera_overrides(args)
+        for spec in cfg.sequences:  # the model flags over every sequence's settings
+            if sensor is not None:
                 spec.settings["sensor"] = sensor
+            spec.settings["dvs"] = {**spec.settings["dvs"], **dvs}
+            spec.settings["camera"] = {**spec.settings["camera"], **camera}
         return cfg
     data = {"defaults": _settings_from_flags(args), "sequence": _scene_sequences(args)}
     return parse_config(data, source="<command line>")
@@ -186,21 +198,25 @@ def _cmd_convert(args) -> int:
     from types import SimpleNamespace
 
     from generators.convert import convert
+    from generators.convert_config import load_convert_config, merge_settings
 
+    # --config's settings, the flags over them
+    cfg = load_convert_config(args.config) if args.config is not None else {"settings": {}, "video": {}}
     # the sensor flags as generate reads them, with the LDR camera's frame rate from --camera-fps
-    flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "duration_s": None, "height": None,
-                               "width": None})
-    settings = _settings_from_flags(flags)
-    if args.sensor is not None:
-        settings["sensor"] = args.sensor
-    index = convert(args.inputs, args.out, settings=settings, height=args.height, width=args.width,
-                    seed=0 if args.seed is None else args.seed, fmt=args.format or "native",
-                    overwrite=args.overwrite, progress=not args.no_progress, start_s=args.start_s,
-                    stop_s=args.stop_s, fps=args.fps, timestamps=args.timestamps, upsample=args.upsample,
-                    flow=args.flow, flow_preset=args.flow_preset, flow_scale=args.flow_scale,
-                    input_crf=args.input_crf, slowmo=args.slowmo, resize=args.resize,
-                    conditioning=_conditioning_option(args),
-                    black_level=args.black_level, **_run_options(args))
+    flags = SimpleNamespace(**{**vars(args), "fps": args.camera_fps, "fps_flag": "--camera-fps",
+                               "duration_s": None, "height": None, "width": None, "sensor_size": None})
+    settings = merge_settings(cfg["settings"], _settings_from_flags(flags))
+    height, width = settings.pop("height", None), settings.pop("width", None)
+    if args.sensor_size is not None or args.height is not None or args.width is not None:
+        height, width = sensor_size(args)
+    video = {k: getattr(args, k) for k in ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow",
+                                           "flow_preset", "flow_scale", "input_crf", "resize", "black_level")}
+    video["conditioning"] = _conditioning_option(args)
+    video = {k: v for k, v in video.items() if v is not None}
+    seed = args.seed if args.seed is not None else cfg.get("seed") or 0
+    index = convert(args.inputs, args.out, settings=settings, height=height, width=width, seed=seed,
+                    fmt=args.format or cfg.get("format") or "native", overwrite=args.overwrite,
+                    progress=not args.no_progress, **{**cfg["video"], **video}, **_run_options(args))
     import json
 
     n = len(json.loads(index.read_text())["sequences"])
@@ -228,19 +244,31 @@ def _cmd_demo(args) -> int:
     import numpy as np
 
     from generators.builtin import ahdr_suite, ahdr_suite_config
-    from generators.dataset import write_sequence
+    from generators.dataset import remove_if_empty, write_sequence
 
     from .precompile import start_background_compile, wait
 
-    if args.duration_s <= 0 or args.height <= 0 or args.width <= 0:
+    height, width = sensor_size(args)
+    height, width = height or DEMO_SIZE[0], width or DEMO_SIZE[1]
+    if args.duration_s <= 0 or height <= 0 or width <= 0:
         raise sim.InvalidParameterError("--duration-s, --height and --width must be positive")
+    from generators.config import resolve_sensor
+
+    config = ahdr_suite_config(resolve_sensor("--sensor", args.sensor), dvs=dvs_overrides(args),
+                               camera=camera_overrides(args))
     # The first sequence of the built-in AHDR suite (the AKF paper's construction; needs no files).
-    name, scene = ahdr_suite(args.height, args.width, args.duration_s, include_hdr=False)[0]
+    name, scene = ahdr_suite(height, width, args.duration_s, include_hdr=False)[0]
     compiling = None if args.no_reconstruct else start_background_compile()  # on the other core meanwhile
     out = Path(args.out)
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    entry = write_sequence(out, "demo", scene, ahdr_suite_config(args.sensor), np.random.SeedSequence(args.seed),
-                           "native", progress=not args.no_progress)
+    try:
+        entry = write_sequence(out, "demo", scene, config, np.random.SeedSequence(args.seed),
+                               "native", progress=not args.no_progress)
+    except BaseException as e:
+        if created and not isinstance(e, Exception):  # interrupted: no empty folder left behind
+            remove_if_empty(out)
+        raise
     path = out / entry["file"]
     from .info import describe, format_description
 
@@ -364,6 +392,16 @@ def _non_negative(kind):
     return parse
 
 
+def _outputs(text: str) -> list[str]:
+    """argparse type of --outputs: comma-separated names of generators.choices.OUTPUTS, events among them."""
+    names = [o.strip() for o in text.split(",") if o.strip()]
+    unknown = [o for o in names if o not in OUTPUTS]
+    if unknown or "events" not in names:
+        why = f"unknown output {unknown[0]!r}" if unknown else "events are always written"
+        raise argparse.ArgumentTypeError(f"{why}; give events[,frames,reference], got {text!r}")
+    return names
+
+
 def _add_run_flags(p, *, resume: bool = True) -> None:
     """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
     g = p.add_argument_group("running the sequences (default: one after the other in this process)")
@@ -410,11 +448,12 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
                    help="adaptive sampling: quantile of the per-pixel log change kept below half the threshold per "
                         "sample (default 0.95; 1 = the worst pixel, about 10x denser)")
     g.add_argument("--labels", action="store_true", help="store per-event labels (signal/shot/leak/hot)")
-    g.add_argument("--outputs", type=lambda text: [o.strip() for o in text.split(",")], metavar="LIST",
+    g.add_argument("--outputs", type=_outputs, metavar="LIST",
                    help="what each file holds, comma-separated: events[,frames,reference] (LDR frames, HDR "
                         "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+    add_model_flags(g)
 
 
 def _add_scene_flags(p) -> None:
@@ -449,8 +488,11 @@ def _add_convert_parser(sub) -> None:
                            "(PNG/JPG/TIFF 8/16-bit, EXR/HDR float) with a timestamps.txt or --fps, a .npy stack "
                            "(N, H, W[, C]), a folder of videos, or a hybrid recording's frames (.aedat4, IJRR "
                            "folder)")
+    conv.add_argument("--config", help="TOML conversion configuration: seed, format, [defaults] (sensor, dvs, "
+                                       "camera, crf, ... as generate's) and [video] (start_s, upsample, ...); the "
+                                       "flags override it (see generators.convert_config)")
     g = conv.add_argument_group("input")
-    g.add_argument("--start-s", type=_non_negative(float), default=0.0,
+    g.add_argument("--start-s", type=_non_negative(float),
                    help="start of the clip in seconds from the input's first frame (default 0)")
     g.add_argument("--stop-s", type=_non_negative(float), default=None,
                    help="end of the clip in seconds (default: the input's last frame)")
@@ -461,7 +503,7 @@ def _add_convert_parser(sub) -> None:
     g.add_argument("--slowmo", type=float, metavar="FACTOR",
                    help="a slow-motion video: captured FACTOR times faster than its container rate (e.g. 32 for "
                         "960 fps stored at 30); phones' capture-rate metadata is read without it")
-    g.add_argument("--resize", choices=("crop", "pad", "stretch"), default="crop",
+    g.add_argument("--resize", choices=("crop", "pad", "stretch"),
                    help="when the sensor's aspect ratio differs from the input's: crop (fill the sensor, centred; "
                         "default), pad (the whole input, black bars) or stretch (the whole input, distorted)")
     g.add_argument("--input-conditioning", choices=("temporal", "off"),
@@ -479,11 +521,11 @@ def _add_convert_parser(sub) -> None:
     g.add_argument("--black-level", type=_non_negative(float), help="the integer input's value for no light "
                                                                     "(subtracted before linearising; default 0, or "
                                                                     "the --sensor file's [input] black_level)")
-    g.add_argument("--upsample", choices=UPSAMPLE_MODES, default="flow",
+    g.add_argument("--upsample", choices=UPSAMPLE_MODES,
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
-    g.add_argument("--flow", choices=FLOW_METHODS, default="dis", help="optical flow (OpenCV; default dis)")
-    g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, default="medium", help="DIS preset (default medium)")
+    g.add_argument("--flow", choices=FLOW_METHODS, help="optical flow (OpenCV; default dis)")
+    g.add_argument("--flow-preset", choices=DIS_PRESET_NAMES, help="DIS preset (default medium)")
     g.add_argument("--flow-scale", type=float, help="compute the flow on the frames resized by this factor "
                                                     "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
@@ -499,8 +541,9 @@ def _add_convert_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="evsim", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
+    parser = SuggestingParser(prog="evsim", description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
+    parser.flag_hint = flag_hint  # a model field typed as a flag: --dvs FIELD=VALUE
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("demo", help="generate a short built-in AHDR sequence, reconstruct it and print metrics",
@@ -509,9 +552,10 @@ def build_parser() -> argparse.ArgumentParser:
                                                           "metrics.txt in it are replaced")
     demo.add_argument("--seed", type=_non_negative(int), default=0, help="root seed (non-negative integer; default 0)")
     demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
-    demo.add_argument("--height", type=int, default=DEMO_SIZE[0], help=f"height in pixels (default {DEMO_SIZE[0]})")
-    demo.add_argument("--width", type=int, default=DEMO_SIZE[1], help=f"width in pixels (default {DEMO_SIZE[1]})")
+    demo.add_argument("--height", type=int, help=f"height in pixels (default {DEMO_SIZE[0]})")
+    demo.add_argument("--width", type=int, help=f"width in pixels (default {DEMO_SIZE[1]})")
     demo.add_argument("--sensor", metavar="NAME|FILE", default="davis346", help=f"{SENSOR_HELP} (default davis346)")
+    add_model_flags(demo)
     demo.add_argument("--no-reconstruct", action="store_true", help="only generate, do not run AKF and baselines")
     demo.add_argument("--no-progress", action="store_true", help="no progress bars")
     demo.set_defaults(func=_cmd_demo)
@@ -642,16 +686,18 @@ def main(argv: list[str] | None = None) -> int:
             warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
             return args.func(args)
     except sim.EvsimInputError as e:
-        print(f"evsim: error: {e}", file=sys.stderr)
+        print(f"evsim: error: {getattr(e, 'cli_message', e)}", file=sys.stderr)  # in flags (sim.OptionError)
         return 2
     except TasksFailed as e:
         for f in e.failures:
             if f.kind == "bug":  # show where
                 print(f"{f.name}:\n{f.traceback}", file=sys.stderr)
-        print(f"evsim: error: {e}", file=sys.stderr)
+        print(f"evsim: error: {e.cli_message}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        print("evsim: interrupted", file=sys.stderr)
+        resume = (" (Ctrl-C): the complete sequences are kept; run the same command with --resume to finish"
+                  if hasattr(args, "resume") else "")
+        print(f"evsim: interrupted{resume}", file=sys.stderr)
         return 130
     except Terminated:  # the temporary files are removed (the writers' cleanup has run)
         watchdog.reported = True

@@ -26,9 +26,9 @@ def describe(path: str | Path) -> dict:
     path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
     reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
-    seed_entropy, generator, packages, outputs (what the generator was asked to write, or None). A folder of
-    sequences gives {path, layout: "folder", index: whether it has index.json, sequences: [one such dict each]}.
-    Raises DatasetFormatError for unreadable files."""
+    seed_entropy, generator, sensor_model (the sensor's record: name, file, provenance, ...), packages, outputs
+    (what the generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
+    whether it has index.json, sequences: [one such dict each]}. Raises DatasetFormatError for unreadable files."""
     path = Path(path)
     sequences = folder_sequences(path)
     if sequences is not None:
@@ -76,6 +76,7 @@ def describe(path: str | Path) -> dict:
         "crf": crf,
         "seed_entropy": seed.get("entropy") if isinstance(seed, dict) else seed,
         "generator": meta.get("generator"),
+        "sensor_model": (meta.get("config") or {}).get("sensor") or None,
         "packages": meta.get("packages"),
         "outputs": meta.get("config", {}).get("outputs") if isinstance(meta.get("config"), dict) else None,
     }
@@ -161,6 +162,9 @@ def format_description(d: dict) -> str:
         lines.append(f"  thresholds  ON mean {t['on_mean']:.4f}, OFF mean {t['off_mean']:.4f} (log units)")
     crf = d["crf"]
     lines.append(f"  CRF         {crf['name']} {crf.get('params', {})}" if crf else "  CRF         unknown")
+    model = d.get("sensor_model")
+    if model:
+        lines.append(f"  model       {model.get('name')} ({model.get('file') or 'preset'})")
     if d["generator"]:
         lines.append(f"  generator   {d['generator']}")
     if d["seed_entropy"] is not None:

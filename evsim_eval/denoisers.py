@@ -42,7 +42,7 @@ from akf.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, fil
 from generators.formats import load
 from generators.formats.atomic import write_text_atomic
 from generators.formats.recording import Recording
-from sim import EVENT_LABELS, EvsimInputError
+from sim import EVENT_LABELS, EvsimInputError, OptionError
 
 from .evaluate import evaluate_recording
 from .protocols import dataset_sequences
@@ -52,7 +52,6 @@ if TYPE_CHECKING:
 
 NOISE_TYPES = EVENT_LABELS[1:]  # ("shot", "leak", "hot")
 DEFAULT_RECONSTRUCT_METRICS = ("mse", "ssim")
-LABELS_HINT = "generate it with per-event labels (`evsim generate ... --labels`, AHDRConfig(labels=True))"
 
 
 # ----- the arithmetic -------------------------------------------------------------------------------------------
@@ -132,7 +131,8 @@ def resolve_filters(filters: Sequence[str] | None = None) -> tuple[list[str], li
 def labelled(rec: Recording, what: str = "the recording") -> np.ndarray:
     """rec.event_labels, checked against the events; EvsimInputError when the file carries none."""
     if rec.event_labels is None:
-        raise EvsimInputError(f"{what} has no per-event labels: {LABELS_HINT}")
+        missing = f"{what} has no per-event labels: generate it with per-event labels"
+        raise OptionError(f"{missing} (AHDRConfig(labels=True))", f"{missing} (evsim generate ... --labels)")
     labels = np.asarray(rec.event_labels)
     if labels.shape != rec.events.shape:
         raise EvsimInputError(f"{what}: {labels.size} labels for {rec.events.size} events")

@@ -4,7 +4,7 @@
   suite);
 - datasets: `load_config`, `parse_config` (TOML configurations), `generate_dataset`, `generate_sweep`, run one task
   per sequence by `run_tasks` (serially, on local workers or a cluster); `generators.convert.convert` (your own
-  video or frames);
+  video or frames); `export_path` (`evsim export`: any file or folder evsim reads to another layout);
 - files (`generators.formats`, the layer below): `load`, `export`, `detect`, `Recording`, `validate_recording`.
 Scenes are in `generators.scenes`. Every name is imported on first use.
 """
@@ -20,6 +20,7 @@ _EXPORTS = {
     "generate_dataset": "dataset",
     "generate_sweep": "sweep",
     "run_tasks": "runner",
+    "export_path": "exports",
     "load": "formats", "export": "formats", "detect": "formats",
     "Recording": "formats.recording", "validate_recording": "formats.recording",
 }

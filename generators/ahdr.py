@@ -273,6 +273,11 @@ def warm_up_input(images: list, times_us: list[int] | np.ndarray) -> tuple[list,
     if times.size < 2 or times[0] != 0:
         raise InvalidParameterError("a warm-up needs at least 2 samples, the first at t = 0")
     return list(images[:0:-1]), -times[:0:-1]
+def _rates(t_us: int, duration_us: int, frames: int, events: int, bar: tqdm) -> str:
+    """The DVS progress text: scene time done, input frames and events per second of wall time."""
+    elapsed = max(bar.format_dict["elapsed"], 1e-9)
+    return (f"{t_us * 1e-6:.3g}/{duration_us * 1e-6:.3g} s of scene, {frames / elapsed:.3g} frames/s, "
+            f"{events / elapsed:.3g} events/s")
 
 
 def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | None = None,
@@ -368,10 +373,12 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
         if config.threshold_maps:
             writer.set_threshold_maps(dvs.threshold_map)
         chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
-        with tqdm(total=duration, unit="us", desc="events", disable=not progress, leave=False) as bar:
+        # over scene time (its ETA is the run's), showing the DVS input frames and events per second of wall time
+        with tqdm(total=duration, desc="events", disable=not progress, leave=False,
+                  bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:
             # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
             bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
-            stack, times = [], []
+            stack, times, n_fed = [], [], 0
             samples = iter(sampler)
             while True:
                 t0 = clock.now()
@@ -386,12 +393,16 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                 times.append(t)
                 if len(stack) == chunk:
                     feed(stack, times)
-                    bar.set_postfix_str("", refresh=False)
+                    n_fed += len(stack)
+                    bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
                     bar.update(t - bar.n)
                     stack, times = [], []
             if stack:
                 feed(stack, times)
+                n_fed += len(stack)
+            bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
             bar.update(duration - bar.n)
+            bar.refresh()  # the final rates, however soon after the last update
         rendered_for_dvs = src.seconds
         with tqdm(total=len(schedule) if "frames" in config.outputs else 0, unit="frame", desc="frames",
                   disable=not progress or "frames" not in config.outputs, leave=False) as bar:

@@ -270,7 +270,7 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
     if "type" not in scene:
         raise _fail(f"{where}.type", f"missing; one of {', '.join(SCENE_TYPES)}")
     if not isinstance(scene["type"], str) or scene["type"] not in SCENE_TYPES:
-        raise _fail(f"{where}.type", f"unknown scene type {scene['type']!r}; one of {', '.join(SCENE_TYPES)}")
+        raise _fail(f"{where}.type", unknown_name("scene type", scene["type"], SCENE_TYPES))
     scene = dict(scene)
     for key in ("path", "timestamps"):
         if key in scene:
@@ -293,7 +293,7 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
         raise _fail(f"{source}: seed", f"must be >= 0, got {seed}")
     fmt = _check_type(f"{source}: format", data.get("format", "native"), str)
     if fmt not in EXPORT_FORMATS:
-        raise _fail(f"{source}: format", f"unknown format {fmt!r}; one of {', '.join(EXPORT_FORMATS)}")
+        raise _fail(f"{source}: format", unknown_name("format", fmt, EXPORT_FORMATS))
     defaults_table = _check_type(f"{source}: defaults", data.get("defaults", {}), dict)
     defaults = resolve_settings(f"{source}: defaults", defaults_table, DEFAULTS, base_dir)
     seq_tables = _check_type(f"{source}: sequence", data.get("sequence", []), list)
@@ -333,7 +333,7 @@ def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None 
     sweep = _check_type(f"{source}: sweep", data.get("sweep", {}), dict)
     for key, values in sweep.items():
         if key not in SWEEP_KEYS:
-            raise _fail(f"{source}: sweep.{key}", f"unknown sweep parameter (allowed: {', '.join(SWEEP_KEYS)})")
+            raise _fail(f"{source}: sweep.{key}", unknown_name("sweep parameter", key, SWEEP_KEYS))
         if not isinstance(values, list) or not values:
             raise _fail(f"{source}: sweep.{key}", "expected a non-empty list of values")
         for i, v in enumerate(values):

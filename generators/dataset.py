@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
@@ -121,9 +121,9 @@ def prepare_output_dir(out_dir: str | Path, overwrite: bool) -> Path:
     if out.exists() and not out.is_dir():
         raise EvsimInputError(f"output {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
-        raise EvsimInputError(f"output folder {out} already exists and is not empty; "
-                              "pass --overwrite (overwrite=True) to replace its contents, or --resume "
-                              "(resume=True) to complete it")
+        what = f"output folder {out} already exists and is not empty; pass"
+        raise OptionError(f"{what} overwrite=True to replace its contents, or resume=True to complete it",
+                          f"{what} --overwrite to replace its contents, or --resume to complete it")
     out.mkdir(parents=True, exist_ok=True)
     return out
 
@@ -344,10 +344,32 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
     overwrite and resume."""
     check_run_options(workers, scheduler)
     if overwrite and resume:
-        raise EvsimInputError("--resume and --overwrite exclude each other: --resume keeps the complete, "
-                              "matching files, --overwrite generates everything again")
+        why = "keeps the complete, matching files, {} generates everything again"
+        raise OptionError("resume=True and overwrite=True exclude each other: resume "
+                          + why.format("overwrite"), "--resume and --overwrite exclude each other: --resume "
+                          + why.format("--overwrite"))
     _check_file_names([task for task, _ in jobs])
+    created = not Path(out_dir).exists()
     out = prepare_output_dir(out_dir, overwrite or resume).resolve()
+    try:
+        return _run_into(out, jobs, header, resume, workers, scheduler, progress)
+    except BaseException as e:
+        if created and not isinstance(e, Exception):  # interrupted (Ctrl-C, SIGTERM): no empty folder left behind
+            remove_if_empty(out)
+        raise
+
+
+def remove_if_empty(folder: Path) -> None:
+    """Remove `folder` if it is an empty folder (so that an interrupted run leaves nothing that looks like a
+    result); leave it otherwise."""
+    try:
+        folder.rmdir()
+    except OSError:  # not empty (complete sequences are kept for --resume), or gone
+        pass
+
+
+def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], header: dict, resume: bool,
+              workers: int | None, scheduler: str | None, progress: bool) -> Path:
     (out / INDEX_FILE).unlink(missing_ok=True)  # from here on the folder does not claim to be complete
     digests = [spec_hash(task, scene) for task, scene in jobs]
     entries: list[dict | None] = [None] * len(jobs)
@@ -377,9 +399,9 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
             entries[i] = outcome.value
         else:
             failures.append(outcome)
-    raise_failures("sequences", failures, len(tasks),
-                   f"the other files in {out} are complete; index.json was not written (rerun with --resume to "
-                   "generate the failed sequences)")
+    hint = f"the other files in {out} are complete; index.json was not written (rerun with {{}} to generate the " \
+           "failed sequences)"
+    raise_failures("sequences", failures, len(tasks), hint.format("resume=True"), cli_hint=hint.format("--resume"))
     return write_index(out, {**header, "sequences": entries})
 
 

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 from tqdm.auto import tqdm
 
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 
 if TYPE_CHECKING:
     from distributed import LocalCluster
@@ -48,7 +48,8 @@ _SIMPLE = (str, bytes, int, float, bool, type(None), os.PathLike)
 
 @dataclass
 class TaskOutcome:
-    """What one task gave: its value, or its error ("Type: message") and traceback. stats: pid (the process that
+    """What one task gave: its value, or its error ("Type: message") and traceback; cli_error: the error in
+    command-line flags where it names options (sim.OptionError.cli_message), else None. stats: pid (the process that
     ran it), seconds (wall clock), rss_mb and peak_rss_mb (resident memory of that process after the task, and its
     peak so far; MB)."""
 
@@ -58,6 +59,7 @@ class TaskOutcome:
     traceback: str = ""
     kind: str = ""  # of an error: "input" (sim.EvsimInputError), "lost" (its worker died), "bug" or "disk full"
     stats: dict = field(default_factory=dict)
+    cli_error: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -65,25 +67,34 @@ class TaskOutcome:
 
 
 class TasksFailed(RuntimeError):
-    """Some tasks failed, the others completed. failures: their TaskOutcomes; n_tasks: how many were run."""
+    """Some tasks failed, the others completed. failures: their TaskOutcomes; n_tasks: how many were run;
+    cli_message: the message with cli_hint (the remedy in command-line flags) in place of hint (in keywords)."""
 
-    def __init__(self, what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = ""):
+    def __init__(self, what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "",
+                 cli_hint: str | None = None):
         self.failures, self.n_tasks = failures, n_tasks
-        lines = [f"{len(failures)} of {n_tasks} {what} failed{': ' + hint if hint else ''}"]
-        lines += [f"  {f.name}: {f.error}" for f in failures]
-        super().__init__("\n".join(lines))
+
+        def message(hint: str, cli: bool) -> str:
+            lines = [f"{len(failures)} of {n_tasks} {what} failed{': ' + hint if hint else ''}"]
+            return "\n".join(lines + [f"  {f.name}: {(cli and f.cli_error) or f.error}" for f in failures])
+
+        super().__init__(message(hint, False))
+        self.cli_message = message(hint if cli_hint is None else cli_hint, True)
 
 
-def raise_failures(what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "") -> None:
+def raise_failures(what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "",
+                   cli_hint: str | None = None) -> None:
     """Raise for failed tasks: EvsimInputError when every task failed on bad input (nothing was done: the input
-    is wrong, as a serial command would say), else TasksFailed. Does nothing without failures."""
+    is wrong, as a serial command would say), else TasksFailed (hint, cli_hint: the remedy in keywords and in
+    command-line flags). Does nothing without failures."""
     if not failures:
         return
     if len(failures) == n_tasks and all(f.kind == "input" for f in failures):
-        messages = {f.error.split(": ", 1)[-1] for f in failures}
+        messages = {(f.error.split(": ", 1)[-1], (f.cli_error or f.error).split(": ", 1)[-1]) for f in failures}
         if len(messages) == 1:
-            raise EvsimInputError(messages.pop() if n_tasks == 1 else f"every one of the {what}: {messages.pop()}")
-    raise TasksFailed(what, failures, n_tasks, hint)
+            api, cli = (m if n_tasks == 1 else f"every one of the {what}: {m}" for m in messages.pop())
+            raise EvsimInputError(api) if api == cli else OptionError(api, cli)
+    raise TasksFailed(what, failures, n_tasks, hint, cli_hint)
 
 
 def check_run_options(workers: int | None, scheduler: str | None) -> None:
@@ -138,8 +149,10 @@ def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | N
                 raise
             # in a worker: returned (raising would make Dask log it), raised by run_tasks
             return TaskOutcome(name, value=e, error=f"{type(e).__name__}: {e}", kind="disk full")
+        cli = getattr(e, "cli_message", None)
         outcome = TaskOutcome(name, error=f"{type(e).__name__}: {e}", traceback=traceback.format_exc(),
-                              kind="input" if isinstance(e, EvsimInputError) else "bug")
+                              kind="input" if isinstance(e, EvsimInputError) else "bug",
+                              cli_error=None if cli is None else f"{type(e).__name__}: {cli}")
     outcome.stats = {"pid": os.getpid(), "seconds": time.perf_counter() - t0, "rss_mb": _rss_mb(),
                      "peak_rss_mb": _peak_rss_mb()}
     return outcome

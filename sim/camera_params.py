@@ -1,5 +1,6 @@
 """LDR camera parameters (`CameraParams`), their units (FIELD_UNITS) and named camera presets; the camera itself is
-sim.camera. numpy is imported where it is used, so that reading the parameters (`evsim --help`) stays light.
+sim.camera. numpy is imported where it is used (schedule), so that reading the parameters (`evsim --help`) stays
+light.
 
 Reference: European Machine Vision Association (2021). EMVA Standard 1288: Standard for Characterization of Image
 Sensors and Cameras, Release 4.0.
@@ -8,6 +9,7 @@ Sensors and Cameras, Release 4.0.
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -57,18 +59,19 @@ class CameraParams:
     max_subframes: int = 64
 
     def __post_init__(self) -> None:
-        import numpy as np  # here, so that importing the parameters (as `evsim --help` does) stays light
-
+        # numpy's types, when numpy is loaded (a numpy value exists only then): reading the parameters stays light
+        np = sys.modules.get("numpy")
+        arrays, bools, ints = ((np.ndarray,), (bool, np.bool_), (int, np.integer)) if np else ((), (bool,), (int,))
         if self.exposure_us is None:
             raise InvalidParameterError("exposure_us must be integer microseconds (one value or a sequence), got None")
-        if self.frame_times_us is not None and not isinstance(self.frame_times_us, (list, tuple, np.ndarray)):
+        if self.frame_times_us is not None and not isinstance(self.frame_times_us, (list, tuple, *arrays)):
             raise InvalidParameterError(f"frame_times_us must be a sequence of integer microseconds, got "
                                         f"{self.frame_times_us!r}")
         for name in ("exposure_us", "frame_times_us"):
             value = getattr(self, name)
-            many = isinstance(value, (list, tuple, np.ndarray))
+            many = isinstance(value, (list, tuple, *arrays))
             for v in (value if many else () if value is None else (value,)):
-                if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                if isinstance(v, bools) or not isinstance(v, ints):
                     raise InvalidParameterError(f"{name} must be integer microseconds, got {v!r}")
             if many:
                 object.__setattr__(self, name, tuple(int(v) for v in value))
@@ -77,12 +80,13 @@ class CameraParams:
             raise InvalidParameterError(
                 f"exposure_us must be > 0 (one value or a non-empty sequence), got {self.exposure_us}")
         if self.frame_times_us is not None:
-            t = np.asarray(self.frame_times_us, dtype=np.int64)
-            if t.size == 0:
+            t = self.frame_times_us
+            if len(t) == 0:
                 raise InvalidParameterError("frame_times_us is empty")
-            if np.any(np.diff(t) <= 0):
-                i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-                raise TimeOrderError(f"frame_times_us must increase strictly: [{i}]={t[i]} after {t[i - 1]} us")
+            back = next((i for i in range(1, len(t)) if t[i] <= t[i - 1]), None)
+            if back is not None:
+                raise TimeOrderError(f"frame_times_us must increase strictly: [{back}]={t[back]} after "
+                                     f"{t[back - 1]} us")
         check_number("fps", self.fps, positive=True)
         for name in ("first_frame_us", "reference_exposure_us"):
             if getattr(self, name) is not None:
@@ -95,7 +99,7 @@ class CameraParams:
         for name in ("read_noise_e", "dark_current_e_per_s", "prnu_sigma", "dsnu_e", "rolling_shutter_line_us"):
             check_number(name, getattr(self, name), positive=False)
         check_int("bit_depth", self.bit_depth, minimum=8, maximum=16)
-        if not isinstance(self.noise, (bool, np.bool_)):
+        if not isinstance(self.noise, bools):
             raise InvalidParameterError(f"noise must be a bool, got {self.noise!r}")
         if self.n_subframes is not None:
             check_int("n_subframes", self.n_subframes, minimum=1)
@@ -177,12 +181,12 @@ PRESETS = {
 
 #: unit (or kind) of every CameraParams field, for messages and `evsim ... --help` (tests check it covers them all)
 FIELD_UNITS: dict[str, str] = {
-    "fps": "frames per second", "first_frame_us": "us, mid-exposure of frame 0",
-    "frame_times_us": "us, list of mid-exposure times", "exposure_us": "us, one value or a list used cyclically",
+    "fps": "frames per second", "first_frame_us": "us, exposure midpoint of frame 0",
+    "frame_times_us": "us, list of exposure midpoints", "exposure_us": "us, one value or a list used cyclically",
     "rolling_shutter_line_us": "us per row, 0 = global shutter", "reference_radiance": "radiance units",
     "reference_fill": "fraction of full well, (0, 1]", "reference_exposure_us": "us",
     "full_well_e": "electrons", "read_noise_e": "electrons rms", "dark_current_e_per_s": "electrons per second",
     "prnu_sigma": "relative gain std", "dsnu_e": "electrons std", "bit_depth": "bits, 8..16",
-    "noise": "true/false: temporal noise", "n_subframes": "sub-frames per exposure",
-    "max_px_per_subframe": "pixels", "max_subframes": "sub-frames",
+    "noise": "true/false: temporal noise", "n_subframes": "subframes per exposure",
+    "max_px_per_subframe": "pixels", "max_subframes": "subframes",
 }

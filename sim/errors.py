@@ -20,6 +20,18 @@ class InvalidParameterError(EvsimInputError):
     """A configuration value is out of its valid range (negative rate, threshold <= 0, ...)."""
 
 
+class OptionError(EvsimInputError):
+    """Bad input whose remedy is an option: str() names it as the Python keyword (overwrite=True), cli_message as
+    the command-line flag (--overwrite), so that each interface speaks only its own names."""
+
+    def __init__(self, message: str, cli_message: str):
+        super().__init__(message)
+        self.cli_message = cli_message
+
+    def __reduce__(self):  # pickled whole (an error from a worker process)
+        return type(self), (str(self), self.cli_message)
+
+
 class TimeOrderError(EvsimInputError):
     """Timestamps are not (strictly) increasing where they must be."""
 

@@ -43,7 +43,7 @@ from .suggest import did_you_mean, unknown_name
 __all__ = ["Sensor", "load_sensor", "parse_sensor", "write_sensor", "sensor_toml", "check_dvs_fields",
            "check_camera_fields", "TABLES", "DEFAULT_BASE"]
 
-#: the preset a sensor file without `base` modifies
+#: the DVS preset a sensor file's [dvs] table modifies when it names no base
 DEFAULT_BASE = "davis346"
 MAX_SENSOR_FILE_BYTES = 1 << 20  # a sensor file is a few hundred bytes: a larger file is not one
 _TOP_KEYS = {"name": "the sensor's name", "base": "a DVS preset", "description": "text"}
@@ -51,8 +51,8 @@ _TOP_KEYS = {"name": "the sensor's name", "base": "a DVS preset", "description":
 
 def check_dvs_fields(where: str, table: Mapping) -> dict:
     """`table` (DVSParams field -> value), checked: every key a field (else the closest name and the list of them),
-    every value one the field accepts. InvalidParameterError naming where.key otherwise. The one check of DVS
-    overrides: sensor files, configuration tables, `--dvs FIELD=VALUE`."""
+    every value one the field accepts. InvalidParameterError naming where.key (where a flag such as "--dvs": "--dvs
+    key") otherwise. The one check of DVS overrides: sensor files, configuration tables, `--dvs FIELD=VALUE`."""
     return _check_fields(where, table, "DVS field", dvs_params.FIELD_UNITS, lambda t: DVSParams().replace(**t))
 
 
@@ -85,7 +85,8 @@ def _check_fields(where: str, table: Mapping, what: str, allowed: Mapping[str, s
     table = _check_mapping(where, table)
     for key in table:
         if key not in allowed:
-            raise InvalidParameterError(f"{where}.{key}: {unknown_name(what, key, allowed)}")
+            at = f"{where} {key}" if where.startswith("--") else f"{where}.{key}"  # a flag: "--dvs FIELD"
+            raise InvalidParameterError(f"{at}: {unknown_name(what, key, allowed)}")
     try:
         build(table)
     except (InvalidParameterError, TypeError) as e:

@@ -6,13 +6,22 @@ import difflib
 from collections.abc import Iterable
 
 
-def did_you_mean(name: str, allowed: Iterable[str]) -> str:
-    """" (did you mean 'x'?)" for the allowed name closest to `name` (difflib's ratio >= 0.6, case-insensitive),
-    else ""."""
-    allowed = [str(a) for a in allowed]
-    by_lower = {a.lower(): a for a in allowed}
+def closest(name: str, allowed: Iterable[str]) -> str | None:
+    """The allowed name closest to `name` (difflib's ratio >= 0.6, case-insensitive), or None."""
+    by_lower = {str(a).lower(): str(a) for a in allowed}
     close = difflib.get_close_matches(str(name).lower(), list(by_lower), n=1)
-    return f" (did you mean {by_lower[close[0]]!r}?)" if close else ""
+    return by_lower[close[0]] if close else None
+
+
+def similarity(a: str, b: str) -> float:
+    """difflib's ratio of two names, case-insensitive: 1 when equal, >= 0.6 for what closest calls close."""
+    return difflib.SequenceMatcher(None, a.lower(), b.lower()).ratio()
+
+
+def did_you_mean(name: str, allowed: Iterable[str]) -> str:
+    """" (did you mean 'x'?)" for the allowed name closest to `name` (see closest), else ""."""
+    match = closest(name, allowed)
+    return f" (did you mean {match!r}?)" if match else ""
 
 
 def unknown_name(what: str, name: object, allowed: Iterable[str]) -> str:

@@ -22,6 +22,7 @@ from generators.dataset import generate_dataset
 from generators.exports import export_path
 from generators.formats import DatasetFormatError, ExportDropWarning, export, load
 from generators.formats.native import event_summary, read_native_window
+from generators.formats.recording import Recording
 from generators.scenes import MovingEdge
 from sim import EvsimInputError, InvalidParameterError
 
@@ -161,6 +162,9 @@ def _independent(path, fmt):
         df = pytest.importorskip("evlib").load_events(str(path)).collect()
         return (df["t"].dt.total_microseconds().to_numpy(), df["x"].to_numpy(), df["y"].to_numpy(),
                 df["polarity"].to_numpy())
+    if fmt == "aedat2":  # tonic's DAVIS346 AEDAT 2.0 reader (masks taken from jAER)
+        _, _, xytp = pytest.importorskip("tonic.io").read_davis_346(str(path))
+        return xytp["t"], xytp["x"], xytp["y"], np.where(xytp["p"] > 0, 1, -1)
     if fmt in ("evt2", "dat"):
         a = pytest.importorskip("expelliarmus").Wizard(encoding=fmt).read(str(path))
         return a["t"], a["x"], a["y"], np.where(a["p"] > 0, 1, -1)
@@ -188,6 +192,18 @@ def test_export_of_a_dataset_folder_reads_back_in_independent_readers(tiny_datas
         assert ev.size > 100
         _assert_events(_independent(d.out, fmt), ev)
         np.testing.assert_array_equal(load(d.out).events, ev)  # evsim's own reader agrees
+
+
+def test_export_to_aedat2_reads_back_in_tonics_davis346_reader(tmp_path):
+    # tonic's reader decodes the DAVIS346 address layout (346 x 260: x counted from the right edge)
+    rng = np.random.default_rng(5)
+    n = 5000
+    ev = sim.make_events(np.sort(rng.integers(0, 2_000_000, n)), rng.integers(0, 346, n), rng.integers(0, 260, n),
+                         rng.choice([-1, 1], n))
+    export(Recording(events=ev, height=260, width=346), tmp_path / "a.h5", "native")
+    (done,) = export_path(tmp_path / "a.h5", tmp_path / "a.aedat2", "aedat2")  # (events only: nothing left out)
+    assert done.out == tmp_path / "a.aedat2"
+    _assert_events(_independent(done.out, "aedat2"), ev)
 
 
 def test_export_from_a_non_native_layout_and_dv_processing(tmp_path, tiny_recording):
@@ -260,3 +276,13 @@ def test_cli_export_prints_a_note_as_one_line(tiny_dataset, tmp_path, capsys):
     assert "already exists; pass --overwrite" in capsys.readouterr().err
     assert main(["info", str(tiny_dataset)]) == 0
     assert "(dataset folder, 2 sequences, no index.json" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("value,message", [("events,frame", "unknown output 'frame'"),
+                                           ("frames,reference", "events are always written")])
+def test_cli_outputs_flag_names_the_problem(tmp_path, capsys, value, message):
+    for command in (["convert", str(tmp_path / "clip.npy")], ["generate", "ahdr"]):
+        assert main([*command, "--outputs", value, "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err
+        assert f"argument --outputs: {message}; give events[,frames,reference], got '{value}'" in err
+    assert not (tmp_path / "o").exists()

@@ -94,6 +94,12 @@ def _cmd_compare(args) -> int:
     return 0
 
 
+def _cmd_realism(args) -> int:
+    from .realism import cmd_realism
+
+    return cmd_realism(args)
+
+
 def _cmd_sweep(args) -> int:
     from .sweep import AUC_METRICS, DEFAULT_FILTERS, DEFAULT_METHODS, METRICS_FILE, plot_sweep
 
@@ -190,7 +196,17 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
     r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
     r.set_defaults(func=_cmd_roc)
 
-    from .realism import add_realism_plot_parser
-
-    add_realism_plot_parser(psub, PLOT_EPILOG)
+    r = psub.add_parser("realism", epilog=PLOT_EPILOG,
+                        help="a real recording's events beside a simulation's: event frames, per-pixel counts, "
+                             "10 ms event rate, inter-event intervals, events per passage (evsim evaluate --task "
+                             "realism's statistics)")
+    r.add_argument("real", type=Path, help="the real recording (AEDAT4, IJRR folder, native HDF5, ...)")
+    r.add_argument("sim", type=Path, help="the simulated recording (same sensor size and time axis)")
+    r.add_argument("--window", type=float, nargs=2, metavar=("START_S", "END_S"),
+                   help="scored time in s from each recording's origin (first exposure start; default: all)")
+    r.add_argument("--at-s", type=float, help="middle of the event frames in s (default: the real recording's "
+                                              "busiest 10 ms)")
+    r.add_argument("--window-ms", type=float, default=20.0, help="event-frame window in ms (default 20)")
+    r.add_argument("--out", type=Path, help="figure file (default ./<sim>_realism.png)")
+    r.set_defaults(func=_cmd_realism)
     return plot

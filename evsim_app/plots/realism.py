@@ -114,7 +114,7 @@ def plot_realism(c: Comparison, real: Recording, sim: Recording, out: str | Path
     return {"at_s": at_s, "frames": frames}
 
 
-def _cmd_realism(args: argparse.Namespace) -> int:
+def cmd_realism(args: argparse.Namespace) -> int:
     real, sim = load_one(args.real, "REAL"), load_one(args.sim, "SIM")
     c = score_recordings(real, sim, None if args.window is None else tuple(args.window))
     out = args.out or Path(f"{Path(args.sim).stem}_realism.png")
@@ -122,20 +122,3 @@ def _cmd_realism(args: argparse.Namespace) -> int:
     print(f"wrote {out} (event frames at {res['at_s']:.3f} s; events x{c.scores['count_ratio']:.3g}, interval L1 "
           f"{c.scores['interval_l1']:.3g})")
     return 0
-
-
-def add_realism_plot_parser(psub: argparse._SubParsersAction, epilog: str) -> None:
-    """Register `evsim plot realism` on the plot subparsers."""
-    r = psub.add_parser("realism", epilog=epilog,
-                        help="a real recording's events beside a simulation's: event frames, per-pixel counts, "
-                             "10 ms event rate, inter-event intervals, events per passage (evsim evaluate --task "
-                             "realism's statistics)")
-    r.add_argument("real", type=Path, help="the real recording (AEDAT4, IJRR folder, native HDF5, ...)")
-    r.add_argument("sim", type=Path, help="the simulated recording (same sensor size and time axis)")
-    r.add_argument("--window", type=float, nargs=2, metavar=("START_S", "END_S"),
-                   help="scored time in s from each recording's origin (first exposure start; default: all)")
-    r.add_argument("--at-s", type=float, help="middle of the event frames in s (default: the real recording's "
-                                              "busiest 10 ms)")
-    r.add_argument("--window-ms", type=float, default=20.0, help="event-frame window in ms (default 20)")
-    r.add_argument("--out", type=Path, help="figure file (default ./<sim>_realism.png)")
-    r.set_defaults(func=_cmd_realism)

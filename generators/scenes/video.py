@@ -49,7 +49,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim import EvsimInputError, InvalidParameterError
+from sim import EvsimInputError, InvalidParameterError, OptionError
 from sim.errors import check_int
 
 from ..choices import UPSAMPLE_MODES
@@ -126,8 +126,10 @@ class _Frames:
             times = np.round(np.arange(n) * 1e6 / positive("fps", fps, "video")).astype(np.int64)
             self.rate = {"fps": float(fps)}
         else:
-            raise EvsimInputError(f"{self.path}: no frame times: give fps or a timestamps file"
-                                  + (f" (or put {TIMESTAMPS_FILE} in the folder)" if default_ts else ""))
+            folder = f" (or put {TIMESTAMPS_FILE} in the folder)" if default_ts else ""
+            raise OptionError(f"{self.path}: no frame times: give fps or timestamps (a file of frame times){folder}",
+                              f"{self.path}: no frame times: give --input-fps or --timestamps (a file of frame "
+                              f"times){folder}")
         self.times_us = times - times[0]
         self.time_origin_us = int(times[0])
 
@@ -148,8 +150,9 @@ class _VideoFile(_Frames):
         use_fps, source = self._capture_rate(fps, timestamps, slowmo, container_fps)
         if timestamps is None and use_fps is None:
             cap.release()
-            raise fail(path, "the container gives no frame rate: pass --input-fps (scene key fps) or a timestamps "
-                             "file")
+            why = f"{path}: the container gives no frame rate: pass"
+            raise OptionError(f"{why} fps or timestamps (a file of frame times)",
+                              f"{why} --input-fps or --timestamps (a file of frame times)")
         # Count the frames by decoding (the container's count can be wrong), up to the stop time when known.
         last = None if stop_us is None or use_fps is None else int(np.floor(stop_us * use_fps / 1e6 + 1e-6))
         n = 0
@@ -173,11 +176,12 @@ class _VideoFile(_Frames):
         when the metadata's capture rate contradicts a flag."""
         if slowmo is not None:
             if fps is not None or timestamps is not None:
-                raise EvsimInputError(f"{self.path}: slowmo cannot be combined with fps or timestamps: give the "
-                                      "capture rate one way")
+                raise OptionError(f"{self.path}: slowmo cannot be combined with fps or timestamps: give the capture "
+                                  "rate one way", f"{self.path}: --slowmo cannot be combined with --input-fps or "
+                                  "--timestamps: give the capture rate one way")
             if container_fps is None:
-                raise fail(self.path, "the container gives no frame rate for slowmo to multiply: pass the capture "
-                                      "rate as --input-fps (scene key fps)")
+                why = f"{self.path}: the container gives no frame rate for slowmo to multiply: pass the capture rate as"
+                raise OptionError(f"{why} fps", f"{why} --input-fps")
             use, source = container_fps * positive("slowmo", slowmo, "video"), f"container rate x slowmo {slowmo:g}"
         elif fps is not None:
             use, source = float(fps), "fps"

@@ -1,0 +1,63 @@
+"""An argparse parser that suggests the closest flag or subcommand to a mistyped one (difflib), as Python 3.14's
+suggest_on_error does and the Python 3.11 argparse does not."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from typing import NoReturn
+
+from sim.suggest import closest, did_you_mean, similarity
+
+_INVALID_CHOICE = re.compile(r"invalid choice: '?(?P<name>[^' ]*)'? \(choose from (?P<choices>.*)\)")
+
+
+class SuggestingParser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors add the closest allowed name: "unrecognized arguments: --pos-thres (did
+    you mean '--pos-threshold'?)", "invalid choice: 'genrate' (did you mean 'generate'?)". Subparsers are of the
+    same class; an unrecognised flag is compared with the flags of the parsers that took part in the parse (the
+    command and its subcommands)."""
+
+    def parse_known_args(self, args: list[str] | None = None, namespace: argparse.Namespace | None = None
+                         ) -> tuple[argparse.Namespace, list[str]]:
+        self._took_part = True
+        return super().parse_known_args(args, namespace)
+
+    def error(self, message: str) -> NoReturn:
+        match = _INVALID_CHOICE.search(message)
+        if match:
+            choices = [c.strip().strip("'") for c in match["choices"].split(",")]
+            message += did_you_mean(match["name"], choices)
+        elif message.startswith("unrecognized arguments:"):
+            flags = self._flags_in_use()
+            words = [w.split("=")[0] for w in message.split(":", 1)[1].split() if w.startswith("--")]
+            hints = [f"{w!r}: did you mean {hint!r}?" for w in words if (hint := self._hint(w, flags))]
+            if hints:
+                message += f" ({'; '.join(hints)})"
+        super().error(message)
+
+    def _hint(self, word: str, flags: list[str]) -> str | None:
+        """The closer of the closest flag and flag_hint's suggestion (by similarity), or None."""
+        match = closest(word, flags)
+        candidates = [(similarity(word, match), match)] if match else []
+        other = self.flag_hint(word)
+        if other is not None:
+            candidates.append(other[::-1])
+        return max(candidates)[1] if candidates else None
+
+    @staticmethod
+    def flag_hint(flag: str) -> tuple[str, float] | None:
+        """(what to type instead of an unknown flag, how close: 0..1) or None; set on the top-level parser (e.g.
+        evsim_app.model_flags.flag_hint: a model field -> --dvs FIELD=VALUE)."""
+        return None
+
+    def _flags_in_use(self) -> list[str]:
+        """The option strings of this parser and of the subparsers that took part in the parse."""
+        flags, todo = [], [self]
+        while todo:
+            parser = todo.pop()
+            for action in parser._actions:
+                flags += [s for s in action.option_strings if s.startswith("--")]
+                if isinstance(action, argparse._SubParsersAction):
+                    todo += [p for p in action.choices.values() if getattr(p, "_took_part", False)]
+        return flags
