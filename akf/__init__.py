@@ -3,7 +3,8 @@
 Exports:
 - the filter: reconstruct, AKFParams; augmented_measurement, AugmentedMeasurement (its frame augmentation);
 - baselines (reconstruct's inputs and outputs): complementary_filter, frames_only, direct_integration, and the
-  events-only high_pass_filter; estimate_contrast, ContrastEstimate (the contrast threshold from the data);
+  events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
+  the pixel's log offset from the data);
 - metrics: mse, psnr, ssim, mse01, ssim01, log_mse, pu21_encode, pu21_psnr, pu21_ssim, score, METRICS (by name),
   NORMALISATION (how each one normalises);
 - evaluation and tuning: evaluate_sequence, METHODS (name -> method); tune, Tuned, SEARCH_SPACES.
@@ -39,7 +40,7 @@ References (full citations also in docs/models/references.md):
 """
 
 from .baselines import complementary_filter, direct_integration, frames_only, high_pass_filter
-from .contrast import ContrastEstimate, estimate_contrast
+from .contrast import ContrastEstimate, estimate_contrast, estimate_log_offset
 from .evaluate import METHODS, evaluate_sequence
 from .filter import AugmentedMeasurement, augmented_measurement, reconstruct
 from .metrics import (
@@ -62,7 +63,7 @@ from .tuning import SEARCH_SPACES, Tuned, tune
 __all__ = [
     "reconstruct", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
     "complementary_filter", "frames_only", "direct_integration", "high_pass_filter",
-    "estimate_contrast", "ContrastEstimate",
+    "estimate_contrast", "estimate_log_offset", "ContrastEstimate",
     "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",
     "METRICS", "NORMALISATION",
     "evaluate_sequence", "METHODS", "tune", "Tuned", "SEARCH_SPACES",

@@ -24,6 +24,7 @@ from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, O
 from generators.runner import TasksFailed, raise_failures
 
 from . import export_command
+from .calibrate_command import add_parser as add_calibrate_parser
 from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, sensor_size
 from .plots.cli import add_plot_parser
 from .realism_command import add_realism_flags
@@ -209,7 +210,7 @@ def _cmd_convert(args) -> int:
     if args.sensor_size is not None or args.height is not None or args.width is not None:
         height, width = sensor_size(args)
     video = {k: getattr(args, k) for k in ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow",
-                                           "flow_preset", "flow_scale", "input_crf", "resize")}
+                                           "flow_preset", "flow_scale", "input_crf", "resize", "black_level")}
     video["conditioning"] = _conditioning_option(args)
     video = {k: v for k, v in video.items() if v is not None}
     seed = args.seed if args.seed is not None else cfg.get("seed") or 0
@@ -307,6 +308,7 @@ def _cmd_evaluate(args) -> int:
                               metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
                               progress=False if args.no_progress else None, strict=False, exposure_matched=matched,
+                              sensor=args.sensor,
                               **_run_options(args))
     scored = [s for s in next(iter(scores.table.values()), {}) if s != "mean"]
     if scored:
@@ -484,7 +486,8 @@ def _add_convert_parser(sub) -> None:
     conv.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                       help="a video file (what OpenCV reads: mp4, avi, mov, mkv, ...), a folder of images "
                            "(PNG/JPG/TIFF 8/16-bit, EXR/HDR float) with a timestamps.txt or --fps, a .npy stack "
-                           "(N, H, W[, C]), or a folder of videos")
+                           "(N, H, W[, C]), a folder of videos, or a hybrid recording's frames (.aedat4, IJRR "
+                           "folder)")
     conv.add_argument("--config", help="TOML conversion configuration: seed, format, [defaults] (sensor, dvs, "
                                        "camera, crf, ... as generate's) and [video] (start_s, upsample, ...); the "
                                        "flags override it (see generators.convert_config)")
@@ -513,8 +516,11 @@ def _add_convert_parser(sub) -> None:
     g.add_argument("--timestamps", type=Path, help="input frame times, one per line: integer microseconds or "
                                                    "decimal seconds (default: timestamps.txt in an image folder)")
     g.add_argument("--input-crf", help="linearisation: crf_models curve whose inverse maps 8/16-bit input to linear "
-                                       "radiance (default srgb; float input is taken as linear; the output's "
-                                       "metadata states it)")
+                                       "radiance (default srgb; linear, or the recorded one, for a recording's frames; "
+                                       "float input is taken as linear; the output's metadata states it)")
+    g.add_argument("--black-level", type=_non_negative(float), help="the integer input's value for no light "
+                                                                    "(subtracted before linearising; default 0, or "
+                                                                    "the --sensor file's [input] black_level)")
     g.add_argument("--upsample", choices=UPSAMPLE_MODES,
                    help="between input frames: flow (motion-compensated, default), linear (in log radiance) or "
                         "none (hold each frame)")
@@ -609,6 +615,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--tune-metric", default=TUNE_METRIC,
                     help=f"metric the tuning minimises (maximises for SSIM/PSNR; default {TUNE_METRIC})")
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
+    ev.add_argument("--sensor", help="sensor file (from evsim calibrate on this camera) or preset whose thresholds a "
+                                     "recording without recorded ones gets (default: estimated from the data)")
     _add_akf_flags(ev)
     dn = ev.add_argument_group("--task denoise: event filters scored against the per-event labels")
     dn.add_argument("--task", choices=("reconstruction", "denoise", "realism"), default="reconstruction",
@@ -639,6 +647,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_akf_flags(rc)
     rc.set_defaults(func=_cmd_reconstruct)
     add_plot_parser(sub)
+    add_calibrate_parser(sub)
     export_command.add_parser(sub, EPILOG)
     return parser
 

@@ -71,15 +71,16 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: 
                        metrics: Sequence[str] = DEFAULT_METRICS,
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
                        tune_fraction: float = TUNE_FRACTION, exposure_matched: bool = True,
-                       by_class: bool = False) -> tuple[dict, str]:
-    """Score methods on one recording: ({method: {metric: value}}, notes joined by "; ").
+                       by_class: bool = False, sensor: str | None = None) -> tuple[dict, str]:
+    """Score methods on one recording: ({method: {metric: value}}, notes joined by "; "). sensor: a sensor file or
+    preset whose thresholds a recording without recorded ones gets (protocols.recording_contrast_or_estimate).
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
     on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
     scores "metric@class" and shares "share@class" (akf.evaluate.Case.scores).
     """
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
-    case, notes = recording_case(rec, protocol, method_options, exposure_matched)
+    case, notes = recording_case(rec, protocol, method_options, exposure_matched, sensor)
     sel = np.arange(case.times.size) if tuning is None else split_times(case.times.size, tune_fraction)[1]
     table = {m: case.scores(case.run(m, sel, (tuning or {}).get(m)), sel, metrics, by_class) for m in methods}
     return table, "; ".join(notes)
@@ -106,11 +107,11 @@ def add_means(result: dict) -> dict:
 
 def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, methods: Iterable[str],
                  method_options: dict[str, dict[str, Any]] | None, tune_fraction: float, tune_metric: str,
-                 progress: Callable[..., object] | None = None, exposure_matched: bool = True
-                 ) -> tuple[dict, list[str]]:
+                 progress: Callable[..., object] | None = None, exposure_matched: bool = True,
+                 sensor: str | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
     ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched)."""
-    cases = [recording_case(load(file), protocol, method_options, exposure_matched)[0] for _, file in sequences]
+    cases = [recording_case(load(file), protocol, method_options, exposure_matched, sensor)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}
     for m in methods:
@@ -127,7 +128,8 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
                      metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
                      tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
                      workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
-                     strict: bool = True, exposure_matched: bool = True, by_class: bool = True) -> DatasetScores:
+                     strict: bool = True, exposure_matched: bool = True, by_class: bool = True,
+                     sensor: str | None = None) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
@@ -137,7 +139,7 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
     averaged over each held-out frame's exposure window (else at its mid-exposure time); by_class: also the
     per-class scores (evaluate_recording). strict: raise when sequences fail (EvsimInputError when every
     one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
-    DatasetScores.failures and the table holds the others.
+    DatasetScores.failures and the table holds the others. sensor: see evaluate_recording.
     """
     methods, metrics = tuple(methods), tuple(metrics)
     check_request(protocol, methods, metrics, tune_metric, tune_fraction)
@@ -147,10 +149,10 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
         say = None if progress is False else (lambda text: print(text, file=sys.stderr))
         tuning, notes = tune_dataset(sequences, protocol=protocol, methods=methods, method_options=method_options,
                                      tune_fraction=tune_fraction, tune_metric=tune_metric, progress=say,
-                                     exposure_matched=exposure_matched)
+                                     exposure_matched=exposure_matched, sensor=sensor)
     options = {"protocol": protocol, "methods": methods, "metrics": metrics, "method_options": method_options,
                "tuning": tuning if tune else None, "tune_fraction": tune_fraction,
-               "exposure_matched": exposure_matched, "by_class": by_class}
+               "exposure_matched": exposure_matched, "by_class": by_class, "sensor": sensor}
     tasks = [(name, (Path(file).resolve(),), options) for name, file in sequences]
     outcomes = run_tasks(evaluate_sequence_file, tasks, workers=workers, scheduler=scheduler, progress=progress,
                          desc="evaluating")

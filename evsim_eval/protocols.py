@@ -21,10 +21,12 @@ The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 (reference pro
 reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the recorded
 reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a held-out
 frame's white).
-Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), the
-thresholds estimated from its events and the fed frames (akf.estimate_contrast; never the held-out frames); the
-AKF also gets its DVS leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see
-akf.reconstruct), unless method_options say otherwise.
+Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), those of
+a given sensor file (the camera calibrated by `evsim calibrate`: the same pixel model), else the thresholds
+estimated from its events and the fed frames under that pixel model with its log offset b, log(x + b)
+(akf.estimate_contrast with b from akf.estimate_log_offset; never the held-out frames); the AKF also gets its DVS
+leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see akf.reconstruct),
+unless method_options say otherwise.
 
 References (full citations also in docs/models/references.md):
 
@@ -155,10 +157,10 @@ def check_frames(rec: Recording, need: int, what: str) -> None:
 
 def recording_case(rec: Recording, protocol: str = "reference",
                    method_options: dict[str, dict[str, Any]] | None = None,
-                   exposure_matched: bool = True) -> tuple[Case, list[str]]:
+                   exposure_matched: bool = True, sensor: str | None = None) -> tuple[Case, list[str]]:
     """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made.
     exposure_matched (interleave): reconstructions averaged over each held-out frame's exposure window (default),
-    else taken at its mid-exposure time."""
+    else taken at its mid-exposure time. sensor: see recording_contrast_or_estimate."""
     crf, note = recording_crf(rec)
     notes = [note] if note else []
     options = method_options_for(rec, method_options)
@@ -196,7 +198,7 @@ def recording_case(rec: Recording, protocol: str = "reference",
         windows = np.stack([rec.frame_t_start_us[held], rec.frame_t_end_us[held]], axis=1).astype(np.int64)
     else:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    contrast, c_note = recording_contrast_or_estimate(rec, crf, fed)
+    contrast, c_note = recording_contrast_or_estimate(rec, crf, fed, sensor)
     if c_note:
         notes.append(c_note)
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
@@ -205,19 +207,30 @@ def recording_case(rec: Recording, protocol: str = "reference",
     return case, notes
 
 
-def recording_contrast_or_estimate(rec: Recording, crf: crf_models.CRF, fed: np.ndarray) -> tuple[tuple, str]:
-    """(ON, OFF) contrast: the recorded one (see recording_contrast), else estimated from the events and the fed
-    frames (akf.estimate_contrast; held-out frames are never used), else DEFAULT_CONTRAST; and a note saying
-    which ("" when recorded)."""
+def recording_contrast_or_estimate(rec: Recording, crf: crf_models.CRF, fed: np.ndarray,
+                                   sensor: str | None = None) -> tuple[tuple, str]:
+    """(ON, OFF) contrast and a note saying where it comes from ("" when recorded): the recorded one (see
+    recording_contrast); else the thresholds of `sensor` (a sensor file fitted to this camera by `evsim calibrate`,
+    or a preset); else estimated from the events and the fed frames (held-out frames are never used) under the DVS
+    pixel model with its log offset, log(x + b) (akf.estimate_contrast, b estimated as the offset that leaves no
+    brightness dependence: akf.estimate_log_offset); else DEFAULT_CONTRAST."""
     recorded = _recorded_contrast(rec)
     if recorded is not None:
         return recorded, ""
+    if sensor is not None:
+        s = sim.load_sensor(sensor)
+        where = f"sensor file {Path(s.path).name}" if s.path else f"preset {s.name}"
+        fitted = s.provenance.get("recording")
+        return ((s.dvs.pos_threshold, s.dvs.neg_threshold),
+                f"no contrast recorded: the thresholds of {where}" + (f" (fitted to {fitted})" if fitted else "")
+                + f", ON {s.dvs.pos_threshold:.3f}, OFF {s.dvs.neg_threshold:.3f}")
     try:
         est = akf.estimate_contrast(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
-                                    crf, bit_depth=rec.frame_bit_depth)
+                                    crf, bit_depth=rec.frame_bit_depth, i0=None)
     except EvsimInputError as e:
         return (DEFAULT_CONTRAST, DEFAULT_CONTRAST), f"no contrast recorded, estimation failed ({e}): assumed " \
                                                      f"{DEFAULT_CONTRAST}"
     return est.pair, (f"no contrast recorded: estimated from the data, ON {est.c_on:.3f}, OFF {est.c_off:.3f} "
-                      f"({est.n_on} + {est.n_off} unclipped pixel intervals)")
-
+                      f"({est.n_on} + {est.n_off} unclipped pixel intervals), pixel model log(x + b) with log "
+                      f"offset b = {est.i0:.3g} x estimated (akf.estimate_log_offset; --sensor gives a calibrated "
+                      "camera's thresholds)")

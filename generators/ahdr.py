@@ -9,6 +9,11 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
   spawn key), package versions, the CRF, the number of DVS samples, and reference_to_crf_x: the factor from
   reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
   reference_white_radiance: the radiance the evaluation's [0, 1] protocol maps to 1 (98th percentile at t = 0).
+A scene that started before its t = 0 (scene.warm_up_us > 0: a recorded clip) is fed to the DVS mirrored in time
+over its first warm_up_us before t = 0, so that the DVS starts in a running state (warm_up_input).
+Times are written in the scene's own time base: scene time + scene.time_origin_us when the scene has one (a
+recording's frames or a timestamps file: the simulated events carry the times of the input), recorded as
+metadata "time_origin_us".
 Memory stays flat in the sequence length: one chunk of samples and one frame are alive at a time.
 """
 
@@ -41,6 +46,7 @@ if TYPE_CHECKING:
     from sim.source import RadianceSource
 
 __all__ = ["AHDRConfig", "check_outputs", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
+           "warm_up_input",
            "REFERENCE_WHITE_PERCENTILE", "MAX_RATE_HZ", "MAX_REFERENCE_FRAMES", "MAX_FIXED_SAMPLES"]
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
@@ -253,6 +259,20 @@ def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     return sorted(times)
 
 
+def warm_up_input(images: list, times_us: list[int] | np.ndarray) -> tuple[list, np.ndarray]:
+    """The DVS input that brings a sensor into the running state of t = 0: the samples (images at times_us, the
+    first at t = 0) of the scene's first moments mirrored in time, at times -t (oldest first), t = 0 left out.
+
+    A real sensor recording a clip was running before it: its references sit wherever the last events put them
+    and its leak drifts are phased by them. A sensor initialised at t = 0 instead (reference = the first image,
+    uniform random leak phase) fires a start-up burst as the noise in the input meets references at their
+    initial levels (30x the steady rate of static pixels on a DAVIS346 recording). Feeding the mirrored start
+    first gives the sensor the input's own statistics; its events are dropped.
+    """
+    times = np.asarray(times_us, np.int64)
+    if times.size < 2 or times[0] != 0:
+        raise InvalidParameterError("a warm-up needs at least 2 samples, the first at t = 0")
+    return list(images[:0:-1]), -times[:0:-1]
 def _rates(t_us: int, duration_us: int, frames: int, events: int, bar: tqdm) -> str:
     """The DVS progress text: scene time done, input frames and events per second of wall time."""
     elapsed = max(bar.format_dict["elapsed"], 1e-9)
@@ -276,6 +296,8 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
     h, w, duration = scene.height, scene.width, int(scene.duration_us)
     dvs_params, cam_params, crf = resolve_sensors(scene, config)
     refs = _reference_times(config, duration)
+    # written times are in the scene's own time base (a recording's or a timestamps file's): scene time + origin
+    origin = int(getattr(scene, "time_origin_us", 0))
     dvs = sim.DVSEmulator(h, w, dvs_params, child_seed(ss, 0), return_labels=config.labels)
     camera = sim.LDRCamera(h, w, cam_params, crf, child_seed(ss, 1))
     # The DVS is sampled at every reference time too, so its input is exact there.
@@ -283,16 +305,21 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
     breakpoints = sorted(set(refs) | set(schedule[:, 1].tolist()))
     if config.sampling == "adaptive":
         threshold = min(dvs_params.pos_threshold, dvs_params.neg_threshold)
-        sampler = make_sampler(src, "adaptive", threshold=threshold, fraction=config.sampling_fraction,
-                               quantile=config.sampling_quantile,
-                               min_step_us=config.min_step_us, max_step_us=config.max_step_us,
-                               log_eps=dvs_params.dark_fraction * dvs_params.full_illumination,
-                               breakpoints_us=breakpoints)
+        sampling = {"threshold": threshold, "fraction": config.sampling_fraction,
+                    "quantile": config.sampling_quantile, "min_step_us": config.min_step_us,
+                    "max_step_us": config.max_step_us,
+                    "log_eps": dvs_params.dark_fraction * dvs_params.full_illumination}
     else:
         if duration * 1e-6 * config.rate_hz > MAX_FIXED_SAMPLES:
             raise InvalidParameterError(f"fixed sampling at {config.rate_hz:g} Hz over {duration} us needs more "
                                         f"than {MAX_FIXED_SAMPLES} DVS input frames")
-        sampler = make_sampler(src, config.sampling, rate_hz=config.rate_hz, breakpoints_us=breakpoints)
+        sampling = {"rate_hz": config.rate_hz}
+    sampler = make_sampler(src, config.sampling, breakpoints_us=breakpoints, **sampling)
+    warm_up = min(int(getattr(scene, "warm_up_us", 0)), duration)
+    if warm_up > 0:  # the scene started before its t = 0 (a recorded clip): the DVS enters t = 0 running
+        pre = list(make_sampler(src, config.sampling, t_end_us=warm_up, **sampling))
+        stack, times = warm_up_input([img for _, img in pre], [t for t, _ in pre])
+        dvs.feed(np.stack(stack), times)
     resolved = config.to_dict()
     resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))
     resolved["camera"] = _jsonable(dataclasses.asdict(cam_params))
@@ -302,6 +329,7 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
         "config": resolved,
         "scene": scene.describe() if hasattr(scene, "describe") else {"type": type(scene).__name__},
         "duration_us": duration,
+        "time_origin_us": origin,
         "crf": {"name": crf.name, "params": _jsonable(crf.params)},
         # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
         "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
@@ -325,6 +353,11 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
             out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
             clock.add("dvs", t0)
             events, labels = out if config.labels else (out, None)
+            if warm_up > 0 and events.size and events["t"][0] <= 0:  # the warm-up's last interval ends at t = 0
+                keep = events["t"] > 0
+                events, labels = events[keep], (labels[keep] if labels is not None else None)
+            if origin:
+                events["t"] += origin
             write("add_events", events, labels)
             counts["events"] += events.size
 
@@ -333,7 +366,7 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
 
         def reference(img, t):
             if "reference" in config.outputs:
-                write("add_reference", img, t)
+                write("add_reference", img, t + origin)
                 counts["references"] += 1
 
         writer.set_crf(meta["crf"])
@@ -382,7 +415,8 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                 clock.add("camera", t0, minus=(src.seconds[0] - s0[0], src.seconds[1] - s0[1]))
                 if frame is None:
                     break
-                write("add_frame", frame.image, int(frame.t_start_us), int(frame.t_mid_us), int(frame.t_end_us))
+                write("add_frame", frame.image, *(int(t) + origin for t in (frame.t_start_us, frame.t_mid_us,
+                                                                          frame.t_end_us)))
                 counts["frames"] += 1
                 if counts["frames"] == 1:
                     bar.set_postfix_str("", refresh=False)

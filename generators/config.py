@@ -69,12 +69,13 @@ SCENE_TYPES = {
              "views from one warp of a box-filtered source instead of the sub-sample grid; default true)",
     "frames": "a folder of EXR frames: path, fps (when no timestamps.txt), interpolation, log_eps (the frames "
               "set the duration; their size must match height and width)",
-    "video": "a video file, a folder of images or a .npy stack (generators.scenes.video): path, start_s, stop_s, "
-             "fps (the capture rate of the input frames), slowmo (video files: capture rate = container rate x "
-             "slowmo), timestamps (file), upsample (flow | linear | none), flow (dis | farneback), flow_preset, "
-             "flow_scale, key_step_px, max_keys, input_crf, input_crf_params, channel, resize (crop | pad | "
-             "stretch: to the aspect ratio of height x width), conditioning (temporal | off, or a table of "
-             "generators.scenes.conditioning.ConditioningParams fields) (the clip sets the duration)",
+    "video": "a video file, a folder of images, a .npy stack or a hybrid recording's frames (generators.scenes.video): "
+             "path, start_s, stop_s, fps (the capture rate of the input frames), slowmo (video files: capture rate "
+             "= container rate x slowmo), timestamps (file), upsample (flow | linear | none), flow (dis | "
+             "farneback), flow_preset, flow_scale, key_step_px, max_keys, input_crf, input_crf_params, channel, "
+             "black_level, warm_up_s, resize (crop | pad | stretch: to the aspect ratio of height x width), "
+             "conditioning (temporal | off, or a table of generators.scenes.conditioning.ConditioningParams fields) "
+             "(the clip sets the duration)",
     "builtin_image": "an image shipped with scikit-image made HDR (see generators.scenes.builtin_images): image, "
                      "trajectory {...}",
     "moving_edge": "MovingEdge", "checkerboard": "Checkerboard", "rotating_bar": "RotatingBar",

@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import sim
 from sim import EvsimInputError
 
 from .config import DatasetConfig, parse_config
@@ -29,7 +30,8 @@ CONVERT_OUTPUTS = ("events",)
 
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
-                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning")
+                 "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning",
+                 "black_level", "warm_up_s")
 #: the LDR camera's CRF when the settings name none: ordinary video looks as it did (the AHDR `window` CRF of
 #: `generate` maps all but a narrow band of radiance to black or white)
 DEFAULT_CRF = {"name": "srgb", "params": {}}
@@ -77,7 +79,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
     DEFAULT_CRF, sRGB, unless given; output.outputs defaults to CONVERT_OUTPUTS, the events only: add "frames" and
     "reference" for the LDR frames and the HDR reference of the clip); height,
     width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
-    VideoScene default).
+    VideoScene default; black_level defaults to the [input] table of a sensor file given as settings["sensor"]).
     """
     unknown = set(scene_options) - set(SCENE_OPTIONS)
     if unknown:
@@ -85,9 +87,14 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                               f"known: {', '.join(SCENE_OPTIONS)}")
     options = {k: (str(Path(v).resolve()) if k == "timestamps" else v)
                for k, v in scene_options.items() if v is not None}
+    sensor = (settings or {}).get("sensor")
+    if sensor is not None and "black_level" not in options:  # a sensor file's [input] table: the frames' black
+        black = sim.load_sensor(sensor).tables.get("input", {}).get("black_level")
+        if black is not None:
+            options["black_level"] = black
     sequences, names = [], set()
     for path in clips(inputs):
-        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy",) else path.name
+        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy", ".aedat4") else path.name
         base, i = name, 1
         while name in names:
             i += 1

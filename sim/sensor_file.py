@@ -12,6 +12,8 @@ file, accepted wherever a preset name is (sim.load_sensor, `sensor = "my.toml"` 
     fps = 25.0                    # preset = "davis346_aps": camera defaults, under any explicit camera setting
     [provenance]                  # free-form: where the values come from (recording, its sha256, fit loss, date)
     recording = "davis346_road"
+    [input]                       # optional: what a real camera's frames mean (INPUT_FIELDS): black_level,
+    black_level = 0.0             # read_noise_dn, offset_dn (evsim calibrate writes it; convert takes black_level)
 
 Reading is strict: an unknown table or key, or a value the parameters refuse, raises InvalidParameterError naming
 the file and the key (with the closest allowed name and the list of them). write_sensor writes a Sensor back
@@ -35,7 +37,7 @@ from pathlib import Path
 
 from . import camera_params, dvs_params
 from .dvs_params import DVSParams
-from .errors import EvsimInputError, InvalidParameterError
+from .errors import EvsimInputError, InvalidParameterError, check_number
 from .suggest import did_you_mean, unknown_name
 
 __all__ = ["Sensor", "load_sensor", "parse_sensor", "write_sensor", "sensor_toml", "check_dvs_fields",
@@ -99,12 +101,35 @@ def _check_provenance(where: str, table: Mapping) -> dict:
     return table
 
 
+#: the [input] table: what a real camera's frames mean (read by generators' video scene and evsim calibrate)
+INPUT_FIELDS = {
+    "black_level": "the frames' value for no light (DN, >= 0), subtracted before linearising",
+    "read_noise_dn": "the frames' temporal read noise (DN rms, >= 0)",
+    "offset_dn": "the DVS log offset b in frame DN: the pixel responds to log(DN - black_level + b) (> 0); the "
+                 "[dvs] dark_fraction is the same offset relative to full illumination",
+}
+
+
+def check_input_fields(where: str, table: Mapping) -> dict:
+    """The [input] table checked: keys of INPUT_FIELDS, finite numbers >= 0 (offset_dn > 0)."""
+    table = _check_mapping(where, table)
+    for key, value in table.items():
+        if key not in INPUT_FIELDS:
+            raise InvalidParameterError(f"{where}.{key}: {unknown_name('input field', key, INPUT_FIELDS)}")
+        try:
+            table[key] = check_number(key, value, positive=key == "offset_dn")
+        except InvalidParameterError as e:
+            raise InvalidParameterError(f"{where}: {e}") from None
+    return table
+
+
 #: the tables of a sensor file -> their validator (where, table) -> table; DVS, camera and provenance are fields of
 #: Sensor, any other table is kept in Sensor.tables
 TABLES: dict[str, Callable[[str, Mapping], dict]] = {
     "dvs": check_dvs_fields,
     "camera": check_camera_fields,
     "provenance": _check_provenance,
+    "input": check_input_fields,
 }
 
 

@@ -58,7 +58,7 @@ def test_a_subcommands_flags_are_suggested_only_when_it_is_the_one_typed(capsys)
                                    r"'read_noise_e'\?\); allowed: fps, first_frame_us"),
     (["--dvs", "pos_threshold"], r"--dvs 'pos_threshold': expected FIELD=VALUE \(e.g. --dvs pos_threshold=0.25\)"),
     (["--sensor", "davis364"], r"--sensor: unknown sensor 'davis364' \(did you mean 'davis346'\?\): a sensor is a "
-                               r"preset \(ideal, davis346, noisy\) or a sensor file \(.toml\)"),
+                               r"preset \(ideal, davis346, davis346_road, noisy\) or a sensor file \(.toml\)"),
     (["--sensor-size", "davis364"], r"--sensor-size: unknown sensor size 'davis364' \(did you mean 'davis346'\?\); "
                                     r"allowed: dvs128, davis240, davis346"),
     (["--fps", "20", "--camera", "fps=30"], r"--fps and --camera fps=\.\.\. both set fps: give one"),

@@ -101,8 +101,9 @@ def test_bad_sensor_files_name_the_file_and_key_with_the_allowed_names(tmp_path,
 
 
 def test_unknown_sensor_names_and_unreadable_files_are_clear(tmp_path):
-    with pytest.raises(sim.InvalidParameterError, match=r"unknown sensor 'davis364' \(did you mean 'davis346'\?\)"
-                                                        r".*a preset \(ideal, davis346, noisy\) or a sensor file"):
+    with pytest.raises(sim.InvalidParameterError,
+                       match=r"unknown sensor 'davis364' \(did you mean 'davis346'\?\)"
+                             r".*a preset \(ideal, davis346, davis346_road, noisy\) or a sensor file"):
         sim.load_sensor("davis364")
     with pytest.raises(sim.EvsimInputError, match="does not exist"):
         sim.load_sensor(tmp_path / "none.toml")

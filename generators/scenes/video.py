@@ -10,6 +10,10 @@ Inputs (open_frames):
 A timestamps file holds one time per input frame and line: integers are microseconds, decimal numbers seconds
 (the vid2e convention); they must increase strictly.
 
+- a hybrid recording's frames (an .aedat4 file or an IJRR folder, scenes.recording_frames): times are the
+  mid-exposure times, each frame scaled to the first one's exposure time, input CRF the recorded one (a simulated
+  recording's) or linear (a DAVIS's APS frames are linear in DN).
+
 Frame rate: the times are those of the capture. A video's rate is, in this order: `fps` (the capture rate, as
 given), `slowmo` x the container's rate (a slow-motion clip stored at a playback rate), the capture rate a phone
 records in MP4/QuickTime metadata (scenes.capture_rate: Android's com.android.capture.fps), the container's rate.
@@ -17,17 +21,20 @@ InputTimingWarning (one line) says when the metadata contradicts a given rate, a
 rate of 60 fps or less moves implausibly little per frame (flow upsampling measures it: median largest motion
 under 0.25 input pixels per frame), which is what a slow-motion clip looks like at its playback rate.
 
-Each frame becomes linear luminance: integer (LDR) values are normalised by the type's maximum and linearised
-through the inverse of `input_crf` (a crf_models curve, sRGB by default), float (HDR) values are taken as linear;
-colour becomes Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. When the
-sensor's aspect ratio differs from the input's, `resize` says what happens: "crop" (default) fills the sensor with
-the largest centred window of the input, "pad" shows the whole input centred with black (0) bars, "stretch" shows
-the whole input distorted. The result is area-integrated to height x width (cv2.INTER_AREA), in linear radiance.
-Integer input is then conditioned (scenes.conditioning, `conditioning`) in its code values, frame by frame in
-order: read noise and codec artefacts on still pixels are held back from the DVS (default: on for video files,
-off for image folders and stacks, which are taken as clean unless conditioning is given). The clip runs from the
-first input frame at or after start_s to the last at or before stop_s (seconds from the input's first frame); the
-scene's time 0 is that first frame.
+Each frame becomes linear luminance: integer (LDR) values minus black_level are normalised by the type's maximum
+minus black_level and linearised through the inverse of `input_crf` (a crf_models curve, sRGB by default, linear
+for a recording), float (HDR) values are taken as linear; colour becomes Rec. 709 luminance
+Y = 0.2126 R + 0.7152 G + 0.0722 B (scenes.luminance) or one channel. When the sensor's aspect ratio differs from
+the input's, `resize` says what happens: "crop" (default) fills the sensor with the largest centred window of the
+input, "pad" shows the whole input centred with black (0) bars, "stretch" shows the whole input distorted. The
+result is area-integrated to height x width (cv2.INTER_AREA), in linear radiance. Integer input is then
+conditioned (scenes.conditioning, `conditioning`) in its code values, frame by frame in order: read noise and codec
+artefacts on still pixels are held back from the DVS (default: on for video files and recordings' frames, off for
+image folders and stacks, which are taken as clean unless conditioning is given). The clip runs from the first input frame
+at or after start_s to the last at or before stop_s (seconds from the input's first frame); the scene's time 0 is
+that first frame, at time_origin_us in the input's own time base (a timestamps file's, a recording's), from which
+generation writes its times. The DVS is warmed up on the clip's first warm_up_s mirrored in time (a recording's
+frames: its camera was running before the clip began; no start-up burst).
 
 Between input frames (`upsample`):
 - "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
@@ -48,7 +55,6 @@ decoding from the first frame (generate_ahdr does this once, between its DVS pas
 
 from __future__ import annotations
 
-import hashlib
 import warnings
 from pathlib import Path
 
@@ -66,13 +72,14 @@ from .conditioning import ConditioningParams, InputConditioner, condition_linear
 from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
+from .recording_frames import RecordingFrames, is_recording, sha256_of
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
+WARM_UP_S = 0.5  # DVS warm-up of a recording's frames on the clip's start mirrored in time (s; generators.ahdr)
 LOG_EPS_FRACTION = 1e-4  # log(I + eps) with eps = this fraction of the first frame's 99th percentile
-_HASH_CHUNK = 1 << 20
 RESIZE_POLICIES = ("crop", "pad", "stretch")
 SLOW_MOTION_MAX_CONTAINER_FPS = 60.0  # a container rate at or below which tiny motion per frame suggests slow motion
 SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixels) below which the warning is given
@@ -83,18 +90,6 @@ class InputTimingWarning(UserWarning):
     contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
 
     evsim_note = True
-
-
-def _sha256(paths: list[Path]) -> str:
-    """sha256 of one file's bytes, or of the names and bytes of several files in order."""
-    h = hashlib.sha256()
-    for p in paths:
-        if len(paths) > 1:
-            h.update(p.name.encode() + b"\0")
-        with open(p, "rb") as f:
-            while chunk := f.read(_HASH_CHUNK):
-                h.update(chunk)
-    return h.hexdigest()
 
 
 def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
@@ -126,6 +121,8 @@ class _Frames:
 
     kind: str
     counted_to_end = True  # False when a video was counted only up to the stop time
+    time_origin_us = 0  # the time of the first frame in the input's own time base (a timestamps file's), us
+    exposures_us = None  # (N,) exposure time per frame (us) when the input records it
     path: Path
     times_us: np.ndarray
     size: tuple[int, int]
@@ -148,6 +145,7 @@ class _Frames:
                               f"{self.path}: no frame times: give --input-fps or --timestamps (a file of frame "
                               f"times){folder}")
         self.times_us = times - times[0]
+        self.time_origin_us = int(times[0])
 
     def frames(self, first: int = 0):
         raise NotImplementedError
@@ -185,7 +183,7 @@ class _VideoFile(_Frames):
             self.rate["container_fps"] = container_fps
         if self.capture is not None:
             self.rate["capture_fps_metadata"] = {"fps": self.capture[0], "key": self.capture[1]}
-        self.sha256 = _sha256([path])
+        self.sha256 = sha256_of([path])
 
     def _capture_rate(self, fps, timestamps, slowmo, container_fps) -> tuple[float | None, str]:
         """The rate the frames were captured at and where it comes from (module docstring, Frame rate); warns
@@ -292,7 +290,7 @@ class _ImageFolder(_Frames):
         self.size = next(iter(sizes))
         self._set_times(len(self.paths), fps, timestamps, folder / TIMESTAMPS_FILE)
         ts = [Path(self.rate["timestamps"])] if "timestamps" in self.rate else []
-        self.sha256 = _sha256(self.paths + ts)
+        self.sha256 = sha256_of(self.paths + ts)
 
     def frames(self, first: int = 0):
         for p in self.paths[first:]:
@@ -311,7 +309,7 @@ class _NpyStack(_Frames):
         self._stack = s = self._load(path)
         self.size = tuple(s.shape[1:3])
         self._set_times(s.shape[0], fps, timestamps)
-        self.sha256 = _sha256([path])
+        self.sha256 = sha256_of([path])
 
     @staticmethod
     def _load(path: Path) -> np.ndarray:
@@ -342,6 +340,8 @@ def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str |
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
+    if is_recording(path):
+        return RecordingFrames(path)
     if slowmo is not None and (path.is_dir() or path.suffix.lower() == ".npy"):
         raise EvsimInputError(f"{path}: slowmo applies to video files; give an image folder or a stack its capture "
                               "rate as fps or a timestamps file")
@@ -353,11 +353,11 @@ def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str |
 
 
 def _conditioning_for(option: ConditioningParams | dict | str | None, kind: str) -> ConditioningParams:
-    """The conditioning of an input kind: by default temporal with key frames for video files and off for image
-    folders and stacks (taken as clean); a mode or table without key_frames gets key frames for video files
-    only (a camera's frames have no codec)."""
+    """The conditioning of an input kind: by default temporal with key frames for video files, temporal for a
+    recording's frames (a real camera's read noise) and off for image folders and stacks (taken as clean); a mode
+    or table without key_frames gets key frames for video files only (a camera's frames have no codec)."""
     if option is None:
-        option = "temporal" if kind == "video" else "off"
+        option = "temporal" if kind in ("video", "recording") else "off"
     if isinstance(option, str):
         option = {"mode": option}
     if isinstance(option, dict) and "key_frames" not in option:
@@ -370,6 +370,8 @@ def input_size(path: str | Path) -> tuple[int, int]:
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
+    if is_recording(path):
+        return RecordingFrames(path).size
     if path.is_dir():
         frames = sorted(p for p in path.iterdir() if p.suffix.lower() in LDR_IMAGE_SUFFIXES + HDR_IMAGE_SUFFIXES)
         if not frames:
@@ -407,15 +409,24 @@ class VideoScene(Scene):
         key frames in video files only.
     log_eps: the offset of log(I + eps) used for interpolation (radiance units; default 1e-4 x the first frame's
         99th percentile).
+    black_level: the integer input's value for no light (subtracted before linearising: the normalised value is
+        (raw - black_level) / (max - black_level), clipped to [0, 1]).
+    warm_up_s: the DVS is warmed up on this much of the clip's start mirrored in time (the camera was running
+        before the first frame; generators.ahdr.warm_up_input), at most the clip's length; default WARM_UP_S for a
+        recording's frames, 0 for other inputs.
+    Frames whose exposure times the input records (a recording) are scaled to the first frame's exposure. The
+    scene's time_origin_us is the time of its t = 0 in the input's own time base (a timestamps file's first time,
+    a recording's first mid-exposure): generation writes its times from there.
     """
 
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps: str | Path | None = None, start_s: float = 0.0,
                  stop_s: float | None = None, upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium",
                  flow_scale: float = FLOW_SCALE, key_step_px: float = 0.5, max_keys: int = MAX_KEYS,
-                 input_crf: str = "srgb", input_crf_params: dict | None = None, channel: str | int | None = None,
-                 log_eps: float | None = None, slowmo: float | None = None, resize: str = "crop",
-                 conditioning: ConditioningParams | dict | str | None = None):
+                 input_crf: str | None = None, input_crf_params: dict | None = None,
+                 channel: str | int | None = None, log_eps: float | None = None, slowmo: float | None = None,
+                 resize: str = "crop", conditioning: ConditioningParams | dict | str | None = None,
+                 black_level: float = 0.0, warm_up_s: float | None = None):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
         if resize not in RESIZE_POLICIES:
@@ -440,7 +451,23 @@ class VideoScene(Scene):
         self.upsample, self.channel = upsample, channel
         self.key_step_px = positive("key_step_px", key_step_px, "VideoScene")
         self.max_keys = check_int("VideoScene: max_keys", max_keys, minimum=1)
-        self.input_crf = {"name": input_crf, "params": dict(input_crf_params or {})}
+        if input_crf is None and self._input.kind == "recording":  # its recorded CRF, else linear (DAVIS APS)
+            self.input_crf = {"name": self._input.crf["name"],
+                              "params": dict(input_crf_params or self._input.crf.get("params", {}))}
+        else:
+            self.input_crf = {"name": input_crf or "srgb", "params": dict(input_crf_params or {})}
+        self.black_level = positive("black_level", black_level, "VideoScene", allow_zero=True)
+        # the clip was running before its first frame: the DVS is warmed up on its start mirrored (generators.ahdr)
+        if warm_up_s is None:
+            warm_up_s = WARM_UP_S if self._input.kind == "recording" else 0.0
+        self.warm_up_us = min(int(round(positive("warm_up_s", warm_up_s, "VideoScene", allow_zero=True) * 1e6)),
+                              int(self.times[-1]))
+        # the scene's time 0 in the input's own time base (a timestamps file's, a recording's)
+        self.time_origin_us = int(self._input.time_origin_us + t[keep[0]])
+        exposures = self._input.exposures_us
+        self._exposure_gain = None
+        if exposures is not None and np.all(exposures[keep] > 0):  # radiance in units of the first frame's exposure
+            self._exposure_gain = (exposures[keep[0]] / exposures[keep]).astype(np.float32)
         h0, w0 = self._input.size
         if height is None and width is None:
             height, width = h0, w0
@@ -505,7 +532,11 @@ class VideoScene(Scene):
             except crf_models.CRFError as e:
                 raise InvalidParameterError(f"input_crf: {e}") from None
             top = np.iinfo(raw.dtype).max
-            levels = np.arange(top + 1, dtype=np.float64) / top
+            if not self.black_level < top:
+                raise InvalidParameterError(f"black_level {self.black_level} must lie below the frames' maximum "
+                                            f"value {top}")
+            codes = np.arange(np.iinfo(raw.dtype).min, top + 1, dtype=np.float64)
+            levels = np.clip((codes - self.black_level) / (top - self.black_level), 0.0, 1.0)
             self._luts[raw.dtype] = np.asarray(crf.inverse(levels), dtype=np.float32)
         lut = self._luts[raw.dtype]
         return lut[raw.astype(np.int64) - np.iinfo(raw.dtype).min] if raw.dtype.kind == "i" else lut[raw]
@@ -516,6 +547,8 @@ class VideoScene(Scene):
             y = to_luminance(self._linear(raw), self.channel)
         except EvsimInputError as e:
             raise DatasetFormatError(f"{self.path}: frame {self._first + index}: {e}") from None
+        if self._exposure_gain is not None:
+            y = y * self._exposure_gain[index]
         y0, y1, x0, x1 = self._crop
         y = np.ascontiguousarray(y[y0:y1, x0:x1])
         p0, p1, q0, q1 = self._place
@@ -666,6 +699,8 @@ class VideoScene(Scene):
         elif self.upsample == "linear":
             up["blend"] = "linear in time in log(I + log_eps)"
         return {
+            "time_origin_us": self.time_origin_us, "black_level": self.black_level, "warm_up_us": self.warm_up_us,
+            "exposure_normalised": self._exposure_gain is not None,
             "input": {"path": str(self.path), "kind": inp.kind, "sha256": inp.sha256, "size": list(inp.size),
                       ("n_frames" if inp.counted_to_end else "n_frames_read"): int(inp.times_us.size), **inp.rate},
             "frames_used": [self._first, self._first + int(self.times.size) - 1],

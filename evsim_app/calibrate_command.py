@@ -1,0 +1,54 @@
+"""`evsim calibrate RECORDING --out sensor.toml`: fit the sensor model to a real hybrid recording
+(evsim_eval.calibrate), print the fit table and write a sensor file that generate, convert and the API accept."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the `calibrate` subcommand."""
+    p = sub.add_parser("calibrate", help="fit the DVS model to a real hybrid recording; write a sensor file",
+                       description="Simulate the recording's own frames (as convert does) and fit the DVS "
+                                   "parameters (thresholds and spread, log offset, refractory, cutoff, shot, leak "
+                                   "and hot-pixel noise) so that the simulated events match the real ones' "
+                                   "statistics (the realism score). Prints the fit table; writes a sensor file.")
+    p.add_argument("recording", type=Path, metavar="RECORDING",
+                   help="a hybrid recording with frames: .aedat4, IJRR folder, native or E2VID HDF5")
+    p.add_argument("--out", type=Path, required=True, help="the sensor file to write (.toml)")
+    p.add_argument("--window", type=float, nargs=2, default=(0.4, 2.32), metavar=("START", "END"),
+                   help="the part of the recording fitted, seconds from its first frame (default 0.4 2.32)")
+    p.add_argument("--preset", default="davis346", help="the DVS preset the fit starts from and the sensor file "
+                                                        "modifies (default davis346)")
+    p.add_argument("--name", help="the sensor's name (default: the output file's stem)")
+    p.add_argument("--black-level", type=float, help="the frames' value for no light in DN (default: the "
+                                                     "recording's darkest 0.01 %% of frame values)")
+    p.add_argument("--input-conditioning", choices=("temporal", "off"),
+                   help="the frames' input conditioning (default temporal, as convert: a real camera's read noise "
+                        "held out of the DVS; off for noise-free simulated frames)")
+    p.add_argument("--max-evaluations", type=int, default=120,
+                   help="simulations of the Nelder-Mead stage (default 120)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulations (default 0)")
+    p.add_argument("--json", type=Path, help="also write the fit (parameters, scores, timing) as JSON here")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from evsim_eval.calibrate import calibrate, fit_table, write_calibration
+
+    cal = calibrate(args.recording, tuple(args.window), preset=args.preset, black_level=args.black_level,
+                    conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
+                    progress=not args.no_progress, log=print)
+    print(fit_table(cal))
+    print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
+    out = write_calibration(cal, args.out, args.name)
+    print(f"wrote {out}: use it with `evsim convert {args.recording} --sensor {out}`")
+    if args.json is not None:
+        from generators.formats.atomic import atomic_path
+
+        with atomic_path(args.json) as tmp:
+            Path(tmp).write_text(json.dumps(cal.to_dict(), indent=1, default=str))
+    return 0

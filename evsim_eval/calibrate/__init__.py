@@ -1,0 +1,18 @@
+"""Calibration to a real sensor: fit the DVS model to a real hybrid recording by simulating its own frames.
+
+- `calibrate(path, window_s)` -> `Calibration` (fitted DVSParams, the frames' black level and read noise, the
+  realism scores of the preset and of the fit, timing): evsim_eval.calibrate.fit;
+- `RecordingSimulation`: a recording's frames upsampled once (as `evsim convert` does), simulated many times;
+- `fit_table(cal)`, `sensor_of(cal, name)`, `write_calibration(cal, path)`: the report and the sensor file.
+Every name is imported on first use.
+"""
+
+from sim.lazy import lazy_exports
+
+_EXPORTS = {
+    "Calibration": "fit", "calibrate": "fit", "loss_of": "fit",
+    "RecordingSimulation": "simulation", "InputSettings": "simulation",
+    "fit_table": "report", "sensor_of": "report", "write_calibration": "report",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -1,0 +1,300 @@
+"""Fitting the DVS model to a real hybrid recording: simulate its own frames, match the statistics of its events.
+
+The objective is the realism score (evsim_eval.realism: the same statistics `evsim evaluate --task realism`
+reports), measured on the recording's window with its frames' pixel classes. The search, in three stages:
+
+1. Log offset (dark level) and thresholds: for each offset b on a log grid (OFFSET_GRID_DN, 8-bit DN), the
+   ON and OFF thresholds are set by secant steps so that the simulated ON and OFF counts match the real ones
+   (counts fall roughly as 1 / threshold); the b of the smallest loss is kept.
+2. Nelder-Mead (scipy.optimize.minimize; Nelder and Mead 1965) over the log of the ON and OFF thresholds, the
+   offset, the refractory period and the photoreceptor cutoff, and the threshold spread, from stage 1's best.
+3. Noise by moments: on the quiet static pixels the simulation without noise is compared with the real rates.
+   Candidates: no noise; shot noise = the whole excess (ON + OFF); shot noise = twice the OFF excess and leak =
+   the ON excess beyond it (DVSParams.with_observed_leak), when ON exceeds OFF. Each gets the dark shot noise of
+   the dark static pixels' further excess and the hot pixels of the real static pixels firing far above the
+   others (their share and mean rate), and its thresholds rescaled once so that the counts match; the candidate
+   of the smallest loss is kept.
+Noise parameters are fitted with noise-free signal parameters, whose counts on static pixels come from the input
+(frame read noise through the flow upsampling): the moments are what the input does not explain.
+
+The loss (loss_of) weighs: squared log count ratios ON and OFF (x 10), 1 - blurred per-pixel count correlation
+(x 5), the squared relative RMS error of the 10 ms rate curve (x 2), the interval-histogram L1 distance (x 1), the
+squared log ratio of the quiet static noise counts, ON and OFF together (x 0.5, one event added to each side; in
+stage 3 only: a real sensor's static noise may be almost all ON, which the candidates cannot split) and the passage
+median difference (x 0.1).
+
+References (full citations also in docs/models/references.md):
+
+- Nelder JA, Mead R (1965). A simplex method for function minimization. The Computer Journal 7(4):308-313.
+- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. CVPRW. arXiv:2006.07722
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import sim
+from generators.formats import load
+from generators.formats.recording import Recording
+
+from .simulation import InputSettings, RecordingSimulation
+
+# stage 1's log offsets b, in 8-bit frame DN (scaled to the frames' full scale for deeper frames)
+OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
+HOT_FACTOR = 50.0  # a static pixel firing this many times the quiet static rate (and >= HOT_MIN_EVENTS) is hot
+HOT_MIN_EVENTS = 10
+WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.5, "passages": 0.1}  # of loss_of
+
+
+@dataclass
+class Calibration:
+    """What calibrate gives.
+
+    dvs: the fitted DVSParams (full_illumination: the recording's resolved value; dark_fraction relative to it, as
+    convert's auto illumination resolves it on the same recording); preset: the starting preset's DVSParams (same
+    full_illumination). input: the frames' black level etc.; read_noise_dn: the frames' read noise (DN rms,
+    evsim_eval.realism.frame_masks). offset_dn: the log offset b (the pixel responds to log(DN - black + b)).
+    scores: {"preset": ..., "fitted": ...} realism scores; real: the real statistics' summary; loss: the fitted
+    parameters' loss (loss_of), seed: the simulations' seed. evaluations:
+    simulations run; wall_s, cpu_s: time taken (seconds). history: (stage, loss) per evaluation.
+    """
+
+    path: Path
+    window_s: tuple[float, float]
+    dvs: sim.DVSParams
+    preset: sim.DVSParams
+    preset_name: str
+    input: InputSettings
+    read_noise_dn: float
+    offset_dn: float
+    scores: dict
+    real: dict
+    loss: float
+    seed: int
+    evaluations: int
+    wall_s: float
+    cpu_s: float
+    history: list = field(default_factory=list)
+
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable summary: the fitted and preset DVS parameters, input, scores, real statistics, timing."""
+        return {"recording": str(self.path), "window_s": list(self.window_s), "preset_name": self.preset_name,
+                "fitted": dataclasses.asdict(self.dvs), "preset": dataclasses.asdict(self.preset),
+                "input": dataclasses.asdict(self.input), "read_noise_dn": self.read_noise_dn,
+                "offset_dn": self.offset_dn, "scores": self.scores, "real": self.real, "loss": self.loss,
+                "seed": self.seed, "evaluations": self.evaluations, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
+
+
+def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int], noise: bool = True) -> float:
+    """The calibration loss of realism scores (module docstring); real_quiet, sim_quiet: (ON, OFF) events on the
+    quiet static pixels; noise=False leaves out the quiet-noise term (the signal stages, which simulate without
+    noise: what the noise stage adds is not theirs to match)."""
+    def log_ratio(r):
+        return math.log(r) if r > 0 and math.isfinite(r) else 5.0
+
+    terms = {
+        "counts": log_ratio(scores["on_ratio"]) ** 2 + log_ratio(scores["off_ratio"]) ** 2,
+        "corr": 1.0 - _finite(scores["count_corr_blurred"], 0.0),
+        "rate": _finite(scores["rate_rel_rmse"], 10.0) ** 2,
+        "intervals": _finite(scores["interval_l1"], 2.0),
+        "quiet": math.log((sum(sim_quiet) + 1) / (sum(real_quiet) + 1)) ** 2,
+        "passages": abs(_finite(scores["passage_median_diff"], 10.0)),
+    }
+    return float(sum(WEIGHTS[k] * v for k, v in terms.items() if noise or k != "quiet"))
+
+
+def _finite(v: float, default: float) -> float:
+    return float(v) if v is not None and math.isfinite(v) else default
+
+
+class _Objective:
+    """Simulates, scores and counts; remembers the best parameters seen."""
+
+    def __init__(self, simulation: RecordingSimulation, real, seed: int, bar):
+        from evsim_eval.realism import compare, measure
+
+        self._compare, self._measure = compare, measure
+        self.simulation, self.real, self.seed, self.bar = simulation, real, seed, bar
+        self.evaluations, self.history, self.noise = 0, [], False
+        self.best: tuple[float, sim.DVSParams | None, dict | None] = (math.inf, None, None)
+
+    def stats(self, dvs: sim.DVSParams):
+        events = self.simulation.simulate(dvs, self.seed)
+        return self._measure(events, like=self.real)
+
+    def __call__(self, dvs: sim.DVSParams, stage: str) -> tuple[float, dict, object]:
+        stats = self.stats(dvs)
+        scores = self._compare(self.real, stats).scores
+        value = loss_of(scores, self.real.quiet_counts, stats.quiet_counts, self.noise)
+        self.evaluations += 1
+        self.history.append((stage, value))
+        if value < self.best[0]:
+            self.best = (value, dvs, scores)
+        if self.bar is not None:
+            self.bar.update(1)
+            self.bar.set_postfix_str(f"{stage} loss {value:.3f} best {self.best[0]:.3f}", refresh=False)
+        return value, scores, stats
+
+
+def _offset_fraction(offset_dn: float, simulation: RecordingSimulation) -> float:
+    """DVSParams.dark_fraction of a log offset in frame DN."""
+    return offset_dn / simulation.dn_per_radiance / simulation.full_illumination
+
+
+def _match_counts(objective: _Objective, dvs: sim.DVSParams, stage: str, steps: int = 3):
+    """Secant steps on log thresholds so that ON and OFF counts match: counts ~ threshold^-k (k from the steps,
+    starting at 1). Returns (loss, dvs, scores)."""
+    k = [1.0, 1.0]
+    value, scores, _ = objective(dvs, stage)
+    for _ in range(steps):
+        ratios = (scores["on_ratio"], scores["off_ratio"])
+        if all(abs(math.log(max(r, 1e-9))) < 0.03 for r in ratios):
+            break
+        new = []
+        for r, name, kk in zip(ratios, ("pos_threshold", "neg_threshold"), k):
+            r = min(max(r, 1e-3), 1e3)
+            new.append(max(getattr(dvs, name) * r ** (1.0 / kk), 0.02))
+        trial = dvs.replace(pos_threshold=new[0], neg_threshold=new[1])
+        t_value, t_scores, _ = objective(trial, stage)
+        for i, (name, key) in enumerate((("pos_threshold", "on_ratio"), ("neg_threshold", "off_ratio"))):
+            d_thr = math.log(getattr(trial, name) / getattr(dvs, name))
+            d_cnt = math.log(max(t_scores[key], 1e-9) / max(scores[key], 1e-9))
+            if abs(d_thr) > 1e-6 and d_cnt < 0:
+                k[i] = min(max(-d_cnt / d_thr, 0.3), 4.0)
+        dvs, value, scores = trial, t_value, t_scores
+    return value, dvs, scores
+
+
+def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVSParams]:
+    """Stage 3's candidate noise settings (module docstring), from the static pixels' excess over the noise-free
+    simulation `dvs`."""
+    real, masks, dur = objective.real, objective.real.masks, objective.real.duration_s
+    stats = objective.stats(dvs)
+    objective.evaluations += 1
+    n_quiet = max(int(masks.quiet.sum()), 1)
+    excess_on, excess_off = (max((r - s) / (n_quiet * dur), 0.0)
+                             for r, s in zip(real.quiet_counts, stats.quiet_counts))
+    extra = {}
+    n_dark = int(masks.dark.sum())
+    if n_dark:
+        dark_excess = sum(max((r - s) / (n_dark * dur), 0.0) for r, s in zip(real.dark_counts, stats.dark_counts))
+        # dark shot noise scales as I_d / (I + I_d) (sim.dvs): its share on the dark pixels, in frame DN
+        sim_ = objective.simulation
+        b_dn = dvs.dark_fraction * sim_.full_illumination * sim_.dn_per_radiance
+        level = np.maximum(masks.median_dn[masks.dark].astype(np.float64) - sim_.settings.black_level, 0.0)
+        share = float(np.mean(b_dn / (level + b_dn)))
+        if share > 0 and dark_excess > excess_on + excess_off:
+            extra["dark_shot_noise_hz"] = (dark_excess - excess_on - excess_off) / share
+    counts = real.counts.sum(axis=0)
+    static_counts = counts[masks.static]
+    quiet_events = sum(real.quiet_counts) / n_quiet
+    hot = static_counts[static_counts >= max(HOT_MIN_EVENTS, HOT_FACTOR * quiet_events)]
+    if hot.size:
+        extra.update(hot_pixel_fraction=hot.size / counts.size, hot_pixel_hz=float(hot.mean()) / dur)
+    base = dvs.replace(**extra)
+    candidates = [base, base.replace(shot_noise_hz=excess_on + excess_off)]
+    if excess_on > excess_off:  # an ON-only excess is leak
+        moments = base.replace(shot_noise_hz=2.0 * excess_off)
+        candidates.append(moments.with_observed_leak(excess_on - excess_off))
+    return candidates
+
+
+def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, preset: str = "davis346",
+              black_level: float | None = None, conditioning: str | None = None, seed: int = 0,
+              max_evaluations: int = 120,
+              progress: bool = True, log: Callable[[str], None] | None = None) -> Calibration:
+    """Fit the DVS model to the recording at `path` (an AEDAT4 file or IJRR folder with frames, or any hybrid
+    layout generators.formats reads) over window_s (seconds from its first frame's exposure start), starting from
+    `preset`. black_level: the frames' value for no light (default: the recording's darkest 0.01 % of frame
+    values, the floor a black pixel reads). conditioning: the input conditioning of the frames (None: temporal, as
+    convert does; "off" for noise-free frames). max_evaluations bounds stage 2's simulations. See the module."""
+    from tqdm.auto import tqdm
+
+    from evsim_eval.realism import measure_recording
+
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    path = Path(path)
+    start_s, end_s = (float(v) for v in window_s)
+    if not (math.isfinite(start_s) and math.isfinite(end_s) and 0 <= start_s < end_s):
+        raise sim.EvsimInputError(f"the window must satisfy 0 <= start < end seconds, got {start_s} .. {end_s}")
+    rec: Recording = load(path)
+    if rec.frames is None or rec.frames.shape[0] < 3:
+        raise sim.EvsimInputError(f"{path}: calibration needs a recording with frames (at least 3)")
+    if black_level is None:
+        black_level = float(np.percentile(np.asarray(rec.frames), 0.01))
+    settings = InputSettings(black_level=black_level, conditioning=conditioning)
+    say = log or (lambda s: None)
+    say(f"upsampling the {rec.frames.shape[0]} frames of {path.name} (flow) ...")
+    simulation = RecordingSimulation(path, settings)
+    real = measure_recording(rec, window_s)
+    start = sim.DVSParams.preset(preset)
+    bar = tqdm(total=len(OFFSET_GRID_DN) * 3 + max_evaluations + 8, unit="sim", desc="calibrate",
+               disable=not progress, leave=False)
+    objective = _Objective(simulation, real, seed, bar)
+    try:
+        objective.noise = True
+        preset_scores = objective(start, "preset")[1]
+        objective.noise = False
+        objective.best = (math.inf, None, None)  # the search's best: noise-free parameters
+        noiseless = start.replace(shot_noise_hz=0.0, dark_shot_noise_hz=0.0, leak_hz=0.0, hot_pixel_fraction=0.0)
+        # stage 1: offset grid with count-matched thresholds
+        best = (math.inf, None, None)
+        dvs = noiseless
+        for b in OFFSET_GRID_DN:
+            trial = dvs.replace(dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation))
+            value, trial, _ = _match_counts(objective, trial, f"offset {b:g} DN", steps=2)
+            if value < best[0]:
+                best = (value, trial, b)
+            dvs = trial  # the next offset starts from these thresholds
+        dvs = best[1]
+        # stage 2: Nelder-Mead on the signal parameters
+        dvs = _nelder_mead(objective, dvs, max_evaluations)
+        # stage 3: noise candidates by moments, each with its thresholds matched again; the best is kept
+        objective.best, objective.noise = (math.inf, None, None), True
+        for candidate in _noise_candidates(objective, dvs):
+            _match_counts(objective, candidate, "noise", steps=1)
+        loss, final, fitted_scores = objective.best
+    finally:
+        bar.close()
+    offset_dn = final.dark_fraction * simulation.full_illumination * simulation.dn_per_radiance
+    return Calibration(
+        path=path, window_s=tuple(window_s), dvs=simulation.params(final), preset=simulation.params(start),
+        preset_name=preset, input=settings, read_noise_dn=float(real.masks.read_noise_dn), offset_dn=offset_dn,
+        scores={"preset": preset_scores, "fitted": fitted_scores}, real=real.summary(), loss=loss, seed=seed,
+        evaluations=objective.evaluations, wall_s=time.perf_counter() - wall0,
+        cpu_s=time.process_time() - cpu0, history=objective.history)
+
+
+_NM_FIELDS = ("pos_threshold", "neg_threshold", "dark_fraction", "refractory_us", "cutoff_hz")
+
+
+def _nelder_mead(objective: _Objective, dvs: sim.DVSParams, max_evaluations: int) -> sim.DVSParams:
+    """Stage 2: scipy's Nelder-Mead over log of _NM_FIELDS and threshold_sigma (linear)."""
+    from scipy.optimize import minimize
+
+    start = dvs.replace(refractory_us=max(dvs.refractory_us, 1), cutoff_hz=max(dvs.cutoff_hz, 1.0))
+
+    def params(x):
+        values = {name: float(math.exp(v)) for name, v in zip(_NM_FIELDS, x[:-1])}
+        values["refractory_us"] = int(round(values["refractory_us"]))
+        return start.replace(**values, threshold_sigma=float(abs(x[-1])))
+
+    x0 = np.array([math.log(getattr(start, n)) for n in _NM_FIELDS] + [start.threshold_sigma])
+    steps = np.array([0.15, 0.15, 0.7, 0.7, 0.5, 0.03])
+    simplex = np.vstack([x0] + [x0 + np.eye(x0.size)[i] * steps[i] for i in range(x0.size)])
+    result = minimize(lambda x: objective(params(x), "simplex")[0], x0, method="Nelder-Mead",
+                      options={"maxfev": max_evaluations, "initial_simplex": simplex, "xatol": 0.01,
+                               "fatol": 1e-3})
+    best = objective.best[1]
+    return best if best is not None and objective.best[0] <= result.fun else params(result.x)
+
+
+__all__ = ["Calibration", "calibrate", "loss_of", "OFFSET_GRID_DN", "WEIGHTS"]
