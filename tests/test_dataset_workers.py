@@ -150,7 +150,8 @@ def test_a_killed_worker_costs_only_its_task_and_resume_completes(serial, cluste
             client.unregister_worker_plugin("kill-once")
     assert (tmp_path / "killed").exists()
     assert [f.name for f in info.value.failures] == ["sun"] and info.value.failures[0].kind == "lost"
-    assert "--resume" in str(info.value)
+    assert "rerun with resume=True" in str(info.value)  # the remedy in the caller's terms: keywords in Python,
+    assert "rerun with --resume" in info.value.cli_message  # flags on the command line
     assert not (out / "index.json").exists()  # the folder does not claim to be complete
     assert {p.name for p in out.glob("*.h5")} == {"edge.h5", "board.h5", "flicker.h5"}
     kept = {n: (out / f"{n}.h5").stat().st_mtime_ns for n in ("edge", "board", "flicker")}
@@ -213,7 +214,7 @@ def test_evaluate_on_workers_equals_serial(serial, cluster, tmp_path, capsys, tu
     assert a == b and set(a["akf"]) == {*NAMES, "mean"}
     if tune:
         assert set(a["tuning"]["akf"]) == {"contrast_scale", "event_noise_scale", "frame_noise_scale",
-                                           "max_intensity"}
+                                           "smooth_range", "max_intensity"}
 
 
 def test_resume_redoes_what_changed_or_is_unreadable(tmp_path, capsys):
