@@ -385,9 +385,6 @@ def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], h
               f"{': ' + _names(redo) if redo else ''}", flush=True)
         for i in todo:
             print(f"resume: generating {jobs[i][0].name} again: {states[i][1]}", flush=True)
-    note = export_note([task for task, _ in jobs])
-    if note:
-        warnings.warn(note, ExportDropWarning, stacklevel=2)
     _discard_stale_temporaries(out, [jobs[i][0] for i in todo])
     serial = workers is None and scheduler is None
     tasks = [(jobs[i][0].name, (jobs[i][0], jobs[i][1], out, digests[i]), {"progress": progress and serial})
@@ -402,7 +399,12 @@ def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], h
     hint = f"the other files in {out} are complete; index.json was not written (rerun with {{}} to generate the " \
            "failed sequences)"
     raise_failures("sequences", failures, len(tasks), hint.format("resume=True"), cli_hint=hint.format("--resume"))
-    return write_index(out, {**header, "sequences": entries})
+    index = write_index(out, {**header, "sequences": entries})
+    # what the exports leave out is said once the dataset is complete (after a failure, the failure is the message)
+    note = export_note([task for task, _ in jobs])
+    if note:
+        warnings.warn(note, ExportDropWarning, stacklevel=2)
+    return index
 
 
 def dataset_jobs(config: DatasetConfig, *, fmt: str | None = None,
