@@ -94,6 +94,22 @@ An example:
     assert rst[k + 1:k + 4] == ["", "    python run.py --flag", "        indented more"]
 
 
+def test_an_array_constant_is_documented_by_its_comment_not_by_numpy():
+    # autodoc gives a module-level array the docstring of numpy.ndarray (with its text signature); the API page
+    # shows the comment where the constant is set instead
+    sphinx_inspect = pytest.importorskip("sphinx.util.inspect")
+    from sphinx.util.docstrings import prepare_docstring
+
+    realism = importlib.import_module("evsim_eval.realism")
+    lines = prepare_docstring(sphinx_inspect.getdoc(realism.INTERVAL_EDGES_US, getattr, True, realism,
+                                                    "INTERVAL_EDGES_US"))
+    assert "ndarray" in "\n".join(lines)
+    evsim_docs.process_docstring(None, "data", "evsim_eval.realism.INTERVAL_EDGES_US", realism.INTERVAL_EDGES_US,
+                                 None, lines)
+    text = "\n".join(lines)
+    assert "log bins of the same-pixel inter-event-interval histogram" in text and "ndarray" not in text
+
+
 def _have_sphinx() -> bool:
     for name in ("sphinx", "sphinx_gallery", "numpydoc", "myst_parser", "pydata_sphinx_theme", "matplotlib"):
         try:

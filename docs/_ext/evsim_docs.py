@@ -350,8 +350,10 @@ def process_docstring(app, what: str, name: str, obj: Any, options: Any, lines: 
 
     value = None
     if what in ("data", "attribute") and "." in name:
-        type_doc = inspect.getdoc(type(obj)) or ""
-        if not [x for x in lines if x.strip()] or "\n".join(lines).strip() == type_doc.strip():
+        # the docstring a value inherits from its type, as the type states it and as the value reads it (numpy's
+        # ndarray keeps a text signature there, "ndarray(shape, ...)\n--\n", that the type's own __doc__ drops)
+        type_docs = {inspect.getdoc(type(obj)) or "", inspect.cleandoc(getattr(obj, "__doc__", None) or "")}
+        if not [x for x in lines if x.strip()] or "\n".join(lines).strip() in {d.strip() for d in type_docs}:
             lines[:] = list(constant_docs().get(id(obj), []))
             if lines and what == "data" and len(repr(obj)) <= 160 and "`" not in repr(obj):
                 value = repr(obj)

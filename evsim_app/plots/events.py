@@ -122,12 +122,15 @@ class EventSource:
 
     @classmethod
     def of_array(cls, events: np.ndarray, height: int, width: int) -> EventSource:
+        """The events of an array (t, x, y, p, sorted by t) of a height x width sensor, held in memory."""
         n = int(events.size)
         return cls(height, width, n, int(events["t"][0]) if n else None, int(events["t"][-1]) if n else None,
                    lambda t0, t1: slice_time(events, t0, t1), lambda: iter([events]))
 
     @classmethod
     def of_native(cls, path: str | Path) -> EventSource:
+        """The events of a native HDF5 recording, read from the file as they are drawn (count and time span from
+        its event summary when it has one, else from one pass)."""
         from generators.formats.common import open_h5
         from generators.formats.native import (
             event_summary,

@@ -53,6 +53,9 @@ from numba import njit
 
 from sim import InvalidParameterError
 
+__all__ = ["CONDITIONING_MODES", "ConditioningParams", "InputConditioner", "condition_linear"]
+
+#: the values of ConditioningParams.mode: "temporal" (the filter of the module docstring), "off" (frames unchanged)
 CONDITIONING_MODES = ("temporal", "off")
 _HISTORY = 64  # pairs of noise estimates kept for the running median
 _MEAN_GAIN = 0.125  # per frame: a pixel's recent mean follows with a time constant of 8 frames
