@@ -1,9 +1,10 @@
 """What a dataset holds: `describe(path)` gathers it, `format_description(d)` prints it (used by `evsim info`).
 
-Native files are summarised from the event summary their writer records (checked against the file's event count
-and first and last times: generators.formats.native.event_summary), else by streaming their events (memory stays
-flat); other layouts are loaded. A folder of sequences (a dataset folder with index.json, a folder written by
-`evsim export`, a `evsim reconstruct` output with one folder per sequence) is described sequence by sequence.
+Native files are checked as load() checks them, without reading their images, and their events are summarised
+from the event summary their writer records (checked against the file's event count and first and last times:
+generators.formats.native.event_summary), else by streaming them (memory stays flat); other layouts are loaded.
+A folder of sequences (a dataset folder with index.json, a folder written by `evsim export`, a `evsim reconstruct`
+output with one folder per sequence) is described sequence by sequence.
 """
 
 from __future__ import annotations
@@ -14,9 +15,13 @@ import numpy as np
 
 from generators.choices import INDEX_FILE
 from generators.exports import folder_sequences
-from generators.formats import detect, load
-from generators.formats.common import json_attr, open_h5
-from generators.formats.native import event_summary, iter_native_events, recording_event_chunks
+from generators.formats import Recording, detect, load
+from generators.formats.native import (
+    event_summary,
+    iter_native_events,
+    open_native_images,
+    recording_event_chunks,
+)
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")
 
@@ -37,26 +42,18 @@ def describe(path: str | Path) -> dict:
                 "sequences": [describe(file) for _, file in sequences]}
     layout = detect(path)
     if layout == "native":
-        with open_h5(path) as f:
-            h, w = int(f.attrs["height"]), int(f.attrs["width"])
-            fr = f["frames"]
-            frames = {k: fr[k][()] for k in ("t_start_us", "t_mid_us", "t_end_us")}
-            frames["bit_depth"] = int(fr.attrs.get("bit_depth", 8))
-            ref_t = f["reference/t_us"][()] if "reference/t_us" in f else np.zeros(0, np.int64)
-            thr = f["threshold_maps"][()] if "threshold_maps" in f else None
-            crf, meta = json_attr(f, "crf"), json_attr(f, "metadata", {})
+        # checked as load() checks the file (sensor size, frames, reference, thresholds, crf, metadata) without
+        # reading its images; the events counted from the file's event summary when that agrees with the file,
+        # else streamed (each chunk checked)
+        with open_native_images(path) as rec:
+            h, w, crf, meta, thr, frames, ref_t = _fields(rec)
         summary = event_summary(path)
         chunks = iter_native_events(path) if summary is None else None
     else:
         rec = load(path)
-        h, w, crf, meta, thr = rec.height, rec.width, rec.crf, rec.metadata, rec.threshold_maps
-        frames = None if rec.frames is None else {"t_start_us": rec.frame_t_start_us, "t_mid_us": rec.frame_t_mid_us,
-                                                   "t_end_us": rec.frame_t_end_us, "bit_depth": rec.frame_bit_depth}
-        ref_t = rec.reference_t_us if rec.reference is not None else np.zeros(0, np.int64)
+        h, w, crf, meta, thr, frames, ref_t = _fields(rec)
         chunks = recording_event_chunks(rec)
     ev = _event_stats(chunks) if chunks is not None else _summary_stats(summary)
-    if frames is not None and frames["t_mid_us"].size == 0:
-        frames = None
     spans = [(ev["t_first_us"], ev["t_last_us"])] if ev["count"] else []
     if frames is not None:
         spans.append((int(frames["t_start_us"].min()), int(frames["t_end_us"].max())))
@@ -82,6 +79,17 @@ def describe(path: str | Path) -> dict:
         "packages": meta.get("packages"),
         "outputs": meta.get("config", {}).get("outputs") if isinstance(meta.get("config"), dict) else None,
     }
+
+
+def _fields(rec: Recording) -> tuple:
+    """height, width, crf, metadata, threshold maps, frame times {t_start_us, t_mid_us, t_end_us, bit_depth} (None
+    without frames) and reference times (empty without reference) of a checked Recording."""
+    frames = None if rec.frames is None else {"t_start_us": rec.frame_t_start_us, "t_mid_us": rec.frame_t_mid_us,
+                                               "t_end_us": rec.frame_t_end_us, "bit_depth": rec.frame_bit_depth}
+    if frames is not None and np.size(frames["t_mid_us"]) == 0:
+        frames = None
+    ref_t = np.asarray(rec.reference_t_us) if rec.reference is not None else np.zeros(0, np.int64)
+    return rec.height, rec.width, rec.crf, rec.metadata, rec.threshold_maps, frames, ref_t
 
 
 def _video_input(scene) -> dict | None:

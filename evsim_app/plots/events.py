@@ -131,14 +131,16 @@ class EventSource:
     def of_native(cls, path: str | Path) -> EventSource:
         """The events of a native HDF5 recording, read from the file as they are drawn (count and time span from
         its event summary when it has one, else from one pass)."""
-        from generators.formats.common import open_h5
         from generators.formats.native import (
             event_summary,
             iter_native_columns,
             iter_native_events,
+            open_native_images,
             read_native_window,
         )
 
+        with open_native_images(path) as rec:  # the file checked as load() checks it, images left unread
+            h, w = rec.height, rec.width
         summary = event_summary(path)
         if summary is None:  # (a file without a summary: count and span from one pass)
             n, first, last = 0, None, None
@@ -147,8 +149,6 @@ class EventSource:
                     n, first, last = n + ev.size, int(ev["t"][0]) if first is None else first, int(ev["t"][-1])
         else:
             n, first, last = summary["count"], summary["t_first_us"], summary["t_last_us"]
-        with open_h5(path) as f:
-            h, w = int(f.attrs["height"]), int(f.attrs["width"])
         return cls(h, w, n, first if n else None, last if n else None,
                    lambda t0, t1: read_native_window(path, t0, t1),
                    lambda: iter_native_columns(path, ("t", "p")))
