@@ -144,11 +144,12 @@ def test_plot_events_streamed_from_a_native_file_draws_what_the_loaded_recording
         import matplotlib  # noqa: F401
     except ImportError:
         pytest.skip("matplotlib is not installed")
-    from evsim_app.plots.events import EventSource, plot_events
+    from evsim_app.plots.events import plot_events
+    from generators.formats.streaming import open_event_stream
 
     path = full_and_events_only[1]
     a = plot_events(load(path), tmp_path / "a.png", window_ms=7, bin_ms=3)
-    b = plot_events(EventSource.of_native(path), tmp_path / "b.png", window_ms=7, bin_ms=3)
+    b = plot_events(open_event_stream(path), tmp_path / "b.png", window_ms=7, bin_ms=3)
     assert a["times_us"] == b["times_us"]
     for x, y in [*zip(a["frames"], b["frames"]), *zip(a["surfaces"], b["surfaces"]), *zip(a["rate"], b["rate"])]:
         np.testing.assert_array_equal(x, y)
