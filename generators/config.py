@@ -396,16 +396,20 @@ def read_text_file(path: str | Path, what: str = "configuration file") -> str:
                               "is it a binary file?") from None
 
 
-def load_config(path: str | Path) -> DatasetConfig:
-    """Read and validate a TOML dataset configuration (see the module docstring; the file as read_text_file
-    takes it)."""
-    path = Path(path)
+def read_toml(path: str | Path) -> dict:
+    """The TOML table of a configuration file (the file as read_text_file takes it); EvsimInputError naming the
+    file and the syntax error when it is not valid TOML."""
     text = read_text_file(path)
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
-    return parse_config(data, source=str(path), base_dir=path.parent.resolve())
+
+
+def load_config(path: str | Path) -> DatasetConfig:
+    """Read and validate a TOML dataset configuration (see the module docstring and read_toml)."""
+    path = Path(path)
+    return parse_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())
 
 
 def _as_tuples(v):

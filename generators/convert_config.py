@@ -17,13 +17,12 @@ Errors raise InvalidParameterError naming the file and the key, with the closest
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
-from sim import EvsimInputError, InvalidParameterError
+from sim import InvalidParameterError
 from sim.suggest import unknown_name
 
-from .config import DEFAULTS, SEQUENCE_KEYS, read_text_file, resolve_settings
+from .config import DEFAULTS, SEQUENCE_KEYS, read_toml, resolve_settings
 from .convert import SCENE_OPTIONS
 from .formats import EXPORT_FORMATS
 
@@ -88,9 +87,4 @@ def _table(source: str, key: str, value: object) -> dict:
 def load_convert_config(path: str | Path) -> dict:
     """Read and check a conversion configuration file (see the module docstring and parse_convert_config)."""
     path = Path(path)
-    text = read_text_file(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
-    return parse_convert_config(data, source=str(path), base_dir=path.parent.resolve())
+    return parse_convert_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())
