@@ -19,7 +19,7 @@ Layout:
 Time: stored relative to an offset, "# evsim_t_offset_us N": 0 when the first event time is in 0..2**31 - 1 us,
     else the first event time floored to a millisecond. The int32 timestamp wraps every 2**32 us (71.6 min), as a
     DAVIS camera's and jAER's do (jAER follows the wraps); the reader counts a wrap at each drop of the unsigned
-    32-bit value (prophesee_kernels.time_step_ok: a wrap moves time forward by at most 16.8 s), so the writer
+    32-bit value (time_wrap.time_step_ok: a wrap moves time forward by at most 16.8 s), so the writer
     refuses a silence of 71.3 min or more between two events.
 First data byte: readers take a first byte '#' (0x23) for one more header line; jAER's writer drops such first
     events. evsim's writer puts first an event of the first timestamp whose address does not start with 0x23;
@@ -44,8 +44,8 @@ from sim import EvsimInputError
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
-from .prophesee_kernels import WRAP_WINDOW, time_step_ok
 from .recording import MAX_TIME_US, Recording, validate_recording
+from .time_wrap import WRAP_WINDOW, time_step_ok
 
 SUFFIXES = (".aedat2", ".aedat")  # jAER writes .aedat2 for AEDAT 2.0 and opens .aedat too
 MAGIC = b"#!AER-DAT2.0"

@@ -36,8 +36,8 @@ from sim import EvsimInputError
 from .common import EVENT_CHUNK, events_from_columns, fail
 from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
-from .prophesee_kernels import STATE_SIZE, TIME_HIGH_MAX_STEP, WRAP_WINDOW, decode_evt3, encode_evt3, time_step_ok
 from .recording import MAX_TIME_US, Recording, validate_recording
+from .time_wrap import WRAP_WINDOW, time_step_ok
 
 PROPHESEE_FORMATS = ("evt3", "evt2", "dat")
 SUFFIX = {"evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
@@ -59,7 +59,7 @@ class PropheseeWriter(EventFileWriter):
 
     The time offset is fixed by the first event (see the module docstring); later chunks must stay in the
     format's time range (EvsimInputError otherwise, naming the limit). A .dat file cannot hold a silence of 71.3
-    min or more between two events (readers take it for time going back: prophesee_kernels.time_step_ok); EVT 2.0
+    min or more between two events (readers take it for time going back: time_wrap.time_step_ok); EVT 2.0
     and EVT 3.0 files hold silences of any length (TIME_HIGH words every few steps)."""
 
     def __init__(self, path: str | Path, fmt: str, height: int, width: int):
@@ -113,6 +113,8 @@ class PropheseeWriter(EventFileWriter):
         getattr(self, f"_write_{self.fmt}")(t, events)
 
     def _write_evt3(self, t, ev) -> None:
+        from .prophesee_kernels import TIME_HIGH_MAX_STEP, encode_evt3  # (numba: on first use)
+
         gap = int(t[-1] >> 12) - int(self._state[0])
         out = np.empty(4 * t.size + gap // TIME_HIGH_MAX_STEP + 1, np.uint16)
         n = encode_evt3(t, ev["x"], ev["y"], ev["p"], self._state, out)
@@ -120,7 +122,7 @@ class PropheseeWriter(EventFileWriter):
 
     def _write_evt2(self, t, ev) -> None:
         # a TIME_HIGH word at least every _EVT2_TH_STEP (67 s) of silence, as readers refuse a longer step that
-        # could be a step back (prophesee_kernels.time_step_ok)
+        # could be a step back (time_wrap.time_step_ok)
         th = t >> 6
         prev = np.concatenate([[self._th2], th[:-1]])
         cuts = np.flatnonzero(th - prev > _EVT2_TH_STEP).tolist()
@@ -250,7 +252,7 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
     """Stream the CD events of an EVT 3.0 / EVT 2.0 .raw or .dat file in chunks (times with the header's offset
     added back). Bad files raise DatasetFormatError naming the file: among them a time that goes back (naming its
     byte position) other than a wrap of the format's counter from the top of its range to its bottom
-    (prophesee_kernels.time_step_ok)."""
+    (time_wrap.time_step_ok)."""
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
@@ -369,6 +371,8 @@ def _evt2_chunks(path, f, offset, size):
 
 
 def _evt3_chunks(path, f, offset, size):
+    from .prophesee_kernels import STATE_SIZE, decode_evt3  # (numba: on first use)
+
     state = np.zeros(STATE_SIZE, np.int64)
     state[6] = -1  # no event yet
     per_read = max(1, size // 2)
