@@ -10,6 +10,7 @@ import sys
 import pytest
 
 from generators.formats import export
+
 from recordings import make_recording
 
 HEAVY = ("numba", "cv2", "OpenEXR", "tqdm", "scipy", "matplotlib", "distributed")
