@@ -166,7 +166,10 @@ def _independent(path, fmt):
     if fmt == "aedat2":  # tonic's DAVIS346 AEDAT 2.0 reader (masks taken from jAER)
         _, _, xytp = pytest.importorskip("tonic.io").read_davis_346(str(path))
         return xytp["t"], xytp["x"], xytp["y"], np.where(xytp["p"] > 0, 1, -1)
-    if fmt in ("evt2", "dat"):
+    if fmt == "dat":  # faery: Prophesee's own DAT layout (it refuses other event types)
+        a = pytest.importorskip("faery").events_stream_from_file(path).to_array()
+        return a["t"], a["x"], a["y"], np.where(a["on"], 1, -1)
+    if fmt == "evt2":
         a = pytest.importorskip("expelliarmus").Wizard(encoding=fmt).read(str(path))
         return a["t"], a["x"], a["y"], np.where(a["p"] > 0, 1, -1)
     aedat = pytest.importorskip("aedat")
