@@ -59,13 +59,29 @@ def test_events_only_output_has_the_full_runs_events_and_no_frames(full_and_even
 
 
 def test_what_needs_frames_or_reference_says_the_file_was_generated_without_them(full_and_events_only, tmp_path):
+    # in Python the remedy is named in keywords, on the command line (cli_message) in flags
     only = full_and_events_only[1]
     with pytest.raises(EvsimInputError, match="needs at least 1 LDR frame, the recording has 0 .it was generated "
-                                              "with --outputs events: .*--outputs events,frames,reference"):
+                                              "with outputs events: .*with outputs events, frames, reference") as e:
         reconstruct_dataset(only, tmp_path / "r")
-    with pytest.raises(EvsimInputError, match="exr export needs reference frames.*--outputs events"):
+    assert "--" not in str(e.value)
+    assert "(it was generated with --outputs events: generate or convert it again with --outputs " \
+           "events,frames,reference)" in e.value.cli_message
+    with pytest.raises(EvsimInputError, match="exr export needs reference frames.*with outputs events") as e:
         export(only, tmp_path / "x", "exr")
+    assert "--" not in str(e.value) and "--outputs events" in e.value.cli_message
     assert not (tmp_path / "x").exists() and not list(tmp_path.iterdir())
+
+
+def test_a_recording_without_reference_points_to_the_interleave_protocol_in_each_interfaces_words():
+    from evsim_eval.protocols import recording_case
+
+    rec = make_recording()
+    rec.reference = rec.reference_t_us = None
+    with pytest.raises(sim.OptionError, match="^the recording has no HDR reference frames .use "
+                                              "protocol='interleave'.$") as e:
+        recording_case(rec, "reference")
+    assert e.value.cli_message == "the recording has no HDR reference frames (use --protocol interleave)"
 
 
 def test_outputs_are_validated_where_they_are_set():
@@ -227,8 +243,9 @@ def test_export_from_a_non_native_layout_and_dv_processing(tmp_path, tiny_record
 
 def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tiny_dataset, tmp_path):
     (tmp_path / "taken").mkdir()
-    with pytest.raises(EvsimInputError, match="taken already exists; pass --overwrite"):
+    with pytest.raises(EvsimInputError, match="taken already exists; pass overwrite=True") as e:
         export_path(tiny_dataset, tmp_path / "taken", "evt3")
+    assert "--" not in str(e.value) and "pass --overwrite" in e.value.cli_message
     rec = make_recording()
     rec.reference = rec.reference_t_us = None
     export(rec, tmp_path / "src" / "a.h5", "native")
