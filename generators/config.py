@@ -49,6 +49,7 @@ from pathlib import Path
 import crf_models
 import sim
 from sim import EvsimInputError, InvalidParameterError
+from sim.errors import toml_type
 from sim.sensor_file import check_camera_fields, check_dvs_fields
 from sim.suggest import unknown_name
 
@@ -141,13 +142,15 @@ def _check_type(where: str, value, kind):
     ok = {float: lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
           int: lambda v: isinstance(v, int) and not isinstance(v, bool)}.get(kind, lambda v: isinstance(v, kind))
     if not ok(value):
-        raise _fail(where, f"expected {kind.__name__}, got {type(value).__name__} {value!r}")
+        wanted = {float: "a number", int: "an integer", str: "a string", dict: "a table", list: "an array"}.get(
+            kind, f"a {kind.__name__}")
+        raise _fail(where, f"expected {wanted}, got {toml_type(value)} {value!r}")
     return float(value) if kind is float else value
 
 
 def _check_table(where: str, table, allowed: dict) -> dict:
     if not isinstance(table, dict):
-        raise _fail(where, f"expected a table, got {type(table).__name__}")
+        raise _fail(where, f"expected a table, got {toml_type(table)}")
     out = {}
     for key, value in table.items():
         if key not in allowed:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from sim import InvalidParameterError
+from sim.errors import toml_type
 from sim.suggest import unknown_name
 
 from .config import DEFAULTS, SEQUENCE_KEYS, read_toml, resolve_settings
@@ -80,7 +81,7 @@ def parse_convert_config(data: dict, *, source: str = "<convert config>", base_d
 
 def _table(source: str, key: str, value: object) -> dict:
     if not isinstance(value, dict):
-        raise InvalidParameterError(f"{source}: {key}: expected a table, got {type(value).__name__}")
+        raise InvalidParameterError(f"{source}: {key}: expected a table, got {toml_type(value)}")
     return dict(value)
 
 

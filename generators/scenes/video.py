@@ -99,7 +99,7 @@ def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
     try:
         tokens = path.read_text().split()
     except OSError as e:
-        raise fail(path, f"cannot read the timestamps file: {e}") from None
+        raise fail(path, f"cannot read the timestamps file: {e.strerror or e}") from None
     try:
         if all(t.lstrip("+-").isdigit() for t in tokens):
             times, unit = np.array([int(t) for t in tokens], dtype=np.int64), "us"
