@@ -82,6 +82,16 @@ def test_a_recording_without_reference_points_to_the_interleave_protocol_in_each
                                               "protocol='interleave'.$") as e:
         recording_case(rec, "reference")
     assert e.value.cli_message == "the recording has no HDR reference frames (use --protocol interleave)"
+    from evsim_eval.evaluate import split_times
+    from evsim_eval.reconstruct import output_times
+
+    for call, api, cli in [(lambda: output_times(rec, "sometimes"), "times='sometimes': one of", "--times 'sometimes'"),
+                           (lambda: output_times(rec, "reference"), "times=reference: the recording has no",
+                            "--times reference: the recording has no"),
+                           (lambda: split_times(1, 0.5), "tuning (tune=True) needs at least 2", "--tune needs")]:
+        with pytest.raises(sim.OptionError) as e:
+            call()
+        assert str(e.value).startswith(api) and "--" not in str(e.value) and e.value.cli_message.startswith(cli)
 
 
 def test_outputs_are_validated_where_they_are_set():
