@@ -28,7 +28,7 @@ def lazy_exports(package: str, table: dict[str, str], eager: dict) -> tuple[Call
     return __getattr__, __dir__
 
 
-def lazy_njit(**options) -> Callable[[Callable], Callable]:
+def lazy_njit(**options: object) -> Callable[[Callable], Callable]:
     """numba.njit(**options) applied on the function's first call (numba is imported then, not with the module).
     For kernels called from Python only: a kernel that other numba kernels call needs numba.njit itself."""
 
