@@ -26,14 +26,10 @@ Every filter's main parameter (FILTERS[name].param) makes it more permissive as 
 window, a higher hot-pixel rate threshold): sweeping it from FILTERS[name].grid traces an ROC curve.
 Times are int64 microseconds; rates in Hz.
 
-References (full citations also in docs/models/references.md):
+References (full citations also in docs/models/references.md): Delbruck (2008), Frame-free dynamic digital
+vision (the background-activity filter), and Guo and Delbruck (2022), Low cost and latency event camera background
+activity denoising (STCF), cited in full in the akf package docstring; and
 
-- Delbruck T (2008). Frame-free dynamic digital vision. Proceedings of the International Symposium on
-  Secure-Life Electronics, Advanced Electronics for Quality Life and Society, University of Tokyo, 21-26.
-  (The background-activity filter.)
-- Guo S, Delbruck T (2022). Low cost and latency event camera background activity denoising (STCF). IEEE
-  Transactions on Pattern Analysis and Machine Intelligence 45(1):785-795 (2023 issue).
-  doi:10.1109/TPAMI.2022.3152999
 - iniVation. dv-processing: generic algorithms for event cameras. https://gitlab.com/inivation/dv/dv-processing
 - Lenz G, Chaney K, Shrestha SB, Oubari O, Picaud S, Zarrella G (2021). Tonic: event-based datasets and
   transformations. Zenodo. doi:10.5281/zenodo.5079802

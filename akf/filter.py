@@ -1,13 +1,9 @@
 """akf.reconstruct: HDR video from LDR frames and events with the Asynchronous Kalman Filter (Wang et al. 2021).
 
-References (full citations also in docs/models/references.md):
+References (full citations also in docs/models/references.md): Wang et al. (2021), An asynchronous Kalman filter
+for hybrid event cameras, and Pan et al. (2019), Bringing a blurry frame alive at high frame-rate with an event
+camera (EDI), cited in full in the akf package docstring; and
 
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
-  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
-  arXiv:1811.10180
 - Kalman RE, Bucy RS (1961). New results in linear filtering and prediction theory. Journal of Basic
   Engineering 83(1):95-108.
 """

@@ -14,16 +14,12 @@ Denoise-then-reconstruct: every filter at its default parameter (what a user wit
 events, and evsim_eval.evaluate.evaluate_recording scores the AKF and the baselines on what remains, in the same
 table as on the raw events.
 
-References (full citations also in docs/models/references.md):
+References (full citations also in docs/models/references.md): the filters' sources, Delbruck (2008), Frame-free
+dynamic digital vision, and Guo and Delbruck (2022), Low cost and latency event camera background activity
+denoising (STCF), cited in full in the akf package docstring; and
 
 - Fawcett T (2006). An introduction to ROC analysis. Pattern Recognition Letters 27(8):861-874.
   doi:10.1016/j.patrec.2005.10.010
-- Delbruck T (2008). Frame-free dynamic digital vision. Proceedings of the International Symposium on
-  Secure-Life Electronics, Advanced Electronics for Quality Life and Society, University of Tokyo, 21-26.
-  (The background-activity filter.)
-- Guo S, Delbruck T (2022). Low cost and latency event camera background activity denoising (STCF). IEEE
-  Transactions on Pattern Analysis and Machine Intelligence 45(1):785-795 (2023 issue).
-  doi:10.1109/TPAMI.2022.3152999
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ from akf.tuning import describe_setting, tune_cases
 from generators.formats import load
 from generators.formats.recording import Recording
 from generators.runner import TaskOutcome, raise_failures, run_tasks
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 
 from .choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from .protocols import dataset_sequences, recording_case
@@ -62,7 +62,8 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
     """The declared tuning split of n scored times: the first ceil(tune_fraction * n) (at least 1) tune, the rest
     are scored (at least 1)."""
     if n < 2:
-        raise EvsimInputError(f"--tune needs at least 2 scored frames per sequence, one has {n}")
+        why = f"needs at least 2 scored frames per sequence, one has {n}"
+        raise OptionError(f"tuning (tune=True) {why}", f"--tune {why}")
     k = min(max(int(math.ceil(tune_fraction * n)), 1), n - 1)
     return np.arange(k), np.arange(k, n)
 

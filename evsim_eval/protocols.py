@@ -49,8 +49,8 @@ import crf_models
 import sim
 from akf.evaluate import Case
 from generators.formats import detect
-from generators.formats.recording import Recording, not_generated_hint
-from sim import EvsimInputError
+from generators.formats.recording import Recording, missing_part_error
+from sim import EvsimInputError, OptionError
 
 from .choices import PROTOCOLS
 
@@ -139,8 +139,10 @@ def reference_to_x(rec: Recording) -> float:
         return float(factor)
     cam = rec.metadata.get("config", {}).get("camera")
     if cam is None or rec.frames is None:
-        raise EvsimInputError("the recording has no reference_to_crf_x nor camera configuration: the reference "
-                              "radiance cannot be put in the CRF's units (use --protocol interleave)")
+        raise OptionError("the recording has no reference_to_crf_x nor camera configuration: the reference radiance "
+                          "cannot be put in the CRF's units (use protocol='interleave')",
+                          "the recording has no reference_to_crf_x nor camera configuration: the reference radiance "
+                          "cannot be put in the CRF's units (use --protocol interleave)")
     params = sim.CameraParams(**{k: tuple(v) if isinstance(v, list) else v for k, v in cam.items()})
     exposure = int(rec.frame_t_end_us[0] - rec.frame_t_start_us[0])
     return params.electrons_per_radiance_us * exposure / params.full_well_e
@@ -149,8 +151,8 @@ def reference_to_x(rec: Recording) -> float:
 def check_frames(rec: Recording, need: int, what: str) -> None:
     n = 0 if rec.frames is None else rec.frames.shape[0]
     if n < need:
-        raise EvsimInputError(f"{what} needs at least {need} LDR frame{'s' * (need != 1)}, the recording has {n}"
-                              + (not_generated_hint(rec, "frames") if n == 0 else ""))
+        message = f"{what} needs at least {need} LDR frame{'s' * (need != 1)}, the recording has {n}"
+        raise missing_part_error(message, rec, "frames") if n == 0 else EvsimInputError(message)
 
 
 # ----- the two protocols -----------------------------------------------------------------------------------------
@@ -167,8 +169,8 @@ def recording_case(rec: Recording, protocol: str = "reference",
     if protocol == "reference":
         check_frames(rec, 2, "protocol 'reference'")
         if rec.reference is None:
-            raise EvsimInputError("the recording has no HDR reference frames"
-                                  + (not_generated_hint(rec, "reference") or " (use --protocol interleave)"))
+            raise missing_part_error("the recording has no HDR reference frames", rec, "reference",
+                                     ("use protocol='interleave'", "use --protocol interleave"))
         inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
         if not inside.any():
             raise EvsimInputError("no reference frame lies between the first and the last frame")

@@ -13,20 +13,21 @@ import akf
 from generators.formats import load
 from generators.formats.exr import write_exr_sequence
 from generators.formats.recording import Recording
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 
 from .protocols import check_frames, dataset_sequences, method_options_for, recording_contrast, recording_crf
 
 
 def output_times(rec: Recording, times: str) -> np.ndarray:
-    """int64 us output times for --times: "reference" (the reference times from the first exposure start on),
-    "frames" (every frame's mid-exposure) or "fps:N" (N per second from the first exposure start to the last
-    frame's exposure end)."""
+    """int64 us output times for `times` (`evsim reconstruct --times`): "reference" (the reference times from the
+    first exposure start on), "frames" (every frame's mid-exposure) or "fps:N" (N per second from the first
+    exposure start to the last frame's exposure end)."""
     check_frames(rec, 1, "reconstruction")
     start, end = int(rec.frame_t_start_us[0]), int(rec.frame_t_end_us[-1])
     if times == "reference":
         if rec.reference_t_us is None:
-            raise EvsimInputError("--times reference: the recording has no reference frames (use frames or fps:N)")
+            why = "reference: the recording has no reference frames (use frames or fps:N)"
+            raise OptionError(f"times={why}", f"--times {why}")
         return rec.reference_t_us[rec.reference_t_us >= start].astype(np.int64)
     if times == "frames":
         return rec.frame_t_mid_us.astype(np.int64)
@@ -36,9 +37,11 @@ def output_times(rec: Recording, times: str) -> np.ndarray:
         except ValueError:
             fps = math.nan
         if not (math.isfinite(fps) and fps > 0):
-            raise EvsimInputError(f"--times {times!r}: fps:N needs a positive rate in Hz")
+            why = f"{times!r}: fps:N needs a positive rate in Hz"
+            raise OptionError(f"times={why}", f"--times {why}")
         return np.arange(start, end + 1, 1e6 / fps).round().astype(np.int64)
-    raise EvsimInputError(f"--times {times!r}: one of reference, frames, fps:N")
+    raise OptionError(f"times={times!r}: one of reference, frames, fps:N", f"--times {times!r}: one of reference, "
+                      "frames, fps:N")
 
 
 def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = "akf", times: str = "reference",

@@ -49,6 +49,7 @@ from pathlib import Path
 import crf_models
 import sim
 from sim import EvsimInputError, InvalidParameterError
+from sim.errors import toml_type
 from sim.sensor_file import check_camera_fields, check_dvs_fields
 from sim.suggest import unknown_name
 
@@ -141,13 +142,15 @@ def _check_type(where: str, value, kind):
     ok = {float: lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
           int: lambda v: isinstance(v, int) and not isinstance(v, bool)}.get(kind, lambda v: isinstance(v, kind))
     if not ok(value):
-        raise _fail(where, f"expected {kind.__name__}, got {type(value).__name__} {value!r}")
+        wanted = {float: "a number", int: "an integer", str: "a string", dict: "a table", list: "an array"}.get(
+            kind, f"a {kind.__name__}")
+        raise _fail(where, f"expected {wanted}, got {toml_type(value)} {value!r}")
     return float(value) if kind is float else value
 
 
 def _check_table(where: str, table, allowed: dict) -> dict:
     if not isinstance(table, dict):
-        raise _fail(where, f"expected a table, got {type(table).__name__}")
+        raise _fail(where, f"expected a table, got {toml_type(table)}")
     out = {}
     for key, value in table.items():
         if key not in allowed:
@@ -396,16 +399,20 @@ def read_text_file(path: str | Path, what: str = "configuration file") -> str:
                               "is it a binary file?") from None
 
 
-def load_config(path: str | Path) -> DatasetConfig:
-    """Read and validate a TOML dataset configuration (see the module docstring; the file as read_text_file
-    takes it)."""
-    path = Path(path)
+def read_toml(path: str | Path) -> dict:
+    """The TOML table of a configuration file (the file as read_text_file takes it); EvsimInputError naming the
+    file and the syntax error when it is not valid TOML."""
     text = read_text_file(path)
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
-    return parse_config(data, source=str(path), base_dir=path.parent.resolve())
+
+
+def load_config(path: str | Path) -> DatasetConfig:
+    """Read and validate a TOML dataset configuration (see the module docstring and read_toml)."""
+    path = Path(path)
+    return parse_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())
 
 
 def _as_tuples(v):

@@ -17,13 +17,13 @@ Errors raise InvalidParameterError naming the file and the key, with the closest
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
-from sim import EvsimInputError, InvalidParameterError
+from sim import InvalidParameterError
+from sim.errors import toml_type
 from sim.suggest import unknown_name
 
-from .config import DEFAULTS, SEQUENCE_KEYS, read_text_file, resolve_settings
+from .config import DEFAULTS, SEQUENCE_KEYS, read_toml, resolve_settings
 from .convert import SCENE_OPTIONS
 from .formats import EXPORT_FORMATS
 
@@ -81,16 +81,11 @@ def parse_convert_config(data: dict, *, source: str = "<convert config>", base_d
 
 def _table(source: str, key: str, value: object) -> dict:
     if not isinstance(value, dict):
-        raise InvalidParameterError(f"{source}: {key}: expected a table, got {type(value).__name__}")
+        raise InvalidParameterError(f"{source}: {key}: expected a table, got {toml_type(value)}")
     return dict(value)
 
 
 def load_convert_config(path: str | Path) -> dict:
     """Read and check a conversion configuration file (see the module docstring and parse_convert_config)."""
     path = Path(path)
-    text = read_text_file(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise EvsimInputError(f"{path}: not valid TOML: {e}") from None
-    return parse_convert_config(data, source=str(path), base_dir=path.parent.resolve())
+    return parse_convert_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())

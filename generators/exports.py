@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 
 from .choices import FORMATS, INDEX_FILE
 from .formats import HOLDS, DatasetFormatError, ExportDropWarning, detect, export
@@ -93,7 +93,8 @@ def export_path(source: str | Path, dst: str | Path, fmt: str, *, overwrite: boo
         raise EvsimInputError(f"{source}: no such file or folder")
     if dst.exists() or dst.is_symlink():
         if not overwrite:
-            raise EvsimInputError(f"output {dst} already exists; pass --overwrite to replace it")
+            raise OptionError(f"output {dst} already exists; pass overwrite=True to replace it",
+                              f"output {dst} already exists; pass --overwrite to replace it")
         if dst.resolve() == source.resolve():
             raise EvsimInputError(f"output {dst} is the source itself")
     sequences = folder_sequences(source)

@@ -33,8 +33,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from tqdm.auto import tqdm
-
 from sim import EvsimInputError, OptionError
 
 if TYPE_CHECKING:
@@ -117,6 +115,8 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, tuple, dict]], *, workers
     tasks = list(tasks)
     if not tasks:
         return []
+    from tqdm.auto import tqdm
+
     with tqdm(total=len(tasks), unit="task", desc=desc, disable=(None if progress is None else not progress),
               leave=True) as bar:
 

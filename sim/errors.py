@@ -40,6 +40,16 @@ class UnsortedEventsError(TimeOrderError):
     """An event array is not sorted by time."""
 
 
+def toml_type(value: object) -> str:
+    """The TOML name of a value's type as a configuration file wrote it ("a string", "an integer", "a table", ...),
+    for messages about configuration and sensor files, which speak TOML rather than Python."""
+    for kind, name in ((bool, "a boolean"), (str, "a string"), (int, "an integer"), (float, "a number"),
+                       (dict, "a table"), (list, "an array")):
+        if isinstance(value, kind):
+            return name
+    return "a date or time" if hasattr(value, "isoformat") else f"a {type(value).__name__}"
+
+
 def _kind(value: object) -> str:
     return f"{type(value).__name__} {value!r:.60}"
 

@@ -6,9 +6,9 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
 from .errors import EvsimInputError, UnsortedEventsError
+from .lazy import lazy_njit
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -84,7 +84,7 @@ def first_unsorted_index(events: np.ndarray) -> int:
 
 # The field views events["t"], events["p"] are strided: these kernels read them in place, where numpy would first
 # copy the column (np.diff, np.searchsorted).
-@njit(cache=True)
+@lazy_njit(cache=True)
 def _first_decrease(t) -> int:
     for i in range(1, t.size):
         if t[i] < t[i - 1]:
@@ -92,7 +92,7 @@ def _first_decrease(t) -> int:
     return -1
 
 
-@njit(cache=True)
+@lazy_njit(cache=True)
 def _first_bad_polarity(p) -> int:
     n = p.size
     for s in range(0, n, 4096):  # a branch-free test per block, the search only in a bad block (5x faster)
@@ -107,7 +107,7 @@ def _first_bad_polarity(p) -> int:
     return -1
 
 
-@njit(cache=True)
+@lazy_njit(cache=True)
 def _search_left(t, value) -> int:
     """The first index i of the non-decreasing t with t[i] >= value (binary search)."""
     lo, hi = 0, t.size

@@ -1,8 +1,10 @@
-"""Package attributes imported on first use, so that importing a package for its light parts (errors, parameters,
-`evsim --help`) does not load numba, h5py or OpenCV."""
+"""Package attributes imported on first use, and numba kernels compiled on first call, so that importing a package
+for its light parts (errors, parameters, event containers; `evsim --help`, `evsim info`) does not load numba, h5py
+or OpenCV."""
 
 from __future__ import annotations
 
+import functools
 import importlib
 from collections.abc import Callable
 
@@ -24,3 +26,24 @@ def lazy_exports(package: str, table: dict[str, str], eager: dict) -> tuple[Call
         return sorted({*eager, *table})
 
     return __getattr__, __dir__
+
+
+def lazy_njit(**options: object) -> Callable[[Callable], Callable]:
+    """numba.njit(**options) applied on the function's first call (numba is imported then, not with the module).
+    For kernels called from Python only: a kernel that other numba kernels call needs numba.njit itself."""
+
+    def decorate(py_func: Callable) -> Callable:
+        compiled = None
+
+        @functools.wraps(py_func)
+        def call(*args):
+            nonlocal compiled
+            if compiled is None:
+                from numba import njit
+
+                compiled = njit(**options)(py_func)
+            return compiled(*args)
+
+        return call
+
+    return decorate

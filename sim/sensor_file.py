@@ -37,7 +37,7 @@ from pathlib import Path
 
 from . import camera_params, dvs_params
 from .dvs_params import DVSParams
-from .errors import EvsimInputError, InvalidParameterError, check_number
+from .errors import EvsimInputError, InvalidParameterError, check_number, toml_type
 from .suggest import did_you_mean, unknown_name
 
 __all__ = ["Sensor", "load_sensor", "parse_sensor", "write_sensor", "sensor_toml", "check_dvs_fields",
@@ -76,7 +76,7 @@ def check_camera_fields(where: str, table: Mapping) -> dict:
 
 def _check_mapping(where: str, table: object) -> dict:
     if not isinstance(table, Mapping):
-        raise InvalidParameterError(f"{where}: expected a table, got {type(table).__name__} {table!r:.60}")
+        raise InvalidParameterError(f"{where}: expected a table, got {toml_type(table)} {table!r:.60}")
     return dict(table)
 
 
@@ -221,7 +221,7 @@ def parse_sensor(data: Mapping, *, source: str = "<sensor>", path: str | None = 
     for key in _TOP_KEYS:
         if key in data and not isinstance(data[key], str):
             raise InvalidParameterError(f"{source}: {key}: expected a string ({_TOP_KEYS[key]}), got "
-                                        f"{type(data[key]).__name__} {data[key]!r:.60}")
+                                        f"{toml_type(data[key])} {data[key]!r:.60}")
     if "name" not in data or not data["name"].strip():
         raise InvalidParameterError(f"{source}: name: missing or empty: a sensor file names its sensor (outputs "
                                     "record it)")

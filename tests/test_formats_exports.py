@@ -152,7 +152,7 @@ def test_ijrr_export_is_atomic_at_folder_level(tmp_path, monkeypatch, tiny_recor
         calls.append(ext)
         return real_imencode(ext, img) if len(calls) < 3 else (False, None)
 
-    monkeypatch.setattr("generators.formats.ijrr.cv2.imencode", imencode_fails_on_the_third_frame)
+    monkeypatch.setattr(cv2, "imencode", imencode_fails_on_the_third_frame)  # (ijrr imports cv2 on first use)
     with pytest.raises(OSError, match="could not write"):
         export(make_recording(seed=1), tmp_path / "ij", "ijrr")
     monkeypatch.undo()

@@ -476,7 +476,7 @@ def test_evsim_info_and_evaluate_refuse_a_zero_width_file(originals, tmp_path):
     p = _native(originals, tmp_path, lambda f: f.attrs.__setitem__("width", 0))
     assert main(["info", str(p)]) == 2  # its event summary agrees with its events: the sensor size is still checked
     assert main(["evaluate", str(p), "--methods", "frames"]) == 2
-    from evsim_app.plots.events import EventSource  # the streamed plot reads the same summary
+    from generators.formats.streaming import open_event_stream  # the stream plots and videos read
 
     with pytest.raises(DatasetFormatError, match="sensor width must be an integer in 1"):
-        EventSource.of_native(p)
+        open_event_stream(p)

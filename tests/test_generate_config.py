@@ -127,3 +127,25 @@ def test_builtin_image_is_hdr_and_the_builtin_dataset_needs_no_files():
         assert r.shape == (10, 12) and np.all(np.isfinite(r)) and r.min() >= 0
     with pytest.raises(sim.InvalidParameterError, match="built-in"):
         builtin_dataset(names=["nope"])
+
+
+def test_configuration_errors_speak_toml_not_python(tmp_path):
+    # a configuration file's types are TOML's (string, integer, table), not Python's (str, int, dict)
+    import re
+
+    from generators.convert_config import load_convert_config
+    from generators.scenes.video import read_timestamps
+
+    def convert_video(path):
+        read_timestamps(load_convert_config(path)["video"]["timestamps"])
+
+    cases = [(load_config, 'seed = "x"\n', "seed: expected an integer, got a string 'x'"),
+             (load_convert_config, "defaults = 3\n", "defaults: expected a table, got an integer"),
+             (load_convert_config, "[defaults]\nsensor = 3\n", "defaults.sensor: expected a string, got an integer 3"),
+             (convert_video, '[video]\ntimestamps = "nosuch.txt"\n',
+              "nosuch.txt: cannot read the timestamps file: No such file or directory")]
+    for i, (read, text, message) in enumerate(cases):
+        (tmp_path / f"{i}.toml").write_text(text)
+        with pytest.raises(sim.EvsimInputError) as e:
+            read(tmp_path / f"{i}.toml")
+        assert message in str(e.value) and not re.search(r"\b(str|int|dict|Errno)\b", str(e.value))

@@ -59,13 +59,39 @@ def test_events_only_output_has_the_full_runs_events_and_no_frames(full_and_even
 
 
 def test_what_needs_frames_or_reference_says_the_file_was_generated_without_them(full_and_events_only, tmp_path):
+    # in Python the remedy is named in keywords, on the command line (cli_message) in flags
     only = full_and_events_only[1]
     with pytest.raises(EvsimInputError, match="needs at least 1 LDR frame, the recording has 0 .it was generated "
-                                              "with --outputs events: .*--outputs events,frames,reference"):
+                                              "with outputs events: .*with outputs events, frames, reference") as e:
         reconstruct_dataset(only, tmp_path / "r")
-    with pytest.raises(EvsimInputError, match="exr export needs reference frames.*--outputs events"):
+    assert "--" not in str(e.value)
+    assert "(it was generated with --outputs events: generate or convert it again with --outputs " \
+           "events,frames,reference)" in e.value.cli_message
+    with pytest.raises(EvsimInputError, match="exr export needs reference frames.*with outputs events") as e:
         export(only, tmp_path / "x", "exr")
+    assert "--" not in str(e.value) and "--outputs events" in e.value.cli_message
     assert not (tmp_path / "x").exists() and not list(tmp_path.iterdir())
+
+
+def test_a_recording_without_reference_points_to_the_interleave_protocol_in_each_interfaces_words():
+    from evsim_eval.protocols import recording_case
+
+    rec = make_recording()
+    rec.reference = rec.reference_t_us = None
+    with pytest.raises(sim.OptionError, match="^the recording has no HDR reference frames .use "
+                                              "protocol='interleave'.$") as e:
+        recording_case(rec, "reference")
+    assert e.value.cli_message == "the recording has no HDR reference frames (use --protocol interleave)"
+    from evsim_eval.evaluate import split_times
+    from evsim_eval.reconstruct import output_times
+
+    for call, api, cli in [(lambda: output_times(rec, "sometimes"), "times='sometimes': one of", "--times 'sometimes'"),
+                           (lambda: output_times(rec, "reference"), "times=reference: the recording has no",
+                            "--times reference: the recording has no"),
+                           (lambda: split_times(1, 0.5), "tuning (tune=True) needs at least 2", "--tune needs")]:
+        with pytest.raises(sim.OptionError) as e:
+            call()
+        assert str(e.value).startswith(api) and "--" not in str(e.value) and e.value.cli_message.startswith(cli)
 
 
 def test_outputs_are_validated_where_they_are_set():
@@ -144,11 +170,12 @@ def test_plot_events_streamed_from_a_native_file_draws_what_the_loaded_recording
         import matplotlib  # noqa: F401
     except ImportError:
         pytest.skip("matplotlib is not installed")
-    from evsim_app.plots.events import EventSource, plot_events
+    from evsim_app.plots.events import plot_events
+    from generators.formats.streaming import open_event_stream
 
     path = full_and_events_only[1]
     a = plot_events(load(path), tmp_path / "a.png", window_ms=7, bin_ms=3)
-    b = plot_events(EventSource.of_native(path), tmp_path / "b.png", window_ms=7, bin_ms=3)
+    b = plot_events(open_event_stream(path), tmp_path / "b.png", window_ms=7, bin_ms=3)
     assert a["times_us"] == b["times_us"]
     for x, y in [*zip(a["frames"], b["frames"]), *zip(a["surfaces"], b["surfaces"]), *zip(a["rate"], b["rate"])]:
         np.testing.assert_array_equal(x, y)
@@ -165,7 +192,10 @@ def _independent(path, fmt):
     if fmt == "aedat2":  # tonic's DAVIS346 AEDAT 2.0 reader (masks taken from jAER)
         _, _, xytp = pytest.importorskip("tonic.io").read_davis_346(str(path))
         return xytp["t"], xytp["x"], xytp["y"], np.where(xytp["p"] > 0, 1, -1)
-    if fmt in ("evt2", "dat"):
+    if fmt == "dat":  # faery: Prophesee's own DAT layout (it refuses other event types)
+        a = pytest.importorskip("faery").events_stream_from_file(path).to_array()
+        return a["t"], a["x"], a["y"], np.where(a["on"], 1, -1)
+    if fmt == "evt2":
         a = pytest.importorskip("expelliarmus").Wizard(encoding=fmt).read(str(path))
         return a["t"], a["x"], a["y"], np.where(a["p"] > 0, 1, -1)
     aedat = pytest.importorskip("aedat")
@@ -223,8 +253,9 @@ def test_export_from_a_non_native_layout_and_dv_processing(tmp_path, tiny_record
 
 def test_export_refuses_an_existing_output_and_leaves_nothing_on_failure(tiny_dataset, tmp_path):
     (tmp_path / "taken").mkdir()
-    with pytest.raises(EvsimInputError, match="taken already exists; pass --overwrite"):
+    with pytest.raises(EvsimInputError, match="taken already exists; pass overwrite=True") as e:
         export_path(tiny_dataset, tmp_path / "taken", "evt3")
+    assert "--" not in str(e.value) and "pass --overwrite" in e.value.cli_message
     rec = make_recording()
     rec.reference = rec.reference_t_us = None
     export(rec, tmp_path / "src" / "a.h5", "native")

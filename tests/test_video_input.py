@@ -84,10 +84,15 @@ def test_slowmo_refuses_a_second_rate_and_inputs_without_a_container_rate(slow_c
         VideoScene(tmp_path / "s.npy", slowmo=32, fps=30)
 
 
-def test_implausibly_small_motion_at_the_container_rate_warns(slow_clip):
+def test_implausibly_small_motion_at_the_container_rate_warns(slow_clip, capsys):
     scene = VideoScene(slow_clip, height=60, width=80)  # flow: the motion is measured
-    with pytest.warns(InputTimingWarning, match=r"moves only 0\.\d\d px per frame .* --slowmo"):
+    with pytest.warns(InputTimingWarning, match=r"moves only 0\.\d\d px per frame .*give slowmo=FACTOR or fps") as w:
         scene.max_speed_px_per_s()
+    assert "--" not in str(w[0].message) and w[0].message.cli_message.endswith("give --slowmo FACTOR or --input-fps")
+    from evsim_app.cli import _note  # the command line prints it in its flags
+
+    _note(w[0].message, InputTimingWarning, "video.py", 1)
+    assert capsys.readouterr().err == f"evsim: note: {w[0].message.cli_message}\n"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         VideoScene(slow_clip, height=60, width=80, slowmo=32).max_speed_px_per_s()  # rate given: no guess

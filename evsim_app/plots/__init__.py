@@ -16,7 +16,7 @@ _EXPORTS = {
     **dict.fromkeys(("PlotDependencyError", "Prepared", "ToneMap", "load_recording", "prepare"), "common"),
     **dict.fromkeys(("compare_images", "plot_compare"), "compare"),
     "plot_crfs": "crf",
-    **dict.fromkeys(("EventSource", "event_frame", "event_rate", "plot_events", "time_surface"), "events"),
+    **dict.fromkeys(("event_frame", "event_rate", "plot_events", "time_surface"), "events"),
     **dict.fromkeys(("PixelSeries", "pixel_series", "plot_pixel"), "pixel"),
     **dict.fromkeys(("load_roc_result", "plot_roc"), "roc"),
     "plot_realism": "realism",

@@ -46,9 +46,10 @@ def _cmd_pixel(args) -> int:
 
 def _cmd_events(args) -> int:
     from generators.formats import detect
+    from generators.formats.streaming import open_event_stream
 
     from .common import load_recording, prepare
-    from .events import EventSource, plot_events
+    from .events import plot_events
 
     if args.video is not None:
         from .video import check_video_options, write_video
@@ -68,7 +69,7 @@ def _cmd_events(args) -> int:
         check_output(args.animate)
     # a native file is read window by window (memory stays flat); other layouts, and an animation, load it
     native = args.animate is None and Path(args.dataset).is_file() and detect(args.dataset) == "native"
-    rec = EventSource.of_native(args.dataset) if native else load_recording(args.dataset)
+    rec = open_event_stream(args.dataset) if native else load_recording(args.dataset)
     out = args.out or _default_out(args.dataset, "events")
     res = plot_events(rec, out, at_ms=args.at_ms, window_ms=args.window_ms, bin_ms=args.bin_ms)
     print(f"wrote {out} (windows ending at {', '.join(f'{t / 1e3:g}' for t in res['times_us'])} ms)")

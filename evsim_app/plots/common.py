@@ -24,7 +24,7 @@ import numpy as np
 
 from generators.formats import load
 from generators.formats.atomic import atomic_path
-from generators.formats.recording import Recording, not_generated_hint
+from generators.formats.recording import Recording, missing_part_error
 from sim import EvsimInputError
 
 if TYPE_CHECKING:
@@ -148,8 +148,7 @@ def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
     from evsim_eval.protocols import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
 
     if rec.frames is None or rec.frames.shape[0] == 0:
-        raise EvsimInputError("the dataset has no LDR frames: this plot needs frames and events"
-                              + not_generated_hint(rec, "frames"))
+        raise missing_part_error("the dataset has no LDR frames: this plot needs frames and events", rec, "frames")
     to_x = None
     if rec.reference is not None and rec.reference.shape[0]:
         try:
@@ -158,8 +157,8 @@ def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
             if need_reference:
                 raise
     elif need_reference:
-        raise EvsimInputError("the dataset has no HDR reference frames: this plot compares against them"
-                              + not_generated_hint(rec, "reference"))
+        raise missing_part_error("the dataset has no HDR reference frames: this plot compares against them", rec,
+                                 "reference")
     contrast = recording_contrast(rec)
     maps = rec.threshold_maps
     if maps is None:

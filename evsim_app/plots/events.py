@@ -14,13 +14,13 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from generators.formats.streaming import EventStream
 from sim import EVENT_DTYPE, EvsimInputError, slice_time
 
 from .common import OFF_COLOUR, ON_COLOUR, pyplot, save_figure
@@ -74,12 +74,12 @@ def event_rate(events: np.ndarray | Mapping[str, np.ndarray], bin_us: int, t_sta
     return (edges[:-1], np.histogram(t[on], edges)[0] * scale, np.histogram(t[~on], edges)[0] * scale)
 
 
-def _streamed_rate(src: EventSource, bin_us: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _streamed_rate(src: EventStream, bin_us: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """event_rate over the whole stream of src, summed chunk by chunk over the same bins."""
-    t0 = src.t_first_us if src.count else 0
-    t1 = src.t_last_us + 1 if src.count else t0 + bin_us
+    t0 = src.t_range[0] if src.count else 0
+    t1 = src.t_range[1] + 1 if src.count else t0 + bin_us
     start, on, off = event_rate(_EMPTY, bin_us, t0, t1)
-    for chunk in src.chunks():
+    for chunk in src.chunks(("t", "p")):
         _, on_k, off_k = event_rate(chunk, bin_us, t0, t1)
         on, off = on + on_k, off + off_k
     return start, on, off
@@ -97,70 +97,22 @@ def event_frame_rgb(counts: np.ndarray, top: float | None = None) -> np.ndarray:
     return np.clip(rgb, 0, 1)
 
 
-def default_times_us(events: np.ndarray | EventSource, n: int = 3) -> list[int]:
+def default_times_us(events: np.ndarray | EventStream, n: int = 3) -> list[int]:
     """n window end times spread evenly over the events' span, on whole milliseconds (us)."""
-    src = events if isinstance(events, EventSource) else EventSource.of_array(events, 1, 1)
+    src = events if isinstance(events, EventStream) else EventStream.of_array(events, 1, 1)
     if src.count == 0:
         raise EvsimInputError("the dataset has no events")
-    t0, t1 = src.t_first_us, src.t_last_us
+    t0, t1 = src.t_range
     return [int(round((t0 + (t1 - t0) * (k + 1) / n) / 1e3)) * 1000 for k in range(n)]
 
 
-@dataclass
-class EventSource:
-    """The events of a recording as the figure reads them: count, first and last time (us), the events of a time
-    window (window(t0, t1): t0 <= t < t1) and the whole stream in chunks (chunks()). of_array wraps events in
-    memory; of_native reads a native file window by window and chunk by chunk, so memory stays flat."""
-
-    height: int
-    width: int
-    count: int
-    t_first_us: int | None
-    t_last_us: int | None
-    window: Callable[[int, int], np.ndarray]
-    chunks: Callable[[], Iterator[np.ndarray | dict[str, np.ndarray]]]
-
-    @classmethod
-    def of_array(cls, events: np.ndarray, height: int, width: int) -> EventSource:
-        """The events of an array (t, x, y, p, sorted by t) of a height x width sensor, held in memory."""
-        n = int(events.size)
-        return cls(height, width, n, int(events["t"][0]) if n else None, int(events["t"][-1]) if n else None,
-                   lambda t0, t1: slice_time(events, t0, t1), lambda: iter([events]))
-
-    @classmethod
-    def of_native(cls, path: str | Path) -> EventSource:
-        """The events of a native HDF5 recording, read from the file as they are drawn (count and time span from
-        its event summary when it has one, else from one pass)."""
-        from generators.formats.native import (
-            event_summary,
-            iter_native_columns,
-            iter_native_events,
-            open_native_images,
-            read_native_window,
-        )
-
-        with open_native_images(path) as rec:  # the file checked as load() checks it, images left unread
-            h, w = rec.height, rec.width
-        summary = event_summary(path)
-        if summary is None:  # (a file without a summary: count and span from one pass)
-            n, first, last = 0, None, None
-            for ev, _ in iter_native_events(path):
-                if ev.size:
-                    n, first, last = n + ev.size, int(ev["t"][0]) if first is None else first, int(ev["t"][-1])
-        else:
-            n, first, last = summary["count"], summary["t_first_us"], summary["t_last_us"]
-        return cls(h, w, n, first if n else None, last if n else None,
-                   lambda t0, t1: read_native_window(path, t0, t1),
-                   lambda: iter_native_columns(path, ("t", "p")))
-
-
-def plot_events(rec: Recording | EventSource, out: str | Path, *, at_ms: Sequence[float] | None = None,
+def plot_events(rec: Recording | EventStream, out: str | Path, *, at_ms: Sequence[float] | None = None,
                 window_ms: float = 10.0, bin_ms: float | None = None) -> dict:
     """Event frames and time surfaces at each time of at_ms (window [t - window_ms, t)), and the event rate over
-    time, into the image file `out`. rec: a Recording, or an EventSource (EventSource.of_native streams a native
-    file: only the windows drawn are read, and the rate in chunks). Returns {"times_us", "frames", "surfaces",
-    "rate"} (what was drawn)."""
-    src = rec if isinstance(rec, EventSource) else EventSource.of_array(rec.events, rec.height, rec.width)
+    time, into the image file `out`. rec: a Recording, or an EventStream (generators.formats.streaming: from
+    open_event_stream, a native file is read window by window, and the rate from its t and p columns in chunks).
+    Returns {"times_us", "frames", "surfaces", "rate"} (what was drawn)."""
+    src = rec if isinstance(rec, EventStream) else EventStream.of_array(rec.events, rec.height, rec.width)
     if not window_ms > 0:
         raise EvsimInputError(f"--window-ms must be > 0, got {window_ms}")
     if bin_ms is not None and not bin_ms * 1e3 >= 1:
@@ -168,7 +120,7 @@ def plot_events(rec: Recording | EventSource, out: str | Path, *, at_ms: Sequenc
     win = int(round(window_ms * 1e3))
     times = default_times_us(src) if not at_ms else [int(round(t * 1e3)) for t in at_ms]
     if src.count:
-        span = (src.t_first_us, src.t_last_us + 1)
+        span = (src.t_range[0], src.t_range[1] + 1)
         bad = [t for t in times if not span[0] < t <= span[1] + win]
         if bad:
             raise EvsimInputError(f"time {bad[0] / 1e3:g} ms lies outside the events' span "
@@ -176,7 +128,7 @@ def plot_events(rec: Recording | EventSource, out: str | Path, *, at_ms: Sequenc
     h, w = src.height, src.width
     frames = [event_frame(src.window(t - win, t), h, w, t - win, t) for t in times]
     surfaces = [time_surface(src.window(int(t - 10 * win), t), h, w, t, win) for t in times]
-    span_us = src.t_last_us - src.t_first_us + 1 if src.count else 1
+    span_us = src.t_range[1] - src.t_range[0] + 1 if src.count else 1
     bin_us = int(round(bin_ms * 1e3)) if bin_ms else max(int(round(span_us / 200, -2)), 100)
     rate = _streamed_rate(src, bin_us)
 

@@ -167,7 +167,8 @@ def write_video(path: str | Path, out: str | Path, *, frame_ms: float = 10.0, fp
     check_video_options(out, frame_ms, fps, full_scale, scale)
     stream = open_event_stream(path)
     frame_us = int(round(frame_ms * 1e3))
-    total = None if stream.t_range is None else (stream.t_range[1] - stream.t_range[0]) // frame_us + 1
+    span = stream.known_t_range  # (a file without a known span is not read twice for the progress bar)
+    total = None if span is None else (span[1] - span[0]) // frame_us + 1
     colours = palette(full_scale)
     size = (stream.width * scale, stream.height * scale)
     tmp_dir = temp_sibling(out, directory=True)

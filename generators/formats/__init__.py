@@ -31,7 +31,7 @@ from .ijrr import e2vid_txt_problem, is_ijrr, read_e2vid_txt, read_ijrr, write_e
 from .interop import from_tonic, to_tonic
 from .native import NativeWriter, is_native, iter_native_events, open_native_images, read_native, write_native
 from .prophesee import PROPHESEE_FORMATS, prophesee_kind, read_prophesee, write_prophesee
-from .recording import Recording, not_generated_hint
+from .recording import Recording, missing_part_error
 
 _ALL_PARTS = ("events", "frames", "reference", "threshold_maps", "event_labels", "crf", "metadata")
 # What each export format can hold, of a Recording's parts (every format also holds the sensor size).
@@ -188,8 +188,7 @@ def _say_dropped(rec: Recording, fmt: str, *, has_labels: bool) -> list[str]:
 def _write(rec: Recording, out_path, fmt: str, options: dict) -> None:
     if fmt == "exr":
         if rec.reference is None:
-            raise EvsimInputError("exr export needs reference frames: the recording has none"
-                                  + not_generated_hint(rec, "reference"))
+            raise missing_part_error("exr export needs reference frames: the recording has none", rec, "reference")
         write_exr_sequence(out_path, rec.reference, rec.reference_t_us, **options)
         return
     if fmt in PROPHESEE_FORMATS:

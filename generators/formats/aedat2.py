@@ -19,7 +19,7 @@ Layout:
 Time: stored relative to an offset, "# evsim_t_offset_us N": 0 when the first event time is in 0..2**31 - 1 us,
     else the first event time floored to a millisecond. The int32 timestamp wraps every 2**32 us (71.6 min), as a
     DAVIS camera's and jAER's do (jAER follows the wraps); the reader counts a wrap at each drop of the unsigned
-    32-bit value (prophesee_kernels.time_step_ok: a wrap moves time forward by at most 16.8 s), so the writer
+    32-bit value (time_wrap.time_step_ok: a wrap moves time forward by at most 16.8 s), so the writer
     refuses a silence of 71.3 min or more between two events.
 First data byte: readers take a first byte '#' (0x23) for one more header line; jAER's writer drops such first
     events. evsim's writer puts first an event of the first timestamp whose address does not start with 0x23;
@@ -41,11 +41,11 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .atomic import DiskFullError, atomic_path, disk_full_error, is_disk_full
 from .common import EVENT_CHUNK, events_from_columns, fail
+from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
-from .prophesee_kernels import WRAP_WINDOW, time_step_ok
 from .recording import MAX_TIME_US, Recording, validate_recording
+from .time_wrap import WRAP_WINDOW, time_step_ok
 
 SUFFIXES = (".aedat2", ".aedat")  # jAER writes .aedat2 for AEDAT 2.0 and opens .aedat too
 MAGIC = b"#!AER-DAT2.0"
@@ -71,7 +71,7 @@ def davis_addresses(x: np.ndarray, y: np.ndarray, p: np.ndarray, height: int, wi
             ((p > 0).astype(np.uint32) << POL_BIT)).astype(np.uint32)
 
 
-class Aedat2Writer:
+class Aedat2Writer(EventFileWriter):
     """Stream events into an AEDAT 2.0 file, atomically (`with` block or close()); see the module docstring.
 
     The time offset is fixed by the first event; a silence of 71.3 min or more between two events is an
@@ -81,12 +81,7 @@ class Aedat2Writer:
         if not (0 < width <= MAX_WIDTH and 0 < height <= MAX_HEIGHT):
             raise EvsimInputError(f"aedat2 (jAER DAVIS layout) holds sensors up to {MAX_WIDTH}x{MAX_HEIGHT} pixels, "
                                   f"got {width}x{height}")
-        self.path, self.height, self.width = Path(path), int(height), int(width)
-        self._atomic = atomic_path(self.path)
-        self._tmp = self._atomic.__enter__()
-        self._f = open(self._tmp, "wb")
-        self._offset = None
-        self._last = None  # the last event time written (absolute us)
+        super().__init__(path, height, width)
 
     def _start(self, offset: int) -> None:
         self._offset = offset
@@ -106,14 +101,10 @@ class Aedat2Writer:
 
     def add_events(self, events: np.ndarray) -> None:
         """Append a time-sorted chunk of sim.EVENT_DTYPE events, later than every earlier chunk."""
-        if events.size == 0:
+        t = self._checked_times(events)
+        if t is None:
             return
-        t = events["t"].astype(np.int64)
-        if self._last is not None and t[0] < self._last:
-            raise EvsimInputError(f"event chunk starts at t={t[0]} us, before the previous chunk's last event")
-        if events["x"].max() >= self.width or events["y"].max() >= self.height:
-            raise EvsimInputError(f"event coordinates exceed the sensor size {self.width}x{self.height}")
-        steps = np.diff(t, prepend=t[0] if self._last is None else self._last)
+        steps = np.diff(t, prepend=t[0] if self._t_last is None else self._t_last)
         if steps.max() >= _MAX_STEP:
             raise EvsimInputError(f"aedat2 cannot hold a silence of {_MAX_STEP} us ({_MAX_STEP / 6e7:.1f} min) or "
                                   "more between two events: its int32 time wraps every 2**32 us")
@@ -125,50 +116,8 @@ class Aedat2Writer:
         out["t"] = ((t - self._offset) & (_PERIOD - 1)).astype(np.uint32)
         if first:
             out = _first_not_comment(out)
-        self._last = int(t[-1])
+        self._t_last = int(t[-1])
         self._f.write(out.tobytes())
-
-    def close(self) -> None:
-        """Finish the file and move it onto its path."""
-        if self._f is None:
-            return
-        try:
-            if self._offset is None:
-                self._start(0)
-            self._f.close()
-            self._f = None
-        except BaseException as e:
-            self.abort(e)
-            if is_disk_full(e):
-                raise disk_full_error(e, self.path) from e
-            raise
-        self._atomic.__exit__(None, None, None)
-
-    def abort(self, exc: BaseException | None = None) -> None:
-        """Drop the temporary file; the path is left untouched."""
-        if self._f is not None:
-            try:
-                self._f.close()
-            except OSError:
-                pass
-            self._f = None
-        exc = exc or RuntimeError("aborted")
-        try:
-            self._atomic.__exit__(type(exc), exc, None)
-        except BaseException:  # atomic_path re-raises the exception it was given
-            pass
-
-    def __enter__(self) -> Aedat2Writer:
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort(exc)
-            if is_disk_full(exc) and not isinstance(exc, DiskFullError):
-                raise disk_full_error(exc, self.path) from exc
-
 
 def _first_not_comment(out: np.ndarray) -> np.ndarray:
     """The first chunk with a first address whose top byte is not '#' (see the module docstring)."""

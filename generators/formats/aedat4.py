@@ -19,7 +19,6 @@ import threading
 from collections.abc import Iterator
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from sim import EvsimInputError
@@ -42,6 +41,8 @@ from .recording import Recording, validate_recording
 def _grey(frame: dict) -> np.ndarray:
     px = np.asarray(frame["pixels"])
     if px.ndim == 3:
+        import cv2
+
         fmt = str(frame.get("format", "BGR")).upper()
         code = {3: cv2.COLOR_RGB2GRAY if fmt.startswith("RGB") else cv2.COLOR_BGR2GRAY,
                 4: cv2.COLOR_RGBA2GRAY if fmt.startswith("RGB") else cv2.COLOR_BGRA2GRAY}[px.shape[2]]

@@ -9,9 +9,9 @@ Half floats keep about 3 significant digits (relative error <= 2**-11) and satur
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import OpenEXR
 
 from sim import EVENT_DTYPE, EvsimInputError
 
@@ -21,6 +21,9 @@ from .recording import MAX_TIME_US, Recording
 
 TIMES_FILE = "timestamps.txt"
 
+if TYPE_CHECKING:
+    import OpenEXR
+
 
 def _exr_file(image: np.ndarray, half: bool) -> OpenEXR.File:
     image = np.asarray(image)
@@ -29,6 +32,8 @@ def _exr_file(image: np.ndarray, half: bool) -> OpenEXR.File:
     if not np.all(np.isfinite(image)):
         raise EvsimInputError("EXR image must be finite")
     pixels = np.ascontiguousarray(image, dtype=np.float16 if half else np.float32)
+    import OpenEXR  # (on first use: `evsim info` and other readers need not load it)
+
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     return OpenEXR.File(header, {"Y": pixels})
 
@@ -45,6 +50,8 @@ def read_exr(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
+    import OpenEXR
+
     try:
         channels = OpenEXR.File(str(path), separate_channels=True).channels()
     except Exception as e:  # the binding raises plain RuntimeError/Exception for every decoding failure

@@ -40,7 +40,6 @@ import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from sim import EvsimInputError
@@ -85,6 +84,8 @@ def write_ijrr(rec: Recording, directory: str | Path, *, event_source: Iterator 
         if not has_labels:
             (tmp / "event_labels.txt").unlink()
         if rec.frames is not None:
+            import cv2  # (on first use: readers of other layouts need not load OpenCV)
+
             (tmp / "images").mkdir()
             depth = np.uint8 if rec.frame_bit_depth == 8 else np.uint16
             img_lines, exp_lines = [], []
@@ -186,6 +187,8 @@ def _load_npy(path: Path) -> np.ndarray:
 
 
 def _read_frames(d: Path):
+    import cv2
+
     path = d / "images.txt"
     if not path.is_file():
         return None, None, None, None, 8

@@ -33,11 +33,11 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .atomic import DiskFullError, atomic_path, disk_full_error, is_disk_full
 from .common import EVENT_CHUNK, events_from_columns, fail
+from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
-from .prophesee_kernels import STATE_SIZE, TIME_HIGH_MAX_STEP, WRAP_WINDOW, decode_evt3, encode_evt3, time_step_ok
 from .recording import MAX_TIME_US, Recording, validate_recording
+from .time_wrap import WRAP_WINDOW, time_step_ok
 
 PROPHESEE_FORMATS = ("evt3", "evt2", "dat")
 SUFFIX = {"evt3": ".raw", "evt2": ".raw", "dat": ".dat"}
@@ -54,12 +54,12 @@ _DAT_DATE = "1970-01-01 00:00:00"
 _POPCOUNT = np.array([bin(i).count("1") for i in range(4096)], np.int64)  # set bits of 12-bit vector masks
 
 
-class PropheseeWriter:
+class PropheseeWriter(EventFileWriter):
     """Stream events into an EVT 3.0 / EVT 2.0 .raw or a .dat file, atomically (`with` block or close()).
 
     The time offset is fixed by the first event (see the module docstring); later chunks must stay in the
     format's time range (EvsimInputError otherwise, naming the limit). A .dat file cannot hold a silence of 71.3
-    min or more between two events (readers take it for time going back: prophesee_kernels.time_step_ok); EVT 2.0
+    min or more between two events (readers take it for time going back: time_wrap.time_step_ok); EVT 2.0
     and EVT 3.0 files hold silences of any length (TIME_HIGH words every few steps)."""
 
     def __init__(self, path: str | Path, fmt: str, height: int, width: int):
@@ -67,12 +67,8 @@ class PropheseeWriter:
             raise EvsimInputError(f"unknown Prophesee format {fmt!r}; one of {', '.join(PROPHESEE_FORMATS)}")
         if not (0 < height <= _MAX_COORD[fmt] and 0 < width <= _MAX_COORD[fmt]):
             raise EvsimInputError(f"{fmt} holds sensors up to {_MAX_COORD[fmt]} pixels a side, got {width}x{height}")
-        self.path, self.fmt, self.height, self.width = Path(path), fmt, int(height), int(width)
-        self._atomic = atomic_path(self.path)
-        self._tmp = self._atomic.__enter__()
-        self._f = open(self._tmp, "wb")
-        self._offset = None
-        self._t_last = None
+        self.fmt = fmt
+        super().__init__(path, height, width)
         self._state = np.array([0, -1, -1], np.int64)  # evt3 encoder: time_high 0 written first
         self._dat_last = None  # dat: the last relative time written
 
@@ -103,13 +99,9 @@ class PropheseeWriter:
 
     def add_events(self, events: np.ndarray) -> None:
         """Append a time-sorted chunk of sim.EVENT_DTYPE events, later than every earlier chunk."""
-        if events.size == 0:
+        t = self._checked_times(events)
+        if t is None:
             return
-        t = events["t"].astype(np.int64)
-        if self._t_last is not None and t[0] < self._t_last:
-            raise EvsimInputError(f"event chunk starts at t={t[0]} us, before the previous chunk's last event")
-        if events["x"].max() >= self.width or events["y"].max() >= self.height:
-            raise EvsimInputError(f"event coordinates exceed the sensor size {self.width}x{self.height}")
         limit = _TIME_LIMIT[self.fmt]
         if self._offset is None:
             self._start(0 if 0 <= t[0] < limit else int(t[0]) // 1000 * 1000)
@@ -121,6 +113,8 @@ class PropheseeWriter:
         getattr(self, f"_write_{self.fmt}")(t, events)
 
     def _write_evt3(self, t, ev) -> None:
+        from .prophesee_kernels import TIME_HIGH_MAX_STEP, encode_evt3  # (numba: on first use)
+
         gap = int(t[-1] >> 12) - int(self._state[0])
         out = np.empty(4 * t.size + gap // TIME_HIGH_MAX_STEP + 1, np.uint16)
         n = encode_evt3(t, ev["x"], ev["y"], ev["p"], self._state, out)
@@ -128,7 +122,7 @@ class PropheseeWriter:
 
     def _write_evt2(self, t, ev) -> None:
         # a TIME_HIGH word at least every _EVT2_TH_STEP (67 s) of silence, as readers refuse a longer step that
-        # could be a step back (prophesee_kernels.time_step_ok)
+        # could be a step back (time_wrap.time_step_ok)
         th = t >> 6
         prev = np.concatenate([[self._th2], th[:-1]])
         cuts = np.flatnonzero(th - prev > _EVT2_TH_STEP).tolist()
@@ -165,48 +159,6 @@ class PropheseeWriter:
         out["xyp"] = ev["x"].astype(np.uint32) | (ev["y"].astype(np.uint32) << 14) | \
             ((ev["p"] > 0).astype(np.uint32) << 28)
         self._f.write(out.tobytes())
-
-    def close(self) -> None:
-        """Finish the file and move it onto its path."""
-        if self._f is None:
-            return
-        try:
-            if self._offset is None:
-                self._start(0)
-            self._f.close()
-            self._f = None
-        except BaseException as e:
-            self.abort(e)
-            if is_disk_full(e):
-                raise disk_full_error(e, self.path) from e
-            raise
-        self._atomic.__exit__(None, None, None)
-
-    def abort(self, exc: BaseException | None = None) -> None:
-        """Drop the temporary file; the path is left untouched."""
-        if self._f is not None:
-            try:
-                self._f.close()  # flushes: a full disk raises again (the file descriptor is closed anyway)
-            except OSError:
-                pass
-            self._f = None
-        exc = exc or RuntimeError("aborted")
-        try:
-            self._atomic.__exit__(type(exc), exc, None)
-        except BaseException:  # atomic_path re-raises the exception it was given
-            pass
-
-    def __enter__(self) -> PropheseeWriter:
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort(exc)
-            if is_disk_full(exc) and not isinstance(exc, DiskFullError):
-                raise disk_full_error(exc, self.path) from exc
-
 
 def write_prophesee(rec: Recording, path: str | Path, fmt: str, *, event_source: Iterator | None = None) -> None:
     """Write a Recording's events as `fmt` (evt3, evt2 or dat), streamed chunk by chunk and atomically."""
@@ -300,7 +252,7 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
     """Stream the CD events of an EVT 3.0 / EVT 2.0 .raw or .dat file in chunks (times with the header's offset
     added back). Bad files raise DatasetFormatError naming the file: among them a time that goes back (naming its
     byte position) other than a wrap of the format's counter from the top of its range to its bottom
-    (prophesee_kernels.time_step_ok)."""
+    (time_wrap.time_step_ok)."""
     path = Path(path)
     if not path.is_file():
         raise fail(path, "no such file")
@@ -419,6 +371,8 @@ def _evt2_chunks(path, f, offset, size):
 
 
 def _evt3_chunks(path, f, offset, size):
+    from .prophesee_kernels import STATE_SIZE, decode_evt3  # (numba: on first use)
+
     state = np.zeros(STATE_SIZE, np.int64)
     state[6] = -1  # no event yet
     per_read = max(1, size // 2)

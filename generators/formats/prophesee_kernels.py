@@ -1,4 +1,5 @@
-"""Numba kernels of the Prophesee EVT 3.0 encoder and decoder (state machines over 16-bit words).
+"""Numba kernels of the Prophesee EVT 3.0 encoder and decoder (state machines over 16-bit words); the readers'
+time rule, time_step_ok, is in time_wrap.py (also imported from here).
 
 EVT 3.0 words (little-endian uint16, type in bits 15..12), as Prophesee documents them and Metavision decodes:
     0x0 ADDR_Y        bits 10..0 y (bit 11: system type, 0 = master camera)
@@ -17,24 +18,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-WRAP_WINDOW = 256  # a wrap moves time forward by at most 1/WRAP_WINDOW of the counter's range (see time_step_ok)
+from .time_wrap import WRAP_WINDOW, time_step_ok
 
-
-def time_step_ok(prev: int | np.ndarray, new: int | np.ndarray, period: int) -> bool | np.ndarray:
-    """Whether a time counter of range `period` may read `new` after `prev`: the one rule of every Prophesee reader
-    (the 32-bit .dat event time, the 28-bit EVT 2.0 and the 12-bit EVT 3.0 TIME_HIGH).
-
-    With m = period // WRAP_WINDOW (EVT 3.0: 16 TIME_HIGH steps, 65.5 ms; EVT 2.0: 67.1 s; .dat: 16.8 s):
-    new >= prev is time moving forward by new - prev, which must be less than period - m; new < prev is a wrap,
-    from the top of the range to its bottom, moving time forward by new + period - prev, which must be at most m.
-    Anything else is a time that goes back (a step back, or across zero: from near the bottom of the range to
-    near its top), i.e. a corrupt file. So one corrupt value cannot pass for a wrap: a value just below an early
-    time reads as near the top, and the step to it is refused. Works on ints and numpy arrays alike (in numba
-    kernels as _time_step_ok). Metavision's EVT 3.0 decoder counts a wrap for a drop of at least 4085 of 4096
-    steps, which this rule accepts too."""
-    m = period // WRAP_WINDOW
-    return ((new >= prev) & (new - prev < period - m)) | ((new < prev) & (prev - new >= period - m))
-
+__all__ = ["STATE_SIZE", "TIME_HIGH_MAX_STEP", "WRAP_WINDOW", "decode_evt3", "encode_evt3", "time_step_ok"]
 
 _time_step_ok = njit(cache=True)(time_step_ok)
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.errors import EvsimInputError, OptionError
 from sim.events import MAX_TIME_US  # |t| bound of every time: 2**62 us, so differences never overflow int64
 
 
@@ -41,16 +42,23 @@ class Recording:
     metadata: dict = field(default_factory=dict)
 
 
-def not_generated_hint(rec: Recording, part: str) -> str:
-    """" (generated with --outputs ...: ...)" when rec's generator was asked not to write `part` ("frames" or
-    "reference"; generators.ahdr.AHDRConfig.outputs, recorded in the metadata), else "": the end of a message
-    saying a recording lacks that part."""
+def missing_part_error(message: str, rec: Recording, part: str,
+                       remedy: tuple[str, str] | None = None) -> EvsimInputError:
+    """The error `message` saying that rec lacks `part` ("frames" or "reference"). When rec's generator was asked
+    not to write it (generators.ahdr.AHDRConfig.outputs, recorded in the metadata), a sim.OptionError that says how
+    to get it: in keywords (str) and in command-line flags (cli_message); else `remedy` (in keywords, in flags)
+    when given, else a plain EvsimInputError."""
     config = rec.metadata.get("config") if isinstance(rec.metadata, dict) else None
     outputs = config.get("outputs") if isinstance(config, dict) else None
     if isinstance(outputs, list) and part not in outputs:
-        return (f" (it was generated with --outputs {','.join(map(str, outputs))}: generate or convert it again "
-                f"with --outputs events,frames,reference)")
-    return ""
+        asked = [str(o) for o in outputs]
+        return OptionError(f"{message} (it was generated with outputs {', '.join(asked)}: generate or convert it "
+                           "again with outputs events, frames, reference)",
+                           f"{message} (it was generated with --outputs {','.join(asked)}: generate or convert it "
+                           "again with --outputs events,frames,reference)")
+    if remedy is not None:
+        return OptionError(f"{message} ({remedy[0]})", f"{message} ({remedy[1]})")
+    return EvsimInputError(message)
 
 
 # ----- validation ----------------------------------------------------------------------------------------------

@@ -1,36 +1,107 @@
-"""The events of any readable file as a stream of time-ordered chunks, with the sensor size.
+"""The events of any readable file as one stream: time-ordered chunks, time windows, count and span, sensor size.
 
-Native HDF5, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, and AEDAT 2.0 files are read a chunk at a time (memory does
-not grow with the stream); the other layouts are loaded whole (load()) and then cut into chunks.
+open_event_stream(path) reads native HDF5, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, and AEDAT 2.0 files a chunk
+at a time (memory does not grow with the stream); the other layouts are loaded whole (load()) and then cut into
+chunks. EventStream.of_array wraps events already in memory. Plots (`evsim plot events`), the DVS video writer
+and any other pass over a file's events read them through EventStream.
+
+A native file is read as little as the pass needs: chunks(columns) reads only the named columns (e.g. t and p
+for an event rate), window(t0, t1) only the milliseconds of its ms_to_idx index that overlap the window, and the
+count and span come from the length and the first and last entries of events/t.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
 
 from .aedat2 import iter_aedat2_events
 from .aedat2 import sensor_size as aedat2_sensor_size
-from .common import EVENT_CHUNK, open_h5, reading
-from .native import _resolution, _t_offset, iter_native_events, recording_event_chunks
+from .common import EVENT_CHUNK, event_chunks, open_h5, reading
+from .native import (
+    _t_offset,
+    iter_native_columns,
+    iter_native_events,
+    open_native_images,
+    read_native_window,
+)
 from .prophesee import PROPHESEE_FORMATS, _read_header, iter_prophesee_events
 from .prophesee import _geometry as _prophesee_geometry
 
+Chunk = np.ndarray | Mapping[str, np.ndarray]
 
-@dataclass
+
 class EventStream:
-    """height, width: sensor size (pixels). chunks(): a new iterator over sim.EVENT_DTYPE chunks in time order.
-    t_range: (first, last) event time in microseconds when known without reading the stream (native files), else
-    None. streamed: whether chunks() reads the file a chunk at a time (False: the file was loaded whole)."""
+    """The events of one recording, read a chunk or a window at a time.
 
-    height: int
-    width: int
-    chunks: Callable[[], Iterator[np.ndarray]]
-    t_range: tuple[int, int] | None
-    streamed: bool
+    height, width: sensor size (pixels). streamed: whether chunks() reads the file a chunk at a time (False: the
+    events are in memory). chunks(columns=None): a new iterator over the events in time order, sim.EVENT_DTYPE
+    arrays; with columns, e.g. ("t", "p"), chunks that need hold only those fields (indexable by name: a native
+    file reads only those columns). window(t0, t1): the events with t0 <= t < t1 (microseconds). count and
+    t_range (first and last event time, us; None without events): known without a pass over the stream for
+    native files and events in memory, else counted by one pass the first time they are asked for.
+    known_t_range: t_range when it is known without a pass, else None."""
+
+    def __init__(self, height: int, width: int, chunks: Callable[[tuple[str, ...] | None], Iterator[Chunk]], *,
+                 window: Callable[[int, int], np.ndarray] | None = None, count: int | None = None,
+                 t_range: tuple[int, int] | None = None, streamed: bool = True):
+        self.height, self.width, self.streamed = int(height), int(width), streamed
+        self._chunks, self._window = chunks, window
+        self._count, self._t_range = count, t_range
+
+    @classmethod
+    def of_array(cls, events: np.ndarray, height: int, width: int, size: int = EVENT_CHUNK) -> EventStream:
+        """The stream of events in memory (sim.EVENT_DTYPE, time-sorted), cut into chunks of `size` events."""
+        from sim import slice_time
+
+        n = int(events.size)
+        return cls(height, width, lambda columns: event_chunks(events, size),
+                   window=lambda t0, t1: slice_time(events, t0, t1), count=n,
+                   t_range=(int(events["t"][0]), int(events["t"][-1])) if n else None, streamed=False)
+
+    def chunks(self, columns: tuple[str, ...] | None = None) -> Iterator[Chunk]:
+        """The events in time order, chunk by chunk (see the class docstring)."""
+        return self._chunks(columns)
+
+    def window(self, t_start_us: int, t_end_us: int) -> np.ndarray:
+        """The events with t_start_us <= t < t_end_us, as one sim.EVENT_DTYPE array."""
+        if self._window is not None:
+            return self._window(int(t_start_us), int(t_end_us))
+        from sim import EVENT_DTYPE, slice_time
+
+        parts = []
+        for chunk in self.chunks():
+            if chunk.size and chunk["t"][-1] >= t_start_us:
+                parts.append(slice_time(chunk, t_start_us, t_end_us))
+                if chunk["t"][-1] >= t_end_us:
+                    break
+        return np.concatenate(parts) if parts else np.zeros(0, EVENT_DTYPE)
+
+    @property
+    def known_t_range(self) -> tuple[int, int] | None:
+        return self._t_range
+
+    @property
+    def count(self) -> int:
+        if self._count is None:
+            self._count_pass()
+        return self._count
+
+    @property
+    def t_range(self) -> tuple[int, int] | None:
+        if self._count is None:
+            self._count_pass()
+        return self._t_range
+
+    def _count_pass(self) -> None:
+        n, first, last = 0, None, None
+        for chunk in self.chunks(("t",)):
+            t = chunk["t"]
+            if t.size:
+                n, first, last = n + t.size, int(t[0]) if first is None else first, int(t[-1])
+        self._count, self._t_range = n, (first, last) if n else None
 
 
 def open_event_stream(path: str | Path, size: int = EVENT_CHUNK) -> EventStream:
@@ -41,21 +112,28 @@ def open_event_stream(path: str | Path, size: int = EVENT_CHUNK) -> EventStream:
     path = Path(path)
     kind = detect(path)
     if kind == "native":
+        with open_native_images(path) as rec:  # the file checked as load() checks it, images left unread
+            h, w = rec.height, rec.width
         with open_h5(path) as f, reading(path):
-            h, w = _resolution(f, path)
             t = f["events/t"]
-            t_range = (int(t[0]) + _t_offset(f), int(t[-1]) + _t_offset(f)) if t.shape[0] else None
-        return EventStream(h, w, lambda: (c for c, _ in iter_native_events(path, size)), t_range, True)
+            n, offset = int(t.shape[0]), _t_offset(f)
+            t_range = (int(t[0]) + offset, int(t[n - 1]) + offset) if n else None
+
+        def native_chunks(columns):
+            if columns is None:
+                return (c for c, _ in iter_native_events(path, size))
+            return iter_native_columns(path, tuple(columns), size)
+
+        return EventStream(h, w, native_chunks, window=lambda t0, t1: read_native_window(path, t0, t1), count=n,
+                           t_range=t_range)
     if kind in PROPHESEE_FORMATS:
         with open(path, "rb") as f:
             keys, _ = _read_header(path, f)
         h, w = _prophesee_geometry(path, keys)
         if h is not None:
-            return EventStream(h, w, lambda: iter_prophesee_events(path, size), None, True)
+            return EventStream(h, w, lambda columns: iter_prophesee_events(path, size))
     if kind == "aedat2":
         h, w = aedat2_sensor_size(path)
-        return EventStream(h, w, lambda: iter_aedat2_events(path, size), None, True)
+        return EventStream(h, w, lambda columns: iter_aedat2_events(path, size))
     rec = load(path)
-    t_range = (int(rec.events["t"][0]), int(rec.events["t"][-1])) if rec.events.size else None
-    return EventStream(rec.height, rec.width, lambda: (c for c, _ in recording_event_chunks(rec, size)), t_range,
-                       False)
+    return EventStream.of_array(rec.events, rec.height, rec.width, size)
