@@ -30,11 +30,11 @@ input, "pad" shows the whole input centred with black (0) bars, "stretch" shows 
 result is area-integrated to height x width (cv2.INTER_AREA), in linear radiance. Integer input is then
 conditioned (scenes.conditioning, `conditioning`) in its code values, frame by frame in order: read noise and codec
 artefacts on still pixels are held back from the DVS (default: on for video files and recordings' frames, off for
-image folders and stacks, which are taken as clean unless conditioning is given). The clip runs from the first input frame
-at or after start_s to the last at or before stop_s (seconds from the input's first frame); the scene's time 0 is
-that first frame, at time_origin_us in the input's own time base (a timestamps file's, a recording's), from which
-generation writes its times. The DVS is warmed up on the clip's first warm_up_s mirrored in time (a recording's
-frames: its camera was running before the clip began; no start-up burst).
+image folders and stacks, which are taken as clean unless conditioning is given). The clip runs from the first
+input frame at or after start_s to the last at or before stop_s (seconds from the input's first frame); the
+scene's time 0 is that first frame, at time_origin_us in the input's own time base (a timestamps file's, a
+recording's), from which generation writes its times. The DVS is warmed up on the clip's first warm_up_s
+mirrored in time (a recording's frames: its camera was running before the clip began; no start-up burst).
 
 Between input frames (`upsample`):
 - "flow" (default): motion-compensated interpolation (scenes.flow_interpolation): bidirectional optical flow,
