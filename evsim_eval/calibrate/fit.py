@@ -192,8 +192,8 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams) -> tu
     best = tried[i]
     if 0 < i < len(tried) - 1:
         (x0, x1, x2), (f0, f1, f2) = grid[i - 1:i + 2], [tried[k][0] for k in (i - 1, i, i + 1)]
-        den = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)  # > 0: f1 is the smallest, the parabola opens up
-        vertex = x1 - 0.5 * ((x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)) / den if den > 0 else x1
+        den = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)  # < 0 when the parabola opens up (f1 the smallest)
+        vertex = x1 - 0.5 * ((x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)) / den if den < 0 else x1
         if x0 < vertex < x2 and abs(vertex - x1) > 0.05:
             b = math.exp(vertex)
             near = tried[i - 1 if vertex < x1 else i + 1][1]  # thresholds between the two: start from the mean

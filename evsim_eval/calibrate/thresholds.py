@@ -38,6 +38,7 @@ class ThresholdEstimate:
     pos_threshold: float
     neg_threshold: float
     offset_dn: float
+    dark_fraction: float
     window_s: tuple[float, float]
     loss: float
     evaluations: int
@@ -57,11 +58,12 @@ def default_window(rec: Recording) -> tuple[float, float]:
 
 
 def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, preset: str = "davis346",
-                        seed: int = 0) -> ThresholdEstimate:
+                        conditioning: str | None = None, seed: int = 0) -> ThresholdEstimate:
     """The (ON, OFF) thresholds and log offset of `rec` by calibrate's first stage (see the module), simulating
     only the frames with indices `frames` (default all; at least 3) over default_window. preset: the DVS whose
-    other parameters the simulation uses (its noise off). sim.EvsimInputError when the recording has too few frames
-    or events in the window."""
+    other parameters the simulation uses (its noise off); conditioning: the frames' input conditioning, as for
+    calibrate (None: temporal, a real camera's). sim.EvsimInputError when the recording has too few frames or
+    events in the window."""
     cpu0 = time.process_time()
     if rec.frames is not None and frames is not None:
         k = np.asarray(frames, np.int64)
@@ -77,11 +79,11 @@ def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, 
     with tempfile.TemporaryDirectory(prefix="evsim-thresholds-") as tmp:  # the simulation reads a file
         path = Path(tmp) / "frames.h5"
         export(rec, path, "native")
-        real, simulation = prepare(path, rec, window)
+        real, simulation = prepare(path, rec, window, conditioning=conditioning)
         objective = _Objective(simulation, real, seed, None)
         loss, dvs = fit_offset_and_thresholds(objective, start)
     offset_dn = dvs.dark_fraction * simulation.full_illumination * simulation.dn_per_radiance
-    return ThresholdEstimate(dvs.pos_threshold, dvs.neg_threshold, offset_dn, window, float(loss),
+    return ThresholdEstimate(dvs.pos_threshold, dvs.neg_threshold, offset_dn, dvs.dark_fraction, window, float(loss),
                              objective.evaluations, time.process_time() - cpu0)
 
 
