@@ -208,7 +208,7 @@ def test_offset_search_lands_between_grid_points():
             counts = math.log(scores["on_ratio"]) ** 2 + math.log(scores["off_ratio"]) ** 2
             return (math.log(b / 27.0) ** 2 + 10 * counts, scores, None)
 
-    loss, dvs = fit_offset_and_thresholds(Fake(), sim.DVSParams())
+    loss, dvs = fit_offset_and_thresholds(Fake(), sim.DVSParams(), refine=True)
     assert dvs.dark_fraction * 255.0 == pytest.approx(27.0, rel=0.10)
     assert (dvs.pos_threshold, dvs.neg_threshold) == pytest.approx((0.2, 0.25), rel=0.02)
 

@@ -5,9 +5,9 @@ reports), measured on the recording's window with its frames' pixel classes. The
 
 1. Log offset (dark level) and thresholds (fit_offset_and_thresholds): for each offset b on a log grid
    (OFFSET_GRID_DN, 8-bit DN), the ON and OFF thresholds are set by secant steps so that the simulated ON and OFF
-   counts match the real ones (counts fall roughly as 1 / threshold); the b of the smallest loss, refined once at
-   the vertex of a parabola in log b through it and its neighbours, is kept. This stage alone is also what
-   `evsim evaluate` uses for a recording without thresholds (evsim_eval.calibrate.thresholds).
+   counts match the real ones (counts fall roughly as 1 / threshold); the b of the smallest loss is kept. This
+   stage alone, with b refined at the vertex of a parabola in log b through the best grid offset and its
+   neighbours, is what `evsim evaluate` uses for a recording without thresholds (evsim_eval.calibrate.thresholds).
 2. Nelder-Mead (scipy.optimize.minimize; Nelder and Mead 1965) over the log of the ON and OFF thresholds, the
    offset, the refractory period and the photoreceptor cutoff, and the threshold spread, from stage 1's best.
 3. Noise by moments: on the quiet static pixels the simulation without noise is compared with the real rates.
@@ -39,6 +39,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,6 +48,9 @@ from generators.formats import load
 from generators.formats.recording import Recording
 
 from .simulation import InputSettings, RecordingSimulation
+
+if TYPE_CHECKING:
+    from evsim_eval.realism import RealismStats
 
 # stage 1's log offsets b, in 8-bit frame DN (scaled to the frames' full scale for deeper frames)
 OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
@@ -176,11 +180,13 @@ def _match_counts(objective: _Objective, dvs: sim.DVSParams, stage: str, steps: 
     return value, dvs, scores
 
 
-def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams) -> tuple[float, sim.DVSParams]:
+def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
+                              refine: bool = False) -> tuple[float, sim.DVSParams]:
     """Stage 1 (module docstring) from `start`: for each log offset of OFFSET_GRID_DN the ON and OFF thresholds
-    matched to the counts (each offset starting from the previous one's thresholds), then the offset at the vertex
-    of the parabola in log b through the best grid offset and its two neighbours, when that lies between them.
-    Returns (loss, DVSParams) of the smallest loss."""
+    matched to the counts (each offset starting from the previous one's thresholds); refine: then the offset at
+    the vertex of the parabola in log b through the best grid offset and its two neighbours, when that lies between
+    them (for a search that ends here: calibrate's stage 2 refines the offset itself). Returns (loss, DVSParams) of
+    the smallest loss."""
     simulation = objective.simulation
     grid = np.log(OFFSET_GRID_DN)
     tried, dvs = [], start
@@ -190,7 +196,7 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams) -> tu
         tried.append((value, dvs))
     i = min(range(len(tried)), key=lambda k: tried[k][0])
     best = tried[i]
-    if 0 < i < len(tried) - 1:
+    if refine and 0 < i < len(tried) - 1:
         (x0, x1, x2), (f0, f1, f2) = grid[i - 1:i + 2], [tried[k][0] for k in (i - 1, i, i + 1)]
         den = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)  # < 0 when the parabola opens up (f1 the smallest)
         vertex = x1 - 0.5 * ((x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)) / den if den < 0 else x1
@@ -257,7 +263,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
     _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
     real, simulation = prepare(path, load(path), window_s, black_level, conditioning, log)
-    bar = tqdm(total=len(OFFSET_GRID_DN) * 3 + 3 + max_evaluations + 8, unit="sim", desc="calibrate",
+    bar = tqdm(total=len(OFFSET_GRID_DN) * 3 + max_evaluations + 8, unit="sim", desc="calibrate",
                disable=not progress, leave=False)
     objective = _Objective(simulation, real, seed, bar)
     settings = simulation.settings
@@ -294,7 +300,8 @@ def _checked_window(window_s: tuple[float, float]) -> tuple[float, float]:
 
 
 def prepare(path: Path, rec: Recording, window_s: tuple[float, float], black_level: float | None = None,
-            conditioning: str | None = None, log: Callable[[str], None] | None = None):
+            conditioning: str | None = None,
+            log: Callable[[str], None] | None = None) -> tuple[RealismStats, RecordingSimulation]:
     """(real statistics over window_s, RecordingSimulation) of the recording `rec` read from `path`, checked: frames
     (at least 3) and MIN_EVENTS real ON and OFF events in the window (sim.EvsimInputError otherwise). black_level
     None: the frames' darkest 0.01 %."""

@@ -4,9 +4,12 @@
 The recording's frames (or the given subset: the frames a reconstruction is fed) go through convert's pipeline
 once; the noise-free DVS of the starting preset is simulated on them with the log offset b on a grid, the ON and
 OFF thresholds matched to the real event counts at each b, and the b of the smallest calibration loss (refined at a
-parabola's vertex) kept. The window scored is the recording from SETTLE_S (the sensor settling after the first
-frame, capped at a fifth of the clip) to the last frame's mid-exposure. About 25 simulations: 25 s of CPU for the
-DAVIS346 road recording (59 frames of 346 x 260 pixels).
+parabola's vertex) kept. The pixel's bandwidth, refractory period and threshold mismatch are not fitted (that is
+calibrate's second stage) but chosen between the preset's and an ideal pixel's (none), whichever explains the
+events better; the offset is searched again for an ideal pixel that does. The window scored is the recording from
+SETTLE_S (the sensor settling after the first frame, capped at a fifth of the clip) to the last frame's
+mid-exposure. About 25 simulations: 30 s of CPU for the DAVIS346 road recording (59 frames of 346 x 260 pixels),
+where the preset's pixel is kept.
 """
 
 from __future__ import annotations
@@ -23,8 +26,10 @@ import sim
 from generators.formats import export
 from generators.formats.recording import Recording
 
-from .fit import _Objective, fit_offset_and_thresholds, prepare
+from .fit import _match_counts, _Objective, fit_offset_and_thresholds, prepare
 
+#: the fields of the pixel's response besides thresholds and offset: the starting preset's, or an ideal pixel's
+SIGNAL_FIELDS = ("cutoff_hz", "refractory_us", "threshold_sigma")
 SETTLE_S = 0.4  # s after the first frame's exposure start left out of the window (at most a fifth of the clip)
 
 
@@ -61,9 +66,9 @@ def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, 
                         conditioning: str | None = None, seed: int = 0) -> ThresholdEstimate:
     """The (ON, OFF) thresholds and log offset of `rec` by calibrate's first stage (see the module), simulating
     only the frames with indices `frames` (default all; at least 3) over default_window. preset: the DVS whose
-    other parameters the simulation uses (its noise off); conditioning: the frames' input conditioning, as for
-    calibrate (None: temporal, a real camera's). sim.EvsimInputError when the recording has too few frames or
-    events in the window."""
+    other parameters the simulation uses (its noise off; SIGNAL_FIELDS its or an ideal pixel's); conditioning: the
+    frames' input conditioning, as for calibrate (None: temporal, a real camera's). sim.EvsimInputError when the
+    recording has too few frames or events in the window."""
     cpu0 = time.process_time()
     if rec.frames is not None and frames is not None:
         k = np.asarray(frames, np.int64)
@@ -81,10 +86,17 @@ def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, 
         export(rec, path, "native")
         real, simulation = prepare(path, rec, window, conditioning=conditioning)
         objective = _Objective(simulation, real, seed, None)
-        loss, dvs = fit_offset_and_thresholds(objective, start)
+        loss, dvs = fit_offset_and_thresholds(objective, start, refine=True)
+        # the pixel's bandwidth, refractory period and mismatch are not known either: an ideal pixel's tried at the
+        # offset found (counts matched), and the offset searched again from it if it explains the events better
+        ideal = {f: getattr(sim.DVSParams.preset("ideal"), f) for f in SIGNAL_FIELDS}
+        value, matched, _ = _match_counts(objective, dvs.replace(**ideal), "ideal pixel", steps=2)
+        if value < loss:
+            again = fit_offset_and_thresholds(objective, start.replace(**ideal), refine=True)
+            loss, dvs = min((value, matched), again, key=lambda r: r[0])
     offset_dn = dvs.dark_fraction * simulation.full_illumination * simulation.dn_per_radiance
     return ThresholdEstimate(dvs.pos_threshold, dvs.neg_threshold, offset_dn, dvs.dark_fraction, window, float(loss),
                              objective.evaluations, time.process_time() - cpu0)
 
 
-__all__ = ["ThresholdEstimate", "estimate_thresholds", "default_window", "SETTLE_S"]
+__all__ = ["ThresholdEstimate", "estimate_thresholds", "default_window", "SETTLE_S", "SIGNAL_FIELDS"]
