@@ -139,7 +139,7 @@ class _Objective:
 
     def __call__(self, dvs: sim.DVSParams, stage: str) -> tuple[float, dict, object]:
         stats = self.stats(dvs)
-        scores = self._compare(self.real, stats).scores
+        scores = {**self._compare(self.real, stats).scores, "sim_quiet_hz": list(stats.quiet_hz)}  # for the table
         value = loss_of(scores, self.real.quiet_counts, stats.quiet_counts, self.noise)
         self.evaluations += 1
         self.history.append((stage, value))
