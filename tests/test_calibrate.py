@@ -47,8 +47,7 @@ def synthetic_recording(tmp_path_factory):
     return path
 
 
-@pytest.mark.slow
-def test_calibrate_recovers_known_parameters(synthetic_recording):
+def test_calibrate_recovers_known_parameters(synthetic_recording):  # 32x48 pixels: a few seconds
     from evsim_eval.calibrate import calibrate
 
     # the simulated frames are noise-free: no input conditioning (which takes half the picture moving for noise)
