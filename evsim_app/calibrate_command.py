@@ -32,13 +32,28 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="simulations of the Nelder-Mead stage (default 120)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulations (default 0)")
     p.add_argument("--json", type=Path, help="also write the fit (parameters, scores, timing) as JSON here")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out (and --json) file")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Before the minutes of fitting: --out is a .toml file, and neither it nor --json exists unless --overwrite
+    (sim.EvsimInputError naming the flag; the CLI checks that they can be written)."""
+    import sim
+
+    if args.out.suffix.lower() != ".toml":
+        raise sim.EvsimInputError(f"--out {args.out}: a sensor file is a .toml file (give e.g. "
+                                  f"{args.out.with_suffix('.toml')})")
+    for flag, path in (("--out", args.out), ("--json", args.json)):
+        if path is not None and path.exists() and not args.overwrite:
+            raise sim.EvsimInputError(f"{flag} {path} already exists; pass --overwrite to replace it")
 
 
 def run(args: argparse.Namespace) -> int:
     from evsim_eval.calibrate import calibrate, fit_table, write_calibration
 
+    check_outputs(args)
     cal = calibrate(args.recording, tuple(args.window), preset=args.preset, black_level=args.black_level,
                     conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
                     progress=not args.no_progress, log=print)
@@ -47,8 +62,7 @@ def run(args: argparse.Namespace) -> int:
     out = write_calibration(cal, args.out, args.name)
     print(f"wrote {out}: use it with `evsim convert {args.recording} --sensor {out}`")
     if args.json is not None:
-        from generators.formats.atomic import atomic_path
+        from generators.formats.atomic import write_text_atomic
 
-        with atomic_path(args.json) as tmp:
-            Path(tmp).write_text(json.dumps(cal.to_dict(), indent=1, default=str))
+        write_text_atomic(args.json, json.dumps(cal.to_dict(), indent=1, default=str))
     return 0

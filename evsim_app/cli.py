@@ -128,10 +128,12 @@ def _check_paths(args) -> None:
         value = getattr(args, flag, None)
         if value is not None:
             _check_output(f"--{flag}", str(value), folder=folder)
+    if args.command == "export":  # DST: a file, or a folder for a folder of sequences
+        _check_output("DST", str(args.dest), folder=None)
 
 
-def _check_output(flag: str, text: str, *, folder: bool) -> None:
-    """An output path that can be created (or, for a folder, exists as one) and written."""
+def _check_output(flag: str, text: str, *, folder: bool | None) -> None:
+    """An output path that can be created (or, for a folder, exists as one) and written; folder=None: either."""
     from generators.config import missing_path_reason
 
     kind = "folder" if folder else "file"
@@ -146,20 +148,36 @@ def _check_output(flag: str, text: str, *, folder: bool) -> None:
     if path.is_symlink() and not path.exists():
         raise sim.EvsimInputError(f"{flag}: {missing_path_reason(path)}; remove the link or give another {kind}")
     if path.exists():
+        if folder is None:
+            return
         if folder and not path.is_dir():
             raise sim.EvsimInputError(f"{flag} {path} exists and is not a folder")
         if not folder and path.is_dir():
             raise sim.EvsimInputError(f"{flag} {path} is a folder, not a file")
-        if folder and not os.access(path, os.W_OK | os.X_OK):
+        if folder and not _writable(path):
             raise sim.EvsimInputError(f"{flag} {path}: the folder is not writable (permissions or a read-only "
                                       "file system)")
         return
     parent = next((q for q in path.absolute().parents if q.exists()), None)
     if parent is not None and not parent.is_dir():
         raise sim.EvsimInputError(f"{flag}: {parent} is a file, not a folder, so {path} cannot be created")
-    if parent is not None and not os.access(parent, os.W_OK | os.X_OK):
+    if parent is not None and not _writable(parent):
         raise sim.EvsimInputError(f"{flag} {path} cannot be created: {parent} is not writable (permissions or a "
                                   "read-only file system)")
+
+
+def _writable(folder: Path) -> bool:
+    """Whether a file can be created in `folder`: tried (a temporary file, removed at once), since permission bits
+    do not tell for root, read-only mounts or virtual file systems such as /proc."""
+    import tempfile
+
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return False
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
 
 
 # ----- subcommands -----------------------------------------------------------------------------------------
@@ -244,7 +262,7 @@ def _cmd_demo(args) -> int:
     import numpy as np
 
     from generators.builtin import ahdr_suite, ahdr_suite_config
-    from generators.dataset import remove_if_empty, write_sequence
+    from generators.dataset import first_missing, remove_if_empty, write_sequence
 
     from .precompile import start_background_compile, wait
 
@@ -260,14 +278,13 @@ def _cmd_demo(args) -> int:
     name, scene = ahdr_suite(height, width, args.duration_s, include_hdr=False)[0]
     compiling = None if args.no_reconstruct else start_background_compile()  # on the other core meanwhile
     out = Path(args.out)
-    created = not out.exists()
+    created = first_missing(out)
     out.mkdir(parents=True, exist_ok=True)
     try:
         entry = write_sequence(out, "demo", scene, config, np.random.SeedSequence(args.seed),
                                "native", progress=not args.no_progress)
-    except BaseException as e:
-        if created and not isinstance(e, Exception):  # interrupted: no empty folder left behind
-            remove_if_empty(out)
+    except BaseException:  # failed or interrupted: no empty folder left behind
+        remove_if_empty(out, created)
         raise
     path = out / entry["file"]
     from .info import describe, format_description

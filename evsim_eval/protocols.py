@@ -22,9 +22,9 @@ reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene w
 reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a held-out
 frame's white).
 Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), those of
-a given sensor file (the camera calibrated by `evsim calibrate`: the same pixel model), else the thresholds
-estimated from its events and the fed frames under that pixel model with its log offset b, log(x + b)
-(akf.estimate_contrast with b from akf.estimate_log_offset; never the held-out frames); the AKF also gets its DVS
+a given sensor file (the camera calibrated by `evsim calibrate`), else the thresholds estimated from its events
+and the fed frames by calibrate's own model and first stage (evsim_eval.calibrate.estimate_thresholds: the log
+offset and the thresholds fitted by simulation; never the held-out frames); the AKF also gets its DVS
 leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see akf.reconstruct),
 unless method_options say otherwise.
 
@@ -108,11 +108,11 @@ def _recorded_contrast(rec: Recording):
 
 def recording_contrast(rec: Recording) -> tuple[float, float]:
     """Nominal (ON, OFF) contrast thresholds (log units) from the recorded DVS configuration, else the AKF .mat's
-    ct, else estimated from the events and all frames (akf.estimate_contrast), else DEFAULT_CONTRAST. The per-pixel
-    threshold maps are ground truth, not used (a real camera does not know them)."""
+    ct, else estimated from the events and all frames (evsim_eval.calibrate.estimate_thresholds), else
+    DEFAULT_CONTRAST. The per-pixel threshold maps are ground truth, not used (a real camera does not know them)."""
     if rec.frames is None or rec.frames.shape[0] < 2:
         return _recorded_contrast(rec) or (DEFAULT_CONTRAST, DEFAULT_CONTRAST)
-    return recording_contrast_or_estimate(rec, recording_crf(rec)[0], np.arange(rec.frames.shape[0]))[0]
+    return recording_contrast_or_estimate(rec, np.arange(rec.frames.shape[0]))[0]
 
 
 def recording_leak_rate(rec: Recording) -> float:
@@ -200,7 +200,7 @@ def recording_case(rec: Recording, protocol: str = "reference",
         windows = np.stack([rec.frame_t_start_us[held], rec.frame_t_end_us[held]], axis=1).astype(np.int64)
     else:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
-    contrast, c_note = recording_contrast_or_estimate(rec, crf, fed, sensor)
+    contrast, c_note = recording_contrast_or_estimate(rec, fed, sensor)
     if c_note:
         notes.append(c_note)
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
@@ -209,13 +209,13 @@ def recording_case(rec: Recording, protocol: str = "reference",
     return case, notes
 
 
-def recording_contrast_or_estimate(rec: Recording, crf: crf_models.CRF, fed: np.ndarray,
+def recording_contrast_or_estimate(rec: Recording, fed: np.ndarray,
                                    sensor: str | None = None) -> tuple[tuple, str]:
     """(ON, OFF) contrast and a note saying where it comes from ("" when recorded): the recorded one (see
     recording_contrast); else the thresholds of `sensor` (a sensor file fitted to this camera by `evsim calibrate`,
-    or a preset); else estimated from the events and the fed frames (held-out frames are never used) under the DVS
-    pixel model with its log offset, log(x + b) (akf.estimate_contrast, b estimated as the offset that leaves no
-    brightness dependence: akf.estimate_log_offset); else DEFAULT_CONTRAST."""
+    or a preset); else estimated from the events and the fed frames (held-out frames are never used) by the model
+    and search of evsim calibrate's first stage (evsim_eval.calibrate.estimate_thresholds: the fed frames simulated,
+    the log offset and the thresholds fitted to the event counts); else DEFAULT_CONTRAST."""
     recorded = _recorded_contrast(rec)
     if recorded is not None:
         return recorded, ""
@@ -226,13 +226,15 @@ def recording_contrast_or_estimate(rec: Recording, crf: crf_models.CRF, fed: np.
         return ((s.dvs.pos_threshold, s.dvs.neg_threshold),
                 f"no contrast recorded: the thresholds of {where}" + (f" (fitted to {fitted})" if fitted else "")
                 + f", ON {s.dvs.pos_threshold:.3f}, OFF {s.dvs.neg_threshold:.3f}")
+    from .calibrate import estimate_thresholds
+
     try:
-        est = akf.estimate_contrast(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
-                                    crf, bit_depth=rec.frame_bit_depth, i0=None)
+        est = estimate_thresholds(rec, fed)
     except EvsimInputError as e:
         return (DEFAULT_CONTRAST, DEFAULT_CONTRAST), f"no contrast recorded, estimation failed ({e}): assumed " \
                                                      f"{DEFAULT_CONTRAST}"
-    return est.pair, (f"no contrast recorded: estimated from the data, ON {est.c_on:.3f}, OFF {est.c_off:.3f} "
-                      f"({est.n_on} + {est.n_off} unclipped pixel intervals), pixel model log(x + b) with log "
-                      f"offset b = {est.i0:.3g} x estimated (akf.estimate_log_offset; --sensor gives a calibrated "
-                      "camera's thresholds)")
+    return est.pair, (f"no contrast recorded: estimated as evsim calibrate's first stage does, ON "
+                      f"{est.pos_threshold:.3f}, OFF {est.neg_threshold:.3f} with log offset b = {est.offset_dn:.3g} "
+                      f"DN (the fed frames simulated, thresholds matched to the events of {est.window_s[0]:.3g}-"
+                      f"{est.window_s[1]:.3g} s; {est.evaluations} simulations, {est.cpu_s:.0f} s CPU; --sensor FILE "
+                      "gives a calibrated camera's thresholds)")

@@ -349,23 +349,40 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
                           + why.format("overwrite"), "--resume and --overwrite exclude each other: --resume "
                           + why.format("--overwrite"))
     _check_file_names([task for task, _ in jobs])
-    created = not Path(out_dir).exists()
+    created = first_missing(Path(out_dir))
     out = prepare_output_dir(out_dir, overwrite or resume).resolve()
     try:
         return _run_into(out, jobs, header, resume, workers, scheduler, progress)
-    except BaseException as e:
-        if created and not isinstance(e, Exception):  # interrupted (Ctrl-C, SIGTERM): no empty folder left behind
-            remove_if_empty(out)
+    except BaseException:  # failed or interrupted: no empty folder left behind
+        remove_if_empty(Path(out_dir), created)
         raise
 
 
-def remove_if_empty(folder: Path) -> None:
-    """Remove `folder` if it is an empty folder (so that an interrupted run leaves nothing that looks like a
-    result); leave it otherwise."""
-    try:
-        folder.rmdir()
-    except OSError:  # not empty (complete sequences are kept for --resume), or gone
-        pass
+def first_missing(folder: Path) -> Path | None:
+    """The outermost of `folder` and its parents that does not exist yet (what creating it creates), or None."""
+    folder = Path(folder).absolute()
+    missing = None
+    for p in (folder, *folder.parents):
+        if p.exists() or p.is_symlink():
+            break
+        missing = p
+    return missing
+
+
+def remove_if_empty(folder: Path, up_to: Path | None) -> None:
+    """Remove `folder` if it is an empty folder (so that a failed or interrupted run leaves nothing that looks like
+    a result), then its parents while they are empty, up to `up_to` (the outermost folder the run created:
+    first_missing before it); nothing when up_to is None (the folder existed before) or does not contain folder."""
+    if up_to is None:
+        return
+    folder, up_to = Path(folder).absolute(), Path(up_to).absolute()
+    for p in (folder, *folder.parents):
+        if p != up_to and up_to not in p.parents:
+            return
+        try:
+            p.rmdir()
+        except OSError:  # not empty (complete sequences are kept for --resume), or gone
+            return
 
 
 def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], header: dict, resume: bool,

@@ -343,12 +343,13 @@ def sensor_toml(sensor: Sensor) -> str:
 
 
 def write_sensor(path: str | os.PathLike, sensor: Sensor) -> Path:
-    """Write `sensor` as a sensor file at `path` atomically (a temporary file in the same folder, then os.replace);
-    return the path. load_sensor(path) gives back an equal Sensor."""
+    """Write `sensor` as a sensor file at `path` atomically (a temporary file in the same folder, then os.replace;
+    missing folders are created); return the path. load_sensor(path) gives back an equal Sensor."""
     if not isinstance(sensor, Sensor):
         raise InvalidParameterError(f"write_sensor takes a sim.Sensor, got {type(sensor).__name__}")
     path = Path(path)
     text = sensor_toml(sensor)
+    path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:

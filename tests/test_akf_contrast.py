@@ -106,7 +106,7 @@ def test_interleave_on_a_davis_like_export_estimates_the_contrast_and_tunes(idea
     bare = dataclasses.replace(ideal_linear, crf=None, metadata={}, threshold_maps=None)
     export(bare, tmp_path / "davis", "ijrr")
     task, notes = recording_case(load(tmp_path / "davis"), "interleave")
-    assert any("estimated from the data" in n for n in notes) and any("assumed linear" in n for n in notes)
+    assert any("calibrate's first stage" in n for n in notes) and any("assumed linear" in n for n in notes)
     assert task.contrast == pytest.approx((TRUE_C, TRUE_C), rel=0.15)
     assert task.frames.shape[0] == (ideal_linear.frames.shape[0] + 1) // 2  # held-out frames are not fed
     result, notes, tuning, _ = evaluate_dataset(tmp_path / "davis", protocol="interleave",

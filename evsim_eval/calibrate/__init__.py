@@ -3,6 +3,8 @@
 - `calibrate(path, window_s)` -> `Calibration` (fitted DVSParams, the frames' black level and read noise, the
   realism scores of the preset and of the fit, timing): evsim_eval.calibrate.fit;
 - `RecordingSimulation`: a recording's frames upsampled once (as `evsim convert` does), simulated many times;
+- `estimate_thresholds(recording, frames)` -> `ThresholdEstimate`: the thresholds and log offset of a recording
+  without recorded ones by calibrate's first stage (what `evsim evaluate` uses): evsim_eval.calibrate.thresholds;
 - `fit_table(cal)`, `sensor_of(cal, name)`, `write_calibration(cal, path)`: the report and the sensor file.
 Every name is imported on first use.
 """
@@ -12,6 +14,7 @@ from sim.lazy import lazy_exports
 _EXPORTS = {
     "Calibration": "fit", "calibrate": "fit", "loss_of": "fit",
     "RecordingSimulation": "simulation", "InputSettings": "simulation",
+    "estimate_thresholds": "thresholds", "ThresholdEstimate": "thresholds",
     "fit_table": "report", "sensor_of": "report", "write_calibration": "report",
 }
 __all__ = sorted(_EXPORTS)

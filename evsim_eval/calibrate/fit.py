@@ -3,9 +3,11 @@
 The objective is the realism score (evsim_eval.realism: the same statistics `evsim evaluate --task realism`
 reports), measured on the recording's window with its frames' pixel classes. The search, in three stages:
 
-1. Log offset (dark level) and thresholds: for each offset b on a log grid (OFFSET_GRID_DN, 8-bit DN), the
-   ON and OFF thresholds are set by secant steps so that the simulated ON and OFF counts match the real ones
-   (counts fall roughly as 1 / threshold); the b of the smallest loss is kept.
+1. Log offset (dark level) and thresholds (fit_offset_and_thresholds): for each offset b on a log grid
+   (OFFSET_GRID_DN, 8-bit DN), the ON and OFF thresholds are set by secant steps so that the simulated ON and OFF
+   counts match the real ones (counts fall roughly as 1 / threshold); the b of the smallest loss is kept. This
+   stage alone, with b refined at the vertex of a parabola in log b through the best grid offset and its
+   neighbours, is what `evsim evaluate` uses for a recording without thresholds (evsim_eval.calibrate.thresholds).
 2. Nelder-Mead (scipy.optimize.minimize; Nelder and Mead 1965) over the log of the ON and OFF thresholds, the
    offset, the refractory period and the photoreceptor cutoff, and the threshold spread, from stage 1's best.
 3. Noise by moments: on the quiet static pixels the simulation without noise is compared with the real rates.
@@ -37,6 +39,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,10 +49,14 @@ from generators.formats.recording import Recording
 
 from .simulation import InputSettings, RecordingSimulation
 
+if TYPE_CHECKING:
+    from evsim_eval.realism import RealismStats
+
 # stage 1's log offsets b, in 8-bit frame DN (scaled to the frames' full scale for deeper frames)
 OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
 HOT_FACTOR = 50.0  # a static pixel firing this many times the quiet static rate (and >= HOT_MIN_EVENTS) is hot
 HOT_MIN_EVENTS = 10
+MIN_EVENTS = 20  # real ON and OFF events the window must hold, each
 WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.5, "passages": 0.1}  # of loss_of
 
 
@@ -132,7 +139,7 @@ class _Objective:
 
     def __call__(self, dvs: sim.DVSParams, stage: str) -> tuple[float, dict, object]:
         stats = self.stats(dvs)
-        scores = self._compare(self.real, stats).scores
+        scores = {**self._compare(self.real, stats).scores, "sim_quiet_hz": list(stats.quiet_hz)}  # for the table
         value = loss_of(scores, self.real.quiet_counts, stats.quiet_counts, self.noise)
         self.evaluations += 1
         self.history.append((stage, value))
@@ -171,6 +178,39 @@ def _match_counts(objective: _Objective, dvs: sim.DVSParams, stage: str, steps: 
                 k[i] = min(max(-d_cnt / d_thr, 0.3), 4.0)
         dvs, value, scores = trial, t_value, t_scores
     return value, dvs, scores
+
+
+def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
+                              refine: bool = False) -> tuple[float, sim.DVSParams]:
+    """Stage 1 (module docstring) from `start`: for each log offset of OFFSET_GRID_DN the ON and OFF thresholds
+    matched to the counts (each offset starting from the previous one's thresholds); refine: then the offset at
+    the vertex of the parabola in log b through the best grid offset and its two neighbours, when that lies between
+    them (for a search that ends here: calibrate's stage 2 refines the offset itself). Returns (loss, DVSParams) of
+    the smallest loss."""
+    simulation = objective.simulation
+    grid = np.log(OFFSET_GRID_DN)
+    tried, dvs = [], start
+    for b in OFFSET_GRID_DN:
+        trial = dvs.replace(dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation))
+        value, dvs, _ = _match_counts(objective, trial, f"offset {b:g} DN", steps=2)
+        tried.append((value, dvs))
+    i = min(range(len(tried)), key=lambda k: tried[k][0])
+    best = tried[i]
+    if refine and 0 < i < len(tried) - 1:
+        (x0, x1, x2), (f0, f1, f2) = grid[i - 1:i + 2], [tried[k][0] for k in (i - 1, i, i + 1)]
+        den = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)  # < 0 when the parabola opens up (f1 the smallest)
+        vertex = x1 - 0.5 * ((x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)) / den if den < 0 else x1
+        if x0 < vertex < x2 and abs(vertex - x1) > 0.05:
+            b = math.exp(vertex)
+            near = tried[i - 1 if vertex < x1 else i + 1][1]  # thresholds between the two: start from the mean
+            trial = best[1].replace(
+                dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation),
+                pos_threshold=math.sqrt(best[1].pos_threshold * near.pos_threshold),
+                neg_threshold=math.sqrt(best[1].neg_threshold * near.neg_threshold))
+            value, trial, _ = _match_counts(objective, trial, f"offset {b:.3g} DN", steps=2)
+            if value < best[0]:
+                best = (value, trial)
+    return best
 
 
 def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVSParams]:
@@ -218,43 +258,22 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
     convert does; "off" for noise-free frames). max_evaluations bounds stage 2's simulations. See the module."""
     from tqdm.auto import tqdm
 
-    from evsim_eval.realism import measure_recording
-
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
-    start_s, end_s = (float(v) for v in window_s)
-    if not (math.isfinite(start_s) and math.isfinite(end_s) and 0 <= start_s < end_s):
-        raise sim.EvsimInputError(f"the window must satisfy 0 <= start < end seconds, got {start_s} .. {end_s}")
-    rec: Recording = load(path)
-    if rec.frames is None or rec.frames.shape[0] < 3:
-        raise sim.EvsimInputError(f"{path}: calibration needs a recording with frames (at least 3)")
-    if black_level is None:
-        black_level = float(np.percentile(np.asarray(rec.frames), 0.01))
-    settings = InputSettings(black_level=black_level, conditioning=conditioning)
-    say = log or (lambda s: None)
-    say(f"upsampling the {rec.frames.shape[0]} frames of {path.name} (flow) ...")
-    simulation = RecordingSimulation(path, settings)
-    real = measure_recording(rec, window_s)
+    _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
+    real, simulation = prepare(path, load(path), window_s, black_level, conditioning, log)
     bar = tqdm(total=len(OFFSET_GRID_DN) * 3 + max_evaluations + 8, unit="sim", desc="calibrate",
                disable=not progress, leave=False)
     objective = _Objective(simulation, real, seed, bar)
+    settings = simulation.settings
     try:
         objective.noise = True
         preset_scores = objective(start, "preset")[1]
         objective.noise = False
         objective.best = (math.inf, None, None)  # the search's best: noise-free parameters
         noiseless = start.replace(shot_noise_hz=0.0, dark_shot_noise_hz=0.0, leak_hz=0.0, hot_pixel_fraction=0.0)
-        # stage 1: offset grid with count-matched thresholds
-        best = (math.inf, None, None)
-        dvs = noiseless
-        for b in OFFSET_GRID_DN:
-            trial = dvs.replace(dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation))
-            value, trial, _ = _match_counts(objective, trial, f"offset {b:g} DN", steps=2)
-            if value < best[0]:
-                best = (value, trial, b)
-            dvs = trial  # the next offset starts from these thresholds
-        dvs = best[1]
+        dvs = fit_offset_and_thresholds(objective, noiseless)[1]  # stage 1
         # stage 2: Nelder-Mead on the signal parameters
         dvs = _nelder_mead(objective, dvs, max_evaluations)
         # stage 3: noise candidates by moments, each with its thresholds matched again; the best is kept
@@ -271,6 +290,41 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         scores={"preset": preset_scores, "fitted": fitted_scores}, real=real.summary(), loss=loss, seed=seed,
         evaluations=objective.evaluations, wall_s=time.perf_counter() - wall0,
         cpu_s=time.process_time() - cpu0, history=objective.history)
+
+
+def _checked_window(window_s: tuple[float, float]) -> tuple[float, float]:
+    start_s, end_s = (float(v) for v in window_s)
+    if not (math.isfinite(start_s) and math.isfinite(end_s) and 0 <= start_s < end_s):
+        raise sim.EvsimInputError(f"the window must satisfy 0 <= start < end seconds, got {start_s} .. {end_s}")
+    return start_s, end_s
+
+
+def prepare(path: Path, rec: Recording, window_s: tuple[float, float], black_level: float | None = None,
+            conditioning: str | None = None,
+            log: Callable[[str], None] | None = None) -> tuple[RealismStats, RecordingSimulation]:
+    """(real statistics over window_s, RecordingSimulation) of the recording `rec` read from `path`, checked: frames
+    (at least 3) and MIN_EVENTS real ON and OFF events in the window (sim.EvsimInputError otherwise). black_level
+    None: the frames' darkest 0.01 %."""
+    from evsim_eval.realism import measure_recording
+
+    start_s, end_s = _checked_window(window_s)
+    n_frames = 0 if rec.frames is None else rec.frames.shape[0]
+    if n_frames < 3:
+        raise sim.EvsimInputError(f"{path}: calibration needs a recording with frames (at least 3; it holds "
+                                  f"{n_frames})")
+    if black_level is None:
+        black_level = float(np.percentile(np.asarray(rec.frames), 0.01))
+    real = measure_recording(rec, (start_s, end_s))
+    if min(real.n_on, real.n_off) < MIN_EVENTS:
+        span = (int(rec.events["t"][-1]) - real.origin_us) / 1e6 if rec.events.size else 0.0
+        raise sim.EvsimInputError(
+            f"{path}: {real.n_on} ON and {real.n_off} OFF events in the window {start_s:g}-{end_s:g} s (its events "
+            f"end at {span:.3g} s from the first frame): the fit needs at least {MIN_EVENTS} of each; give a window "
+            "over a part with motion")
+    if log is not None:
+        log(f"upsampling the {n_frames} frames of {path.name} (flow) ...")
+    settings = InputSettings(black_level=black_level, conditioning=conditioning)
+    return real, RecordingSimulation(path, settings)
 
 
 _NM_FIELDS = ("pos_threshold", "neg_threshold", "dark_fraction", "refractory_us", "cutoff_hz")
@@ -297,4 +351,4 @@ def _nelder_mead(objective: _Objective, dvs: sim.DVSParams, max_evaluations: int
     return best if best is not None and objective.best[0] <= result.fun else params(result.x)
 
 
-__all__ = ["Calibration", "calibrate", "loss_of", "OFFSET_GRID_DN", "WEIGHTS"]
+__all__ = ["Calibration", "calibrate", "fit_offset_and_thresholds", "prepare", "loss_of", "OFFSET_GRID_DN", "WEIGHTS"]

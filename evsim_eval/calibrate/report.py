@@ -30,6 +30,10 @@ def _offset_dn(dvs: sim.DVSParams, cal: Calibration) -> float:
     return cal.offset_dn * dvs.dark_fraction / cal.dvs.dark_fraction
 
 
+def _pair(rates: tuple[float, float]) -> str:
+    return f"{rates[0]:.2g} / {rates[1]:.2g}"
+
+
 def fit_table(cal: Calibration) -> str:
     """The parameters (preset, fitted) and the realism statistics (real, preset, fitted) as a Markdown table."""
     rows = [("quantity", "real", cal.preset_name, "fitted"), ("---", "---:", "---:", "---:")]
@@ -49,10 +53,8 @@ def fit_table(cal: Calibration) -> str:
     rows.append(("ON / OFF events", f"{n_on / 1000:.1f} k / {n_off / 1000:.1f} k",
                  f"{count(n_on, pre['on_ratio'])} / {count(n_off, pre['off_ratio'])}",
                  f"{count(n_on, fit['on_ratio'])} / {count(n_off, fit['off_ratio'])}"))
-    quiet = real["quiet_on_hz"], real["quiet_off_hz"]
-    rows.append(("quiet static noise ON / OFF (Hz)", f"{quiet[0]:.2g} / {quiet[1]:.2g}",
-                 f"{quiet[0] * pre['quiet_on_ratio']:.2g} / {quiet[1] * pre['quiet_off_ratio']:.2g}",
-                 f"{quiet[0] * fit['quiet_on_ratio']:.2g} / {quiet[1] * fit['quiet_off_ratio']:.2g}"))
+    rows.append(("quiet static noise ON / OFF (Hz)", _pair((real["quiet_on_hz"], real["quiet_off_hz"])),
+                 _pair(pre["sim_quiet_hz"]), _pair(fit["sim_quiet_hz"])))
     for key, label in (("count_corr_blurred", "per-pixel count correlation, 5x5 blurred"),
                        ("rate_rel_rmse", "10 ms rate, relative RMS error"),
                        ("interval_l1", "interval histogram L1")):

@@ -203,6 +203,8 @@ def _read_frames(d: Path):
         raise fail(path, f"bad time: {e}") from e
     images = []
     for _, name in rows:
+        if not (d / name).is_file():  # said here: OpenCV would print its own warning first
+            raise fail(d / name, f"missing or unreadable image: no such file (listed in {path.name})")
         img = cv2.imread(str(d / name), cv2.IMREAD_UNCHANGED)
         if img is None:
             raise fail(d / name, "missing or unreadable image")
