@@ -63,6 +63,11 @@ class AKFParams:
             frame measures is averaged while pixels the last frame measured keep their value bit for bit.
         smooth_variance: the state variance P (log^2) up to which a pixel is not smoothed at all (half at twice
             it); 3e-5 is about the frame variance R of a well-exposed 8-bit pixel of the AHDR window CRF.
+    Clip prior (not in the paper; akf.clip_prior; acts only with frame_update):
+        clip_prior: a pixel no frame has measured yet (clipped since the first frame) whose interval's frames are
+            both clipped on one side has only a bound (the clip level plus its events); each published image gives
+            it the median of the levels beyond its bound of the pixels on the same side that a frame has measured
+            (their events carried them beyond the clip level). False: such pixels stay at their bound.
     Frame augmentation (section 4.1):
         deblur: EDI-deblur each frame to the start and end of its exposure (else the blurred frame is used as is).
         calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
@@ -94,6 +99,7 @@ class AKFParams:
     frame_update: bool = True
     smooth_range: float = 1.0
     smooth_variance: float = 3e-5
+    clip_prior: bool = True
     deblur: bool = True
     calibrate: bool = True
     calib_min_events: int = 2
@@ -102,7 +108,7 @@ class AKFParams:
 
     def __post_init__(self) -> None:
         """Check every field once, here (the boundary): each error names the field."""
-        for name in ("deblur", "calibrate", "frame_update"):
+        for name in ("deblur", "calibrate", "frame_update", "clip_prior"):
             if not isinstance(getattr(self, name), bool):
                 raise InvalidParameterError(f"AKFParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name in ("rho_bar_us", "calib_min_events"):
