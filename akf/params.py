@@ -39,8 +39,8 @@ class AKFParams:
             Clipped frames are also treated as one-sided (censored) measurements, which the paper does not do:
             where both frames around an interval are clipped on the same side, a state on the impossible side of
             the measurement (below it for a pixel clipped high) is pulled with R * sigma_im2 / max_variance, a
-            state on the possible side with the saturated R; the rule switches exactly when the state crosses
-            the measurement (see akf.kernels.propagate_one_sided).
+            state on the possible side not at all; the rule switches exactly when the state crosses the
+            measurement (see akf.kernels.propagate_one_sided).
         i0: offset I0 (x units) in L = log(I + I0); keeps the log finite at I = 0.
         bias_max_variance: the bias correction of eq. 8 subtracts R/2 (log^2 -> log), capped at
             bias_max_variance / 2; clipped pixels get none (a censored response: the expansion does not apply, and
@@ -80,10 +80,10 @@ class AKFParams:
 
     The defaults suit x in about [0, 1] with 8-bit frames: sigma_im2 = 1e-6 is about one quantisation step of the
     AHDR window CRF squared, and max_variance = 1e4 sigma_im2 (the paper: clipped responses get a large variance
-    "so the filter trusts events there"). Where the state is consistent with a clipped frame its pull is then weak
-    (a time constant of seconds instead of ~10 ms), so events carry the clipped regions; the drift of event noise
-    there is bounded by the output bound (reconstruct's max_intensity, the full well) above and by the strong
-    one-sided pull at the clip level. max_variance is the best of 100, 3e3, 1e4 and 1e5 times sigma_im2 on the
+    "so the filter trusts events there"). Where the state is consistent with two clipped frames it is not pulled
+    at all (a clipped response says only that the truth is beyond the clip level), so events carry the clipped
+    regions; the drift of event noise there is bounded by the output bound (reconstruct's max_intensity, the full
+    well) above and by the strong one-sided pull at the clip level. max_variance is the best of 100, 3e3, 1e4 and 1e5 times sigma_im2 on the
     built-in AHDR suite with the tuning protocol (evsim_eval).
     """
 
