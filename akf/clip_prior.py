@@ -57,7 +57,7 @@ def fill_unmeasured(intensity: npt.NDArray[np.float32], i0: float, side: npt.NDA
     the conditional median (conditional_median) of the log levels of the pixels on the same side that a frame has
     measured, beyond its own bound (above it for +1, below for -1); nothing changes where fewer than MIN_SAMPLE
     such measured pixels exist."""
-    log = np.log(np.maximum(intensity.astype(np.float64) + i0, i0 * 1e-3))
+    log = np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, np.finfo(np.float32).max))
     for s in (1.0, -1.0):
         on = side == s
         sample = on & measured

@@ -77,3 +77,19 @@ def test_a_highlight_clipped_since_the_start_takes_the_level_events_carried_its_
         np.testing.assert_allclose(right, left, rtol=0.02)
     else:
         np.testing.assert_allclose(right, 1.0, rtol=0.02)
+
+
+def test_a_hot_pixel_in_a_clipped_region_leaves_every_output_finite():
+    """Every frame clipped high and a hot pixel firing 600 ON events at a nominal contrast of 1 (its estimate runs
+    out of float32 range, as no clipped frame pulls it back): the output stays finite and within the bound, and
+    the smoothing does not spread the overflow to its neighbours (OpenCV's bilateral filter turned an infinity
+    into NaN, or crashed)."""
+    frames = np.full((4, 12, 12), 255, np.uint8)
+    ts = np.array([0, 50_000, 100_000, 150_000])
+    ev = sim.make_events(np.arange(600) * 100 + 10_000, [6] * 600, [6] * 600, [1] * 600)
+    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0, max_intensity=None,
+                           params=akf.AKFParams(smooth_range=0.0))
+    assert np.isinf(free[0, 6, 6])  # the estimate did overflow
+    img = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [90_000, 175_000], contrast=1.0)
+    assert np.isfinite(img).all() and img.max() <= 1.0
+    np.testing.assert_allclose(np.delete(img[1].ravel(), 6 * 12 + 6), 1.0, rtol=1e-5)  # the clip level, 1 x
