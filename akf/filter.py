@@ -32,7 +32,7 @@ from .clip_prior import fill_unmeasured
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
-from .smoothing import smooth_uncertain
+from .smoothing import EDGE_RANGE, smooth_uncertain
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -296,8 +296,10 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
     Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
     bilateral-filtered where the last frame did not measure the pixel (clipped) and the state is uncertain, weighted
-    by its variance P and never past the clipped frame's level (akf.smoothing); this averages the event speckle of
-    pixels no frame measures and leaves the pixels the last frame measured bit for bit.
+    by its variance P and never past the clipped frame's level (akf.smoothing), with the range smooth_range between
+    two frames clipped on one side and at most akf.smoothing.EDGE_RANGE where the next frame measures the pixel;
+    this averages the event speckle of pixels no frame measures and leaves the pixels the last frame measured bit
+    for bit.
     Clip prior (params.clip_prior, default; not in the paper; needs the frame update): a pixel no frame has
     measured yet whose interval's frames are both clipped on one side has only a bound from them; each published
     image gives it the median level, beyond its bound, of the pixels on that side that a frame did measure
@@ -414,8 +416,15 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
         if prior:  # before the smoothing, which then averages the filled levels too
             fill_unmeasured(oi, i0, C[:, kernels.CC_SIDE], measured)
         if smooth:
-            smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, params.smooth_range,
-                             floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
+            # pixels between two frames clipped on one side (only events and the bound know them) with the full
+            # range, the others the last frame clipped (the next frame measures them: things moving across the
+            # edge of a clipped area) with at most EDGE_RANGE
+            one_sided = C[:, kernels.CC_SIDE] != 0
+            for part, rng in ((one_sided, params.smooth_range), (~one_sided, min(params.smooth_range, EDGE_RANGE))):
+                part_floor = np.where(part, floor, np.float32(np.inf))
+                if np.isfinite(part_floor).any():
+                    smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, rng,
+                                     part_floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
 
     def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
         on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)

@@ -60,7 +60,10 @@ class AKFParams:
         smooth_range: range sigma (log) of the bilateral filter of each published log image; 0 disables it. Each
             pixel the last frame did not measure (clipped) takes the filtered value with the weight
             max(0, 1 - smooth_variance / P), never past that frame's clip level, so the event speckle of pixels no
-            frame measures is averaged while pixels the last frame measured keep their value bit for bit.
+            frame measures is averaged while pixels the last frame measured keep their value bit for bit. Where the
+            next frame measures the pixel (the edge of a clipped area) the range is at most
+            akf.smoothing.EDGE_RANGE (1 log). Default 4: between two clipped frames a range of 4 instead of 1
+            lowered mse01 by 5-17 % and raised ssim01 by 0.01-0.04 on AHDR pans of the shared HDR photos.
         smooth_variance: the state variance P (log^2) up to which a pixel is not smoothed at all (half at twice
             it); 3e-5 is about the frame variance R of a well-exposed 8-bit pixel of the AHDR window CRF.
     Clip prior (not in the paper; akf.clip_prior; acts only with frame_update):
@@ -98,7 +101,7 @@ class AKFParams:
     bias_max_variance: float = 0.1
     p0: float = 0.09
     frame_update: bool = True
-    smooth_range: float = 1.0
+    smooth_range: float = 4.0
     smooth_variance: float = 3e-5
     clip_prior: bool = True
     deblur: bool = True

@@ -27,6 +27,10 @@ if TYPE_CHECKING:
 
 DIAMETER = 5  # pixels: the bilateral filter's window (5 x 5)
 SPATIAL_SIGMA = 1.5  # pixels: the bilateral filter's spatial Gaussian
+#: log: the largest range sigma akf.reconstruct smooths a pixel with when the next frame measures it (it sits at the
+#: edge of a clipped area, where things move in and out): on the DAVIS346 road recording a range of 4 log there
+#: raised mse01 by 0.7 %, while the pixels between two clipped frames gain from it on the AHDR photos
+EDGE_RANGE = 1.0
 #: the largest intensity (x) taken as is: an estimate run out of float32 range (a hot pixel integrated where every
 #: frame is clipped) counts as this, so the filter's window never meets an infinity (NaN)
 LARGEST = float(np.finfo(np.float32).max) / 2
