@@ -4,8 +4,8 @@
 A pixel clipped since the first frame has never been measured: its events give only changes, and the one-sided
 rule of the filter (akf.kernels.propagate_one_sided) keeps its estimate at the clip level or beyond, so the
 estimate is a bound (a lower bound for a pixel clipped high, an upper bound for one clipped low), not a level.
-The pixels of the picture that the last frame also clipped on that side but that an earlier frame measured do
-have a level (their events carried it across the clip level): their levels beyond the clip are a sample of what
+The pixels of the picture between two frames clipped on that side that an earlier frame measured do have a
+level (their events carried it across the clip level): their levels beyond the clip are a sample of what
 lies beyond it in this scene. Each never-measured pixel takes the median of the sampled levels beyond its own
 bound (the conditional median of the truth given the bound, under the sample's distribution); where no sampled
 level lies beyond its bound, or the sample is smaller than MIN_SAMPLE pixels, it keeps its bound. The order of the
@@ -53,17 +53,21 @@ def conditional_median(bounds: npt.ArrayLike, sample: npt.ArrayLike) -> npt.NDAr
 def fill_unmeasured(intensity: npt.NDArray[np.float32], i0: float, side: npt.NDArray[np.float64],
                     measured: npt.NDArray[np.bool_]) -> None:
     """In place, for an image I (x units, any shape) with log L = log(I + i0): every pixel on a clip side (side +1:
-    the last frame clipped it high, -1: low, 0: measured by it) that no frame has measured (measured False) takes
+    both frames of its interval clipped high, -1: low, 0 otherwise) that no frame has measured (measured False) takes
     the conditional median (conditional_median) of the log levels of the pixels on the same side that a frame has
     measured, beyond its own bound (above it for +1, below for -1); nothing changes where fewer than MIN_SAMPLE
     such measured pixels exist."""
-    log = np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, np.finfo(np.float32).max))
     for s in (1.0, -1.0):
         on = side == s
         sample = on & measured
         unknown = on & ~measured
-        if np.count_nonzero(sample) < MIN_SAMPLE or not unknown.any():
+        if not unknown.any() or np.count_nonzero(sample) < MIN_SAMPLE:
             continue
         # on the low side the bound is an upper one: the same rule on -L
-        level = s * conditional_median(s * log[unknown], s * log[sample])
+        level = s * conditional_median(s * _log(intensity[unknown], i0), s * _log(intensity[sample], i0))
         intensity[unknown] = (np.exp(level) - i0).astype(intensity.dtype)
+
+
+def _log(intensity: npt.NDArray[np.float32], i0: float) -> npt.NDArray[np.float64]:
+    """log(I + i0), finite (an estimate run out of float32 range counts as the largest float32)."""
+    return np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, np.finfo(np.float32).max))
