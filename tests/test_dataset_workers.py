@@ -213,7 +213,7 @@ def test_evaluate_on_workers_equals_serial(serial, cluster, tmp_path, capsys, tu
     assert a == b and set(a["akf"]) == {*NAMES, "mean"}
     if tune:
         assert set(a["tuning"]["akf"]) == {"contrast_scale", "event_noise_scale", "frame_noise_scale",
-                                           "max_intensity"}
+                                           "smooth_range", "max_intensity"}
 
 
 def test_resume_redoes_what_changed_or_is_unreadable(tmp_path, capsys):
