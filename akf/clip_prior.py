@@ -34,7 +34,8 @@ if TYPE_CHECKING:
 
 __all__ = ["MIN_SAMPLE", "conditional_median", "fill_unmeasured"]
 
-MIN_SAMPLE = 25  # pixels: the fewest measured clipped pixels (a 5 x 5 patch) whose levels stand for a picture's
+#: pixels: the fewest measured clipped pixels (a 5 x 5 patch) whose levels stand for what lies beyond a picture's clip
+MIN_SAMPLE = 25
 
 
 def conditional_median(bounds: npt.ArrayLike, sample: npt.ArrayLike) -> npt.NDArray[np.float64]:
