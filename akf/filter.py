@@ -24,10 +24,11 @@ from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
+from .clip_prior import fill_unmeasured
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
-from .smoothing import smooth_uncertain
+from .smoothing import EDGE_RANGE, smooth_uncertain
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -291,8 +292,14 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
     Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
     bilateral-filtered where the last frame did not measure the pixel (clipped) and the state is uncertain, weighted
-    by its variance P and never past the clipped frame's level (akf.smoothing); this averages the event speckle of
-    pixels no frame measures and leaves the pixels the last frame measured bit for bit.
+    by its variance P and never past the clipped frame's level (akf.smoothing), with the range smooth_range between
+    two frames clipped on one side and at most akf.smoothing.EDGE_RANGE where the next frame measures the pixel;
+    this averages the event speckle of pixels no frame measures and leaves the pixels the last frame measured bit
+    for bit.
+    Clip prior (params.clip_prior, default; not in the paper; needs the frame update): a pixel no frame has
+    measured yet whose interval's frames are both clipped on one side has only a bound from them; each published
+    image gives it the median level, beyond its bound, of the pixels on that side that a frame did measure
+    (akf.clip_prior), before the smoothing.
 
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
@@ -391,6 +398,9 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     low = np.full(S.shape[0], -np.inf, np.float32)
     high = np.full(S.shape[0], np.inf, np.float32)
     scratch_p = np.empty(S.shape[0], np.float32) if smooth and out_p is None else None
+    # the clip prior (akf.clip_prior): whether a frame has measured each pixel (the clip side is its interval's)
+    prior = params.clip_prior and params.frame_update
+    measured = np.zeros(S.shape[0], bool)
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
@@ -399,9 +409,18 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
         if smooth and op.shape[0] == 0:
             op = scratch_p
         blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
+        if prior:  # before the smoothing, which then averages the filled levels too
+            fill_unmeasured(oi, i0, C[:, kernels.CC_SIDE], measured)
         if smooth:
-            smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, params.smooth_range,
-                             floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
+            # pixels between two frames clipped on one side (only events and the bound know them) with the full
+            # range, the others the last frame clipped (the next frame measures them: things moving across the
+            # edge of a clipped area) with at most EDGE_RANGE
+            one_sided = C[:, kernels.CC_SIDE] != 0
+            for part, rng in ((one_sided, params.smooth_range), (~one_sided, min(params.smooth_range, EDGE_RANGE))):
+                part_floor = np.where(part, floor, np.float32(np.inf))
+                if np.isfinite(part_floor).any():
+                    smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, rng,
+                                     part_floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
 
     def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
         on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)
@@ -419,6 +438,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
         floor[:] = np.where(r > 0, np.inf, params.smooth_variance)
         low[:] = np.where(side > 0, z, -np.inf)
         high[:] = np.where(side < 0, z, np.inf)
+        measured[:] |= r > 0
 
     tau = inp.tau
     j = 0  # next output index

@@ -168,27 +168,33 @@ def _crossing(target, P, dt, R0, x):
 @njit(cache=True, fastmath=FAST)
 def propagate_one_sided(L, P, dt, R0, R1, A0, A1, side, strong):
     """propagate against a censored measurement A (side +1: the truth is at or above A, -1: at or below, 0: an
-    ordinary measurement): while the estimate is on the impossible side (side * (L - A) < 0) R is multiplied by
-    strong. Exact, with the side switched at the crossing time rather than decided once per segment:
+    ordinary measurement). A censored measurement says nothing on its possible side (side * (L - A) > 0): there
+    the state and its variance are kept as they are (the likelihood of a clipped response is flat beyond the clip
+    level; Allik et al. 2016). On the impossible side (side * (L - A) < 0) it is pulled with R * strong.
+    Exact, with the side switched at the crossing time rather than decided once per segment:
     (L - A) / P = e0 / P - A' * integral of 1/P (see propagate), so L - A changes sign only where A moves toward L
-    (e0 * A' > 0), at the u solving u + P * H(u) = e0 / A' (_crossing). It cannot cross back within the segment:
-    at L = A, d(L - A)/dt = -A', whose sign is fixed. Where L = A at the start, the side is that of the motion -A'.
+    (e0 * A' > 0): on the possible side at u = dt * e0 / (A1 - A0) (L stays), on the impossible side at the u
+    solving u + P * H(u) = e0 / A' (_crossing). It cannot cross back within the segment: at L = A,
+    d(L - A)/dt = -A', whose sign is fixed. Where L = A at the start, the side is that of the motion -A'.
     """
     if side == 0 or dt <= 0.0:
         return propagate(L, P, dt, R0, R1, A0, A1)
     e0 = L - A0
     dA = A1 - A0
     d = e0 if e0 != 0.0 else -dA
-    f, g = (strong, 1.0) if side * d < 0.0 else (1.0, strong)
+    possible = side * d >= 0.0
     if e0 * dA > 0.0:
         x = (R1 - R0) / R0
-        u = _crossing(e0 * dt / dA, P, dt, R0 * f, x)
+        u = e0 * dt / dA if possible else _crossing(e0 * dt / dA, P, dt, R0 * strong, x)
         if u < dt:
             v = u / dt
-            Pc = 1.0 / (1.0 / P + u / (R0 * f) * _log1p_over_x(x * v))
             Ac = A0 + v * dA
-            return propagate(Ac, Pc, dt - u, (R0 + v * (R1 - R0)) * g, R1 * g, Ac, A1)
-    return propagate(L, P, dt, R0 * f, R1 * f, A0, A1)
+            if not possible:
+                return Ac, 1.0 / (1.0 / P + u / (R0 * strong) * _log1p_over_x(x * v))
+            return propagate(Ac, P, dt - u, (R0 + v * (R1 - R0)) * strong, R1 * strong, Ac, A1)
+    if possible:
+        return L, P
+    return propagate(L, P, dt, R0 * strong, R1 * strong, A0, A1)
 
 
 @njit(cache=True, inline="always", fastmath=FAST)
@@ -199,7 +205,7 @@ def advance(a, t, L, P, mp, dm, Ra, Rb, Rc, side_p, side_c, strong, s, e, tau_a,
     Clipped frames are one-sided (censored) measurements: where both frames of the interval curve in force are
     clipped (side_p / side_c = +1 high, -1 low, 0 otherwise; the curve with the larger blend weight counts, which
     changes at tau_b = mid-exposure, a sub-segment boundary), a state on the consistent side of the measurement
-    (above it for +1) keeps the weak saturated-variance pull, while a state on the impossible side is pulled with
+    (above it for +1) is kept (the measurement says nothing there), while a state on the impossible side is pulled with
     R * strong (strong = sigma_im2 / max_variance: the variance of a well-exposed pixel at the clip level). The side
     switches exactly where the estimate crosses the measurement (propagate_one_sided), so the result does not
     depend (beyond rounding) on where [a, t] is split: it solves the ODE, not a discretisation of it.

@@ -27,6 +27,13 @@ if TYPE_CHECKING:
 
 DIAMETER = 5  # pixels: the bilateral filter's window (5 x 5)
 SPATIAL_SIGMA = 1.5  # pixels: the bilateral filter's spatial Gaussian
+#: log: the largest range sigma akf.reconstruct smooths a pixel with when the next frame measures it (it sits at the
+#: edge of a clipped area, where things move in and out): on the DAVIS346 road recording a range of 4 log there
+#: raised mse01 by 0.7 %, while the pixels between two clipped frames gain from it on the AHDR photos
+EDGE_RANGE = 1.0
+#: the largest intensity (x) taken as is: an estimate run out of float32 range (a hot pixel integrated where every
+#: frame is clipped) counts as this, so the filter's window never meets an infinity (NaN)
+LARGEST = float(np.finfo(np.float32).max) / 2
 
 
 def smooth_uncertain(intensity: npt.NDArray[np.float32], variance: npt.NDArray[np.float32], i0: float,
@@ -38,7 +45,7 @@ def smooth_uncertain(intensity: npt.NDArray[np.float32], variance: npt.NDArray[n
     [min(low, L), max(high, L)] (log; the levels of clipped frames the truth lies beyond)."""
     import cv2
 
-    log = np.log(np.maximum(intensity + i0, i0 * 1e-3)).astype(np.float32)
+    log = np.log(np.clip(intensity + np.float32(i0), i0 * 1e-3, LARGEST)).astype(np.float32)  # finite
     smooth = cv2.bilateralFilter(log, DIAMETER, float(range_sigma), SPATIAL_SIGMA, borderType=cv2.BORDER_REFLECT)
     w = np.maximum(np.float32(1) - variance_floor / np.maximum(variance, np.float32(1e-30)), np.float32(0))
     on = w > 0  # the other pixels keep their value bit for bit

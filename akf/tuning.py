@@ -56,11 +56,11 @@ __all__ = ["SEARCH_SPACES", "DEFAULTS", "Tuned", "tune", "tune_cases", "setting_
 
 # each grid reaches past the best setting of every method on the AHDR photos and the DAVIS346 road recording, on
 # mse01 and on ssim01 (the chosen values are interior; the bound's None, unbounded, is its natural end)
-_CONTRAST = (0.4, 0.5, 0.67, 0.8, 1.0, 1.25, 1.5, 2.0, 3.0)
+_CONTRAST = (0.4, 0.5, 0.67, 0.8, 1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0)
 _ALPHA = (0.3, 1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0, 500.0)
 _NOISE = (1 / 4096, 1 / 256, 1 / 64, 1 / 16, 0.25, 1.0, 4.0, 16.0, 64.0, 256.0, 4096.0)
-_BOUND = (1.0, 4.0, 16.0, 64.0, None)
-_SMOOTH = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
+_BOUND = (0.5, 1.0, 4.0, 16.0, 64.0, None)
+_SMOOTH = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 #: method -> {parameter: the grid the tuning searches} (the parameters are listed in the module docstring)
 SEARCH_SPACES = {
     "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,

@@ -31,6 +31,8 @@ def test_static_scene_without_events_has_closed_form_variance_and_gain():
         meas = frame_measurement(frames[0] / 255.0, LINEAR, params)
         R = meas.r
         info = 1 / params.p0 + (times[:, None, None] - ts[0]) * 1e-6 / R[None]  # eq. 20, constant R
+        # a clipped pixel sits at its clip level, which says only that the truth is at or beyond it: P stays p0
+        info = np.where(meas.clipped[None], 1 / params.p0, info)
         if frame_update:  # each frame passed (mid-exposure at or before t) adds 1 / R where it is not clipped
             passed = np.searchsorted((ts + te) / 2, times, side="right")
             info = info + np.where(meas.clipped, 0, 1)[None] * passed[:, None, None] / R[None]
@@ -212,9 +214,9 @@ def test_input_validation():
 def test_clipped_frames_are_one_sided_measurements():
     """Frame 0 well exposed, frames 1 and 2 clipped high. Events raise pixel 0 to 0.6 and pixel 1 to 1.2 log units
     above frame 0: after frame 1's exposure the measurement is the clip level, which pixel 1's state exceeds
-    (consistent with a clipped frame: it relaxes with the saturated variance R) and pixel 0's state does not
-    (impossible: pulled with R * sigma_im2 / max_variance). Both follow the closed form of eqs. 17 and 20:
-    L - A = (L1 - A) / (1 + P1 dt / R_eff)."""
+    (consistent with a clipped frame, which says nothing more: state and variance stay) and pixel 0's state does not
+    (impossible: pulled with R * sigma_im2 / max_variance, the closed form of eqs. 17 and 20:
+    L - A = (L1 - A) / (1 + P1 dt / R_eff))."""
     params = akf.AKFParams(smooth_range=0.0)
     frames = np.array([[[100, 100]], [[255, 255]], [[255, 255]]], np.uint8)
     ts = np.array([0, 50_000, 200_000])
@@ -233,9 +235,9 @@ def test_clipped_frames_are_one_sided_measurements():
     assert L[1, 0] < A[0] < L[1, 1]
     dt = (t2 - t1) * 1e-6
     strong = params.sigma_im2 / params.max_variance
-    for k, r_eff in ((0, R[0] * strong), (1, R[1])):
-        expected = (L[1, k] - A[k]) / (1 + P[1, 0, k] * dt / r_eff)
-        assert L[2, k] - A[k] == pytest.approx(expected, rel=1e-3, abs=1e-6)
+    expected = (L[1, 0] - A[0]) / (1 + P[1, 0, 0] * dt / (R[0] * strong))
+    assert L[2, 0] - A[0] == pytest.approx(expected, rel=1e-3, abs=1e-6)
+    assert (img[2, 0, 1], P[2, 0, 1]) == (img[1, 0, 1], P[1, 0, 1])  # no pull toward a level it is consistent with
     # by t1 (5 ms after the clipped exposure) the impossible state is mostly corrected, the consistent one kept
     gap0, gap1 = L[:2] - A
     assert abs(gap1[0]) < 0.25 * abs(gap0[0]) and gap1[1] > 0.5 * gap0[1]
@@ -259,13 +261,12 @@ def test_output_never_exceeds_the_representable_bound():
         akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=-1.0)
 
 
-def test_isolated_event_in_a_clipped_region_relaxes_with_the_saturated_variance():
+def test_isolated_event_in_a_clipped_region_keeps_its_level():
     """The AHDR window CRF, a region clipped high in every frame, ON events at the centre pixel at 105 and 205 ms,
     its 8 neighbours silent since the start. At the second event (eq. 2, no refractory term: 100 ms > rho_bar)
     P1 = P(t_e) + sigma_proc2 * 0.100 s (since the pixel's own last event) + sigma_iso2 * 0.205 s (since the latest
-    neighbour event; the pixel itself excluded). Above the clip the state is consistent with the clipped frames, so
-    it relaxes toward the clip level with the saturated R in closed form, L - A = (L1 - A) / (1 + P1 dt / R)
-    (eqs. 17, 20)."""
+    neighbour event; the pixel itself excluded). Above the clip the state is consistent with the clipped frames,
+    which say only that the truth is at or above the clip level: state and variance stay until the next event."""
     params = akf.AKFParams(smooth_range=0.0)
     window = crf_models.get("window")
     frames = np.full((9, 3, 3), 255, np.uint8)
@@ -275,14 +276,13 @@ def test_isolated_event_in_a_clipped_region_relaxes_with_the_saturated_variance(
     times = [t_e, t_e + 1, t_e + 100_000]
     img, P = akf.reconstruct(ev, frames, ts, ts + 5_000, window, times, params=params, return_variance=True)
     clip = frame_measurement(frames[0] / 255.0, window, params)
-    A, R = clip.log[1, 1], clip.r[1, 1]
+    A = clip.log[1, 1]
     L = np.log(img[:, 1, 1] + params.i0)
     q = params.sigma_proc2 * 0.100 + params.sigma_iso2 * (t_e - ts[0]) * 1e-6
     assert P[1, 1, 1] == pytest.approx(P[0, 1, 1] + q, rel=1e-3)
     assert L[1] - L[0] == pytest.approx(0.2, abs=1e-4)  # the full step is applied (eq. 15)
     assert L[1] > A
-    expected = (L[1] - A) / (1 + P[1, 1, 1] * 0.1 / R)
-    assert L[2] - A == pytest.approx(expected, rel=1e-3)
+    assert (img[2, 1, 1], P[2, 1, 1]) == (img[1, 1, 1], P[1, 1, 1])
     # the neighbours never moved
     np.testing.assert_allclose(np.delete(img[2].ravel(), 4), np.exp(A) - params.i0, rtol=1e-6)
 

@@ -1,6 +1,8 @@
 """The AKF's between-event solutions (eqs. 17, 20, generalised to linear R and measurement) against a numerical ODE
 integration, and the exactness property that publishing does not change the filter's trajectory."""
 
+import math
+
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -58,8 +60,9 @@ def test_propagation_is_a_semigroup():
 
 
 def _ode_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong):
-    """The censored-measurement ODE integrated numerically: R * strong while side * (L - A) < 0, the switch located
-    by the integrator's event detection. Returns (L, P, crossing time or None)."""
+    """The censored-measurement ODE integrated numerically: R * strong while side * (L - A) < 0, no pull at all
+    (R infinite: the state and P stay) on the possible side, the switch located by the integrator's event
+    detection. Returns (L, P, crossing time or None)."""
     R = lambda t: R0 + (R1 - R0) * t / dt
     A = lambda t: A0 + (A1 - A0) * t / dt
 
@@ -70,13 +73,13 @@ def _ode_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong):
         return z[0] - A(t)
 
     cross.terminal = True
-    f = strong if side * (L0 - A0) < 0 else 1.0
+    f = strong if side * (L0 - A0) < 0 else math.inf
     opts = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
     sol = solve_ivp(rhs(f), (0, dt), [L0, P0], events=cross, **opts)
     if sol.status != 1:
         return sol.y[0, -1], sol.y[1, -1], None
     tc, z = sol.t_events[0][0], sol.y_events[0][0]
-    sol = solve_ivp(rhs(strong if f == 1.0 else 1.0), (tc, dt), z, **opts)
+    sol = solve_ivp(rhs(strong if f == math.inf else math.inf), (tc, dt), z, **opts)
     return sol.y[0, -1], sol.y[1, -1], tc
 
 
@@ -97,9 +100,9 @@ def test_one_sided_propagation_switches_side_at_the_crossing(L0, P0, dt, R0, R1,
     L, P = propagate_one_sided(L0, P0, dt, R0, R1, A0, A1, side, strong)
     assert P == pytest.approx(P_num, rel=1e-8)
     assert L == pytest.approx(L_num, rel=1e-7, abs=1e-9)
-    # the rule decided once at the segment start (the former behaviour) misses the switch by far more
-    f = strong if side * (L0 - A0) < 0 else 1.0
-    assert abs(propagate(L0, P0, dt, R0 * f, R1 * f, A0, A1)[1] - P_num) > 1e-3 * P_num
+    # the rule decided once at the segment start misses the switch by far more
+    once = (propagate(L0, P0, dt, R0 * strong, R1 * strong, A0, A1) if side * (L0 - A0) < 0 else (L0, P0))
+    assert abs(once[1] - P_num) > 1e-3 * P_num or abs(once[0] - L_num) > 1e-3
     for v in (0.2, 0.5, 0.8):
         Rm, Am = R0 + v * (R1 - R0), A0 + v * (A1 - A0)
         L1, P1 = propagate_one_sided(L0, P0, v * dt, R0, Rm, A0, Am, side, strong)
@@ -109,8 +112,11 @@ def test_one_sided_propagation_switches_side_at_the_crossing(L0, P0, dt, R0, R1,
 
 def test_one_sided_propagation_without_crossing():
     """A state on the impossible side of a fixed clip level never reaches it: the strong pull throughout; on the
-    consistent side the ordinary R throughout; an unclipped measurement (side 0) is the plain solution."""
+    possible side the state and its variance stay (a clipped response says only that the truth is beyond the clip
+    level), also when the level moves away; an unclipped measurement (side 0) is the plain solution."""
     args = (0.1, 0.05, 0.02, 0.01, 0.03, 0.4, 0.4)
-    for side, L0, f in ((1, 0.1, 0.02), (1, 0.7, 1.0), (-1, 0.7, 0.02), (0, 0.1, 1.0)):
+    for side, L0, f in ((1, 0.1, 0.02), (-1, 0.7, 0.02), (0, 0.1, 1.0)):
         L, P = propagate_one_sided(L0, *args[1:], side, 0.02)
         assert (L, P) == propagate(L0, *args[1:3], args[3] * f, args[4] * f, *args[5:])
+    assert propagate_one_sided(0.7, *args[1:], 1, 0.02) == (0.7, 0.05)
+    assert propagate_one_sided(0.7, 0.05, 0.02, 0.01, 0.03, 0.4, 0.1, 1, 0.02) == (0.7, 0.05)  # level falls away
