@@ -56,6 +56,11 @@ class AKFParams:
             well exposed (or whose event-interpolated curve is off) is barely corrected by the time of the frame.
             With the update the state ends each frame within sqrt(R) of the frame (see akf.kernels.
             akf_frame_update). False: the paper's filter.
+        read_noise_dn: the frames' temporal (read) noise, DN rms before quantisation, which sets the frame update's
+            variance: R of eqs. 6-9 with sigma_im2 replaced by the frame's own noise in x^2 (its DN noise and
+            quantisation through the CRF's slope where f^w is largest; akf.frame_noise.frame_noise_variance). The
+            continuous measurement (the augmented frame) keeps sigma_im2. None (default): estimated from the
+            frames themselves (akf.frame_noise.estimate_read_noise).
     Output smoothing (not in the paper; akf.smoothing):
         smooth_range: range sigma (log) of the bilateral filter of each published log image; 0 disables it. Each
             pixel the last frame did not measure (clipped) takes the filtered value with the weight
@@ -92,6 +97,7 @@ class AKFParams:
     bias_max_variance: float = 0.1
     p0: float = 0.09
     frame_update: bool = True
+    read_noise_dn: float | None = None
     smooth_range: float = 1.0
     smooth_variance: float = 3e-5
     deblur: bool = True
@@ -110,6 +116,8 @@ class AKFParams:
                       unit="microseconds" if name == "rho_bar_us" else "")
         for name in POSITIVE_FIELDS:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
+        if self.read_noise_dn is not None:
+            check_number("AKFParams.read_noise_dn", self.read_noise_dn, positive=False)
         for name in ("bias_max_variance", "calib_prior", "smooth_range"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range

@@ -1,0 +1,199 @@
+"""The frames' temporal noise from the frames themselves: the read noise in DN (estimate_read_noise), its variance
+in the CRF's x units (frame_noise_variance) and the AKF frame update's variance (frame_update_scale).
+
+A static pixel's value in two frames differs by the noise alone, d = round(mu + n_1) - round(mu + n_2) with
+n_i ~ N(0, sigma^2) (sigma: the read noise in DN, before quantisation). Each pair of consecutive frames is first
+aligned by the integer shift that makes it most alike (a panning camera), and only the flattest quarter of its
+unclipped pixels are used, ranked by the slope of their 3 x 3 box mean, from which the pixel's own value cancels
+(a moving edge changes a flat pixel least; the ranking does not select the noise). Pixels that still moved add a
+heavy tail, so the scale is read from the median of |d| (Hampel 1974), not from its variance. At the read noise of
+8-bit frames (about 1 DN) the median of the integers |d| is 0, 1 or 2, so the median is taken of the grouped
+distribution (the counts of |d| = k spread over [k - 1/2, k + 1/2), |d| = 0 over [0, 1/2)) and inverted through the
+same statistic of the quantised model: the distribution of d averaged over a uniform phase of mu (the pixels'
+means spread over many levels; Widrow and Kollar 2008). The continuous MAD / 0.6745 / sqrt(2) of a quantised |d|
+gives 1.05 DN for every sigma from about 0.9 to 1.6 DN.
+
+Used by `evsim calibrate` (the sensor file's [input] read_noise_dn, evsim_eval.realism's static threshold) and by
+the AKF's frame update (AKFParams.read_noise_dn; None: estimated; `evsim evaluate` notes which it used).
+
+References (full citations also in docs/models/references.md):
+
+- Hampel FR (1974). The influence curve and its role in robust estimation. Journal of the American Statistical
+  Association 69(346):383-393.
+- Widrow B, Kollar I (2008). Quantization Noise: Roundoff Error in Digital Computation, Signal Processing, Control,
+  and Communications. Cambridge University Press.
+- European Machine Vision Association (2021). EMVA Standard 1288, Release 4.0 (temporal noise from the difference
+  of two frames).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy import ndimage
+from scipy.optimize import brentq
+from scipy.special import ndtr
+
+from sim.errors import EvsimInputError
+
+from .params import AKFParams
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
+
+__all__ = ["FrameNoise", "estimate_read_noise", "frame_noise_variance", "frame_update_scale", "MAX_PAIRS"]
+
+FLAT_FRACTION = 0.25  # the flattest quarter of the pixels: a moving scene changes them least
+MAX_SHIFT_PX = 6  # the alignment search: a scene moving up to 6 px between frames (180 px/s at 30 fps)
+STILL_RATIO = 0.9  # a shift aligns a pair only if it lowers the median |d| below this fraction of no shift's
+MAX_PAIRS = 16  # frame pairs used at most (evenly spaced): enough pixels for a 0.1 % median, bounded cost
+_PHASES = 32  # phase samples of the quantised model
+_CONTINUOUS_DN = 20.0  # above this read noise quantisation is negligible: the continuous half-normal median
+
+
+@dataclass(frozen=True)
+class FrameNoise:
+    """A frame noise estimate.
+
+    read_noise_dn: the temporal noise of a frame pixel before quantisation (DN rms of the frames' bit depth).
+    bit_depth: the frames' bits. pixels: how many pixel pairs it was read from. source: where it comes from
+    (e.g. "estimated from 29 frames", "sensor file road.toml").
+    """
+
+    read_noise_dn: float
+    bit_depth: int
+    pixels: int
+    source: str
+
+    @property
+    def total_dn(self) -> float:
+        """The temporal noise of a frame value, quantisation included: sqrt(read_noise_dn^2 + 1/12) (DN rms)."""
+        return math.sqrt(self.read_noise_dn**2 + 1.0 / 12.0)
+
+
+def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fraction: float = FLAT_FRACTION,
+                        max_shift: int = MAX_SHIFT_PX, max_pairs: int = MAX_PAIRS) -> FrameNoise:
+    """The read noise (DN rms) of (F, H, W) integer frames from the differences of consecutive frames (see the
+    module): each pair aligned by the integer shift (up to max_shift pixels each way, and a quarter of the
+    frame) that makes it most alike,
+    over the flat_fraction flattest of its pixels where neither value is clipped (0 or 2^bit_depth - 1). At most
+    max_pairs evenly spaced pairs are used. EvsimInputError with fewer than 2 frames or no usable pixel."""
+    frames = np.asarray(frames)
+    if frames.ndim != 3 or frames.shape[0] < 2 or min(frames.shape[1:]) < 3:
+        raise EvsimInputError(f"the read noise needs at least 2 frames (F, H, W) of at least 3 x 3 pixels, got "
+                              f"shape {frames.shape}")
+    max_shift = min(int(max_shift), (min(frames.shape[1:]) - 3) // 4)  # small frames: small shifts
+    m = max_shift + 1
+    full = (1 << int(bit_depth)) - 1
+    n = frames.shape[0]
+    pairs = np.unique(np.linspace(0, n - 2, min(max_pairs, n - 1)).round().astype(np.int64))
+    counts = np.zeros(1, np.int64)
+    for k in pairs:
+        a, b = frames[k].astype(np.int64), frames[k + 1].astype(np.int64)
+        slope_a, slope_b = _local_slope(a), _local_slope(b)
+
+        def aligned(dy, dx, step=1):
+            """|a - b shifted by (dy, dx)| over the pair's flat unclipped pixels (every step-th row and column)."""
+            inner = (slice(m, -m, step), slice(m, -m, step))
+            bs = np.roll(b, (dy, dx), (0, 1))[inner]
+            aa = a[inner]
+            g = np.maximum(slope_a[inner], np.roll(slope_b, (dy, dx), (0, 1))[inner])
+            ok = (aa > 0) & (aa < full) & (bs > 0) & (bs < full)
+            if not ok.any():
+                return np.zeros(0, np.int64)
+            keep = ok & (g <= np.quantile(g[ok], flat_fraction))
+            return np.abs(aa - bs)[keep]
+
+        shifts = [(dy, dx) for dy in range(-max_shift, max_shift + 1) for dx in range(-max_shift, max_shift + 1)]
+        medians = [_grouped_median(np.bincount(d) / d.size) if (d := aligned(dy, dx, 3)).size else np.inf
+                   for dy, dx in shifts]
+        best = int(np.argmin(medians))
+        if medians[best] > STILL_RATIO * medians[len(shifts) // 2]:  # no shift clearly better: the scene is still
+            best = len(shifts) // 2
+        d = aligned(*shifts[best])
+        c = np.bincount(d)
+        counts = np.pad(counts, (0, max(c.size - counts.size, 0)))
+        counts[:c.size] += c
+    used = int(counts.sum())
+    if used == 0:
+        raise EvsimInputError("no unclipped pixel pair to estimate the frames' read noise from")
+    return FrameNoise(_invert(_grouped_median(counts / used)), int(bit_depth), used,
+                      f"estimated from {pairs.size} frame pairs ({used} flat pixel pairs)")
+
+
+def frame_noise_variance(read_noise_dn: float, crf: CRF, bit_depth: int = 8) -> float:
+    """The AKF's sigma_im2 (x^2): the variance in the CRF's x units of a frame pixel where f^w is largest (eq. 6's
+    Rbar = sigma_im2 / f^w), from its temporal noise in DN, quantisation included:
+    (read_noise_dn^2 + 1/12) / (2^bit_depth - 1)^2 / CRF'(x*)^2 with x* = CRF^-1(y*), y* the response of largest
+    weight."""
+    full = float((1 << int(bit_depth)) - 1)
+    y = (np.arange(1, 1024) / 1024.0)
+    y_star = float(y[int(np.argmax(crf.weight(y)))])
+    slope = float(crf.derivative(np.asarray([crf.inverse(y_star)], np.float64))[0])
+    return (read_noise_dn**2 + 1.0 / 12.0) / full**2 / slope**2
+
+
+def frame_update_scale(params: AKFParams, frames: npt.ArrayLike, crf: CRF, bit_depth: int = 8) -> float:
+    """The ratio of the frame update's variance to eq. 9's R: frame_noise_variance(read noise) / sigma_im2, with
+    params.read_noise_dn, else the read noise estimated from the frames (0, quantisation only, where it cannot be:
+    one frame, frames smaller than 3 x 3 pixels, every pixel clipped)."""
+    read_noise = params.read_noise_dn
+    if read_noise is None:
+        try:
+            read_noise = estimate_read_noise(frames, bit_depth).read_noise_dn
+        except EvsimInputError:  # nothing to estimate from; where every frame is clipped no update happens anyway
+            read_noise = 0.0
+    return frame_noise_variance(read_noise, crf, bit_depth) / params.sigma_im2
+
+
+def _local_slope(frame: np.ndarray) -> np.ndarray:
+    """(H, W) largest central difference of the 3 x 3 box mean across each pixel, horizontal or vertical (edges
+    replicated): the pixel's own value cancels from it, so selecting pixels by it does not select their noise."""
+    m = np.pad(ndimage.uniform_filter(frame.astype(np.float64), 3, mode="nearest"), 1, mode="edge")
+    return np.maximum(np.abs(m[1:-1, 2:] - m[1:-1, :-2]), np.abs(m[2:, 1:-1] - m[:-2, 1:-1]))
+
+
+def _grouped_median(p: np.ndarray) -> float:
+    """The median of |d| with probabilities p[k] of |d| = k spread uniformly over [k - 1/2, k + 1/2) ([0, 1/2) for
+    k = 0)."""
+    cum = np.cumsum(p)
+    k = int(np.searchsorted(cum, 0.5))
+    below = cum[k - 1] if k else 0.0
+    lo, width = (0.0, 0.5) if k == 0 else (k - 0.5, 1.0)
+    return lo + (0.5 - below) / p[k] * width
+
+
+def _abs_diff_pmf(sigma: float) -> np.ndarray:
+    """P(|d| = k), k = 0, 1, ..., of d = round(mu + n_1) - round(mu + n_2), n_i ~ N(0, sigma^2), mu of uniform
+    phase (the module's model)."""
+    j = np.arange(-int(math.ceil(6 * sigma)) - 2, int(math.ceil(6 * sigma)) + 3)
+    phase = (np.arange(_PHASES) + 0.5) / _PHASES
+    level = (j[None, :] - phase[:, None]) / sigma
+    p = ndtr(level + 0.5 / sigma) - ndtr(level - 0.5 / sigma)  # (phase, value) P(round(mu + n) = j)
+    spectrum = np.fft.rfft(p, 2 * j.size, axis=1)
+    corr = np.fft.irfft(spectrum * spectrum.conj(), 2 * j.size, axis=1).mean(axis=0)  # P(d = k), k >= 0 first
+    pmf = np.clip(corr[:j.size], 0.0, None)
+    pmf[1:] *= 2.0  # |d| = k for k > 0 is d = k or d = -k
+    return pmf / pmf.sum()
+
+
+def _model_median(sigma: float) -> float:
+    """The grouped median of |d| of the quantised model at read noise sigma (DN)."""
+    if sigma >= _CONTINUOUS_DN:
+        return 0.6744897501960817 * math.sqrt(2.0 * sigma**2 + 1.0 / 6.0)
+    return _grouped_median(_abs_diff_pmf(sigma))
+
+
+def _invert(median: float) -> float:
+    """The read noise whose model median is `median`; 0 below the median of noise-free frames (1/4 DN)."""
+    lo, hi = 1e-3, 1.0
+    if median <= _model_median(lo):
+        return 0.0
+    while _model_median(hi) < median:
+        hi *= 2.0
+    return float(brentq(lambda s: _model_median(s) - median, lo, hi, xtol=1e-6))
