@@ -137,8 +137,8 @@ class _Frames:
         """Frame k as a measurement at its mid-exposure time tau_k for the discrete frame update (flat): its
         bias-corrected log (the mean of the radiance over the exposure equals the radiance at mid-exposure up to
         second order in the change over the exposure, with no event quantisation, unlike the EDI-deblurred value)
-        and its log variance (R with the frame's own noise: update_scale R), 0 where the frame is clipped (no update there), and its clip side (+1 / -1 / 0).
-        None when params.frame_update is off."""
+        and its log variance (R with the frame's own noise: update_scale R), 0 where the frame is clipped (no
+        update there), and its clip side (+1 / -1 / 0). None when params.frame_update is off."""
         if not self.params.frame_update:
             return None
         m = self.measurement(k)

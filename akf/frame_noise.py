@@ -80,9 +80,9 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
                         max_shift: int = MAX_SHIFT_PX, max_pairs: int = MAX_PAIRS) -> FrameNoise:
     """The read noise (DN rms) of (F, H, W) integer frames from the differences of consecutive frames (see the
     module): each pair aligned by the integer shift (up to max_shift pixels each way, and a quarter of the
-    frame) that makes it most alike,
-    over the flat_fraction flattest of its pixels where neither value is clipped (0 or 2^bit_depth - 1). At most
-    max_pairs evenly spaced pairs are used. EvsimInputError with fewer than 2 frames or no usable pixel."""
+    frame) that makes it most alike, over the flat_fraction flattest of its pixels where neither value is clipped
+    (0 or 2^bit_depth - 1). At most max_pairs evenly spaced pairs are used. EvsimInputError with fewer than 2
+    frames or no usable pixel."""
     frames = np.asarray(frames)
     if frames.ndim != 3 or frames.shape[0] < 2 or min(frames.shape[1:]) < 3:
         raise EvsimInputError(f"the read noise needs at least 2 frames (F, H, W) of at least 3 x 3 pixels, got "
@@ -93,29 +93,16 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
     n = frames.shape[0]
     pairs = np.unique(np.linspace(0, n - 2, min(max_pairs, n - 1)).round().astype(np.int64))
     counts = np.zeros(1, np.int64)
+    shifts = [(dy, dx) for dy in range(-max_shift, max_shift + 1) for dx in range(-max_shift, max_shift + 1)]
+    still = len(shifts) // 2  # (0, 0)
     for k in pairs:
-        a, b = frames[k].astype(np.int64), frames[k + 1].astype(np.int64)
-        slope_a, slope_b = _local_slope(a), _local_slope(b)
-
-        def aligned(dy, dx, step=1):
-            """|a - b shifted by (dy, dx)| over the pair's flat unclipped pixels (every step-th row and column)."""
-            inner = (slice(m, -m, step), slice(m, -m, step))
-            bs = np.roll(b, (dy, dx), (0, 1))[inner]
-            aa = a[inner]
-            g = np.maximum(slope_a[inner], np.roll(slope_b, (dy, dx), (0, 1))[inner])
-            ok = (aa > 0) & (aa < full) & (bs > 0) & (bs < full)
-            if not ok.any():
-                return np.zeros(0, np.int64)
-            keep = ok & (g <= np.quantile(g[ok], flat_fraction))
-            return np.abs(aa - bs)[keep]
-
-        shifts = [(dy, dx) for dy in range(-max_shift, max_shift + 1) for dx in range(-max_shift, max_shift + 1)]
-        medians = [_grouped_median(np.bincount(d) / d.size) if (d := aligned(dy, dx, 3)).size else np.inf
+        pair = _Pair(frames[k], frames[k + 1], full, m, flat_fraction)
+        medians = [_grouped_median(np.bincount(d) / d.size) if (d := pair.diffs(dy, dx, 3)).size else np.inf
                    for dy, dx in shifts]
         best = int(np.argmin(medians))
-        if medians[best] > STILL_RATIO * medians[len(shifts) // 2]:  # no shift clearly better: the scene is still
-            best = len(shifts) // 2
-        d = aligned(*shifts[best])
+        if medians[best] > STILL_RATIO * medians[still]:  # no shift clearly better: the scene is still
+            best = still
+        d = pair.diffs(*shifts[best])
         c = np.bincount(d)
         counts = np.pad(counts, (0, max(c.size - counts.size, 0)))
         counts[:c.size] += c
@@ -149,6 +136,28 @@ def frame_update_scale(params: AKFParams, frames: npt.ArrayLike, crf: CRF, bit_d
         except EvsimInputError:  # nothing to estimate from; where every frame is clipped no update happens anyway
             read_noise = 0.0
     return frame_noise_variance(read_noise, crf, bit_depth) / params.sigma_im2
+
+
+class _Pair:
+    """Two consecutive frames (int64) with the local slopes of each."""
+
+    def __init__(self, a: np.ndarray, b: np.ndarray, full: int, margin: int, flat_fraction: float):
+        self.a, self.b, self.full, self.margin, self.flat_fraction = a.astype(np.int64), b.astype(np.int64), full, \
+            margin, flat_fraction
+        self.slope_a, self.slope_b = _local_slope(self.a), _local_slope(self.b)
+
+    def diffs(self, dy: int, dx: int, step: int = 1) -> np.ndarray:
+        """|a - b shifted by (dy, dx)| over the flat_fraction flattest of the unclipped pixels at least margin from
+        the border (every step-th row and column)."""
+        m = self.margin
+        inner = (slice(m, -m, step), slice(m, -m, step))
+        a, b = self.a[inner], np.roll(self.b, (dy, dx), (0, 1))[inner]
+        slope = np.maximum(self.slope_a[inner], np.roll(self.slope_b, (dy, dx), (0, 1))[inner])
+        ok = (a > 0) & (a < self.full) & (b > 0) & (b < self.full)
+        if not ok.any():
+            return np.zeros(0, np.int64)
+        keep = ok & (slope <= np.quantile(slope[ok], self.flat_fraction))
+        return np.abs(a - b)[keep]
 
 
 def _local_slope(frame: np.ndarray) -> np.ndarray:

@@ -2,12 +2,12 @@
 noise, and the frame intervals in which each pixel changed (motion), which tell passages from noise bursts.
 
 A pixel is static when no frame over the scored windows departs from its temporal median by more than the change
-threshold, max(STATIC_SIGMAS x the frames' temporal noise (read noise and quantisation), MIN_CHANGE_DN); quiet when it is static, unsaturated and
-its whole 5x5 neighbourhood is static (no moving edge within 2 pixels); dark when quiet and its median is below
-DARK_DN (8-bit DN, scaled by 2**(bits - 8) for deeper frames). A pixel moves in the interval between frames k and
-k + 1 when its value changes by more than the change threshold. The read noise is the one the AKF's frame update
-uses, estimated from the frame-to-frame differences of the flat pixels (akf.frame_noise.estimate_read_noise: a
-robust median corrected for the frames' quantisation).
+threshold, max(STATIC_SIGMAS x the frames' temporal noise (read noise and quantisation), MIN_CHANGE_DN); quiet
+when it is static, unsaturated and its whole 5x5 neighbourhood is static (no moving edge within 2 pixels); dark
+when quiet and its median is below DARK_DN (8-bit DN, scaled by 2**(bits - 8) for deeper frames). A pixel moves
+in the interval between frames k and k + 1 when its value changes by more than the change threshold. The read
+noise is the one the AKF's frame update uses, estimated from the frame-to-frame differences of the flat pixels
+(akf.frame_noise.estimate_read_noise: a robust median corrected for the frames' quantisation).
 """
 
 from __future__ import annotations
