@@ -51,7 +51,8 @@ __all__ = ["FrameNoise", "estimate_read_noise", "frame_noise_variance", "frame_u
 FLAT_FRACTION = 0.25  # the flattest quarter of the pixels: a moving scene changes them least
 MAX_SHIFT_PX = 6  # the alignment search: a scene moving up to 6 px between frames (180 px/s at 30 fps)
 STILL_RATIO = 0.9  # a shift aligns a pair only if it lowers the median |d| below this fraction of no shift's
-MAX_PAIRS = 16  # frame pairs used at most (evenly spaced): enough pixels for a 0.1 % median, bounded cost
+MAX_PAIRS = 16
+COARSE_STEP = 4  # the alignment search looks at every 4th row and column  # frame pairs used at most (evenly spaced): enough pixels for a 0.1 % median, bounded cost
 _PHASES = 32  # phase samples of the quantised model
 _CONTINUOUS_DN = 20.0  # above this read noise quantisation is negligible: the continuous half-normal median
 
@@ -97,8 +98,7 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
     still = len(shifts) // 2  # (0, 0)
     for k in pairs:
         pair = _Pair(frames[k], frames[k + 1], full, m, flat_fraction)
-        medians = [_grouped_median(np.bincount(d) / d.size) if (d := pair.diffs(dy, dx, 3)).size else np.inf
-                   for dy, dx in shifts]
+        medians = [pair.coarse(dy, dx) for dy, dx in shifts]
         best = int(np.argmin(medians))
         if medians[best] > STILL_RATIO * medians[still]:  # no shift clearly better: the scene is still
             best = still
@@ -145,12 +145,23 @@ class _Pair:
         self.a, self.b, self.full, self.margin, self.flat_fraction = a.astype(np.int64), b.astype(np.int64), full, \
             margin, flat_fraction
         self.slope_a, self.slope_b = _local_slope(self.a), _local_slope(self.b)
+        grid = (slice(margin, -margin, COARSE_STEP), slice(margin, -margin, COARSE_STEP))
+        a_grid, slope_grid = self.a[grid], self.slope_a[grid]
+        ok = (a_grid > 0) & (a_grid < full)
+        self._coarse = ok & (slope_grid <= np.quantile(slope_grid[ok], flat_fraction)) if ok.any() else ok
+        self._grid = grid
 
-    def diffs(self, dy: int, dx: int, step: int = 1) -> np.ndarray:
+    def coarse(self, dy: int, dx: int) -> float:
+        """The grouped median of |a - b shifted by (dy, dx)| over a's flattest unclipped pixels on a coarse grid
+        (the alignment search's criterion; inf where none)."""
+        d = np.abs(self.a[self._grid] - np.roll(self.b, (dy, dx), (0, 1))[self._grid])[self._coarse]
+        return _grouped_median(np.bincount(d) / d.size) if d.size else np.inf
+
+    def diffs(self, dy: int, dx: int) -> np.ndarray:
         """|a - b shifted by (dy, dx)| over the flat_fraction flattest of the unclipped pixels at least margin from
-        the border (every step-th row and column)."""
+        the border."""
         m = self.margin
-        inner = (slice(m, -m, step), slice(m, -m, step))
+        inner = (slice(m, -m), slice(m, -m))
         a, b = self.a[inner], np.roll(self.b, (dy, dx), (0, 1))[inner]
         slope = np.maximum(self.slope_a[inner], np.roll(self.slope_b, (dy, dx), (0, 1))[inner])
         ok = (a > 0) & (a < self.full) & (b > 0) & (b < self.full)
