@@ -51,8 +51,8 @@ __all__ = ["FrameNoise", "estimate_read_noise", "frame_noise_variance", "frame_u
 FLAT_FRACTION = 0.25  # the flattest quarter of the pixels: a moving scene changes them least
 MAX_SHIFT_PX = 6  # the alignment search: a scene moving up to 6 px between frames (180 px/s at 30 fps)
 STILL_RATIO = 0.9  # a shift aligns a pair only if it lowers the median |d| below this fraction of no shift's
-MAX_PAIRS = 16
-COARSE_STEP = 4  # the alignment search looks at every 4th row and column  # frame pairs used at most (evenly spaced): enough pixels for a 0.1 % median, bounded cost
+MAX_PAIRS = 16  # frame pairs used at most (evenly spaced): enough pixels for a 1 % median, bounded cost
+COARSE_STEP = 4  # the alignment search looks at every 4th row and column
 _PHASES = 32  # phase samples of the quantised model
 _CONTINUOUS_DN = 20.0  # above this read noise quantisation is negligible: the continuous half-normal median
 
