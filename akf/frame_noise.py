@@ -151,19 +151,24 @@ class _Pair:
         self._coarse = ok & (slope_grid <= np.quantile(slope_grid[ok], flat_fraction)) if ok.any() else ok
         self._grid = grid
 
+    def _at(self, dy: int, dx: int, step: int = 1) -> tuple[slice, slice]:
+        """The slices of b that sit under a's inner region (margin from the border) when b is shifted by (dy, dx)."""
+        m, (h, w) = self.margin, self.b.shape
+        return slice(m - dy, h - m - dy, step), slice(m - dx, w - m - dx, step)
+
     def coarse(self, dy: int, dx: int) -> float:
         """The grouped median of |a - b shifted by (dy, dx)| over a's flattest unclipped pixels on a coarse grid
         (the alignment search's criterion; inf where none)."""
-        d = np.abs(self.a[self._grid] - np.roll(self.b, (dy, dx), (0, 1))[self._grid])[self._coarse]
+        d = np.abs(self.a[self._grid] - self.b[self._at(dy, dx, COARSE_STEP)])[self._coarse]
         return _grouped_median(np.bincount(d) / d.size) if d.size else np.inf
 
     def diffs(self, dy: int, dx: int) -> np.ndarray:
         """|a - b shifted by (dy, dx)| over the flat_fraction flattest of the unclipped pixels at least margin from
         the border."""
         m = self.margin
-        inner = (slice(m, -m), slice(m, -m))
-        a, b = self.a[inner], np.roll(self.b, (dy, dx), (0, 1))[inner]
-        slope = np.maximum(self.slope_a[inner], np.roll(self.slope_b, (dy, dx), (0, 1))[inner])
+        inner, at = (slice(m, -m), slice(m, -m)), self._at(dy, dx)
+        a, b = self.a[inner], self.b[at]
+        slope = np.maximum(self.slope_a[inner], self.slope_b[at])
         ok = (a > 0) & (a < self.full) & (b > 0) & (b < self.full)
         if not ok.any():
             return np.zeros(0, np.int64)
