@@ -28,7 +28,7 @@ from sim.parallel import in_parallel
 
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
-from .frame_noise import frame_update_scale
+from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
@@ -91,9 +91,10 @@ class _Interval(NamedTuple):
 class _Frames:
     """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
 
-    def __init__(self, inp: Inputs, crf, params: AKFParams, update_scale: float = 1.0):
+    def __init__(self, inp: Inputs, crf, params: AKFParams, read_noise_dn: float = 0.0):
         self.inp, self.crf, self.params = inp, crf, params
-        self.update_scale = update_scale  # the frame update's variance / eq. 9's R (akf.frame_noise)
+        self.read_noise_dn = read_noise_dn  # the frames' read noise: the frame update's variance (akf.frame_noise)
+        self._own = {}  # exposure gain -> the frame update's log variance of every raw level
         self._meas, self._deb, self._tables = {}, {}, {}
         self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
         self._next = 0  # intervals must be taken in order (the calibration accumulates)
@@ -137,12 +138,18 @@ class _Frames:
         """Frame k as a measurement at its mid-exposure time tau_k for the discrete frame update (flat): its
         bias-corrected log (the mean of the radiance over the exposure equals the radiance at mid-exposure up to
         second order in the change over the exposure, with no event quantisation, unlike the EDI-deblurred value)
-        and its log variance (R with the frame's own noise: update_scale R), 0 where the frame is clipped (no
-        update there), and its clip side (+1 / -1 / 0). None when params.frame_update is off."""
+        and its own log variance (its read noise and quantisation through the CRF: akf.frame_noise.
+        frame_log_variance), 0 where the frame is clipped (no update there), and its clip side (+1 / -1 / 0). None
+        when params.frame_update is off."""
         if not self.params.frame_update:
             return None
-        m = self.measurement(k)
-        return m.log.ravel(), np.where(m.clipped, 0.0, self.update_scale * m.r).ravel(), m.side.ravel()
+        m, gain = self.measurement(k), self.inp.exposure_gain(k)
+        if gain not in self._own:
+            levels = np.arange(self.inp.full_scale + 1) / self.inp.full_scale
+            self._own[gain] = frame_log_variance(levels, self.crf, self.read_noise_dn,
+                                                 int(self.inp.full_scale).bit_length(), gain, self.params.i0)
+        own = np.take(self._own[gain], self.inp.frames[k])
+        return m.log.ravel(), np.where(m.clipped, 0.0, own).ravel(), m.side.ravel()
 
     def interval(self, j) -> _Interval:
         """The interval from frame j to frame j + 1. The last frame's interval is open-ended: forward integration
@@ -320,8 +327,10 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
-    scale = frame_update_scale(params, inp.frames, crf, bit_depth) if params.frame_update else 1.0
-    fr = _Frames(inp, crf, params, scale)
+    read_noise = params.read_noise_dn
+    if read_noise is None and params.frame_update:
+        read_noise = frame_read_noise(inp.frames, bit_depth)
+    fr = _Frames(inp, crf, params, read_noise or 0.0)
     strong = params.sigma_im2 / params.max_variance
     noise = kernels.noise_params(params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
                                  leak_rate_hz * 1e-6)

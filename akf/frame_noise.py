@@ -1,5 +1,5 @@
 """The frames' temporal noise from the frames themselves: the read noise in DN (estimate_read_noise), its variance
-in the CRF's x units (frame_noise_variance) and the AKF frame update's variance (frame_update_scale).
+in the CRF's x units (frame_noise_variance) and the AKF frame update's variance (frame_log_variance).
 
 A static pixel's value in two frames differs by the noise alone, d = round(mu + n_1) - round(mu + n_2) with
 n_i ~ N(0, sigma^2) (sigma: the read noise in DN, before quantisation). Each pair of consecutive frames is first
@@ -39,14 +39,13 @@ from scipy.special import ndtr
 
 from sim.errors import EvsimInputError
 
-from .params import AKFParams
-
 if TYPE_CHECKING:
     import numpy.typing as npt
 
     from crf_models import CRF
 
-__all__ = ["FrameNoise", "estimate_read_noise", "frame_noise_variance", "frame_update_scale", "MAX_PAIRS"]
+__all__ = ["FrameNoise", "estimate_read_noise", "frame_noise_variance", "frame_log_variance", "frame_read_noise",
+           "MAX_PAIRS"]
 
 FLAT_FRACTION = 0.25  # the flattest quarter of the pixels: a moving scene changes them least
 MAX_SHIFT_PX = 6  # the alignment search: a scene moving up to 6 px between frames (180 px/s at 30 fps)
@@ -125,17 +124,27 @@ def frame_noise_variance(read_noise_dn: float, crf: CRF, bit_depth: int = 8) -> 
     return (read_noise_dn**2 + 1.0 / 12.0) / full**2 / slope**2
 
 
-def frame_update_scale(params: AKFParams, frames: npt.ArrayLike, crf: CRF, bit_depth: int = 8) -> float:
-    """The ratio of the frame update's variance to eq. 9's R: frame_noise_variance(read noise) / sigma_im2, with
-    params.read_noise_dn, else the read noise estimated from the frames (0, quantisation only, where it cannot be:
-    one frame, frames smaller than 3 x 3 pixels, every pixel clipped)."""
-    read_noise = params.read_noise_dn
-    if read_noise is None:
-        try:
-            read_noise = estimate_read_noise(frames, bit_depth).read_noise_dn
-        except EvsimInputError:  # nothing to estimate from; where every frame is clipped no update happens anyway
-            read_noise = 0.0
-    return frame_noise_variance(read_noise, crf, bit_depth) / params.sigma_im2
+def frame_read_noise(frames: npt.ArrayLike, bit_depth: int = 8) -> float:
+    """estimate_read_noise's read noise (DN), or 0 (quantisation only) where the frames cannot tell it: one frame,
+    frames smaller than 3 x 3 pixels, every pixel clipped (where no frame update happens anyway)."""
+    try:
+        return estimate_read_noise(frames, bit_depth).read_noise_dn
+    except EvsimInputError:
+        return 0.0
+
+
+def frame_log_variance(y: npt.ArrayLike, crf: CRF, read_noise_dn: float, bit_depth: int = 8, gain: float = 1.0,
+                       i0: float = 1e-3) -> np.ndarray:
+    """The variance (log^2) of L = log(I + i0), I = gain CRF^-1(y), of a frame pixel of normalised response y whose
+    raw value carries read_noise_dn of noise and the quantisation of bit_depth bits: the response variance
+    (read_noise_dn^2 + 1/12) / (2^bit_depth - 1)^2 through the CRF's slope, gain^2 var_y / (CRF'(x) (I + i0))^2
+    (first order; inf where the CRF is flat: a clipped response). The frame update's variance."""
+    full = float((1 << int(bit_depth)) - 1)
+    var_y = (read_noise_dn**2 + 1.0 / 12.0) / full**2
+    x = np.asarray(crf.inverse(np.asarray(y, np.float64)), np.float64)
+    slope = np.asarray(crf.derivative(x), np.float64)
+    with np.errstate(divide="ignore"):
+        return np.where(slope > 0, gain**2 * var_y / (slope * (gain * x + i0)) ** 2, np.inf)
 
 
 class _Pair:

@@ -33,8 +33,7 @@ def test_static_scene_without_events_has_closed_form_variance_and_gain():
         info = 1 / params.p0 + (times[:, None, None] - ts[0]) * 1e-6 / R[None]  # eq. 20, constant R
         if frame_update:  # each frame passed (mid-exposure at or before t) adds 1 / R_frame where it is not clipped,
             # R_frame the frame's own noise: noise-free 8-bit frames, so their quantisation, 1/12 DN^2
-            r_frame = R * (1 / 12 / 255**2) / params.sigma_im2
-            assert akf.frame_noise.frame_update_scale(params, frames, LINEAR) == pytest.approx(r_frame[1, 1] / R[1, 1])
+            r_frame = (1 / 12 / 255**2) / (meas.intensity + params.i0) ** 2
             passed = np.searchsorted((ts + te) / 2, times, side="right")
             info = info + np.where(meas.clipped, 0, 1)[None] * passed[:, None, None] / r_frame[None]
         np.testing.assert_allclose(P, 1 / info, rtol=1e-5)
@@ -82,12 +81,13 @@ def test_noise_free_akf_matches_a_well_exposed_frame_within_its_noise_at_the_fra
         params = akf.AKFParams(i0=1e-4, frame_update=frame_update, read_noise_dn=0.0)
         out = akf.reconstruct(events, frames, ts, te, WINDOW, tau[ks], params=params, contrast=0.1)
         sigmas, err, frame_err = [], [], []
-        own = akf.frame_noise.frame_update_scale(params, frames, WINDOW) if frame_update else 1.0
         for img, k in zip(out, ks):
             meas = frame_measurement(frames[k] / 255.0, WINDOW, params)
             well = ~meas.clipped
             truth = np.log(radiance(tau[k]) + params.i0)
-            sigmas.append((np.abs(np.log(img + params.i0) - meas.log) / np.sqrt(own * meas.r))[well])
+            noise = akf.frame_noise.frame_log_variance(frames[k] / 255.0, WINDOW, 0.0, i0=params.i0) \
+                if frame_update else meas.r  # the frame's own (quantisation), or eq. 9's R
+            sigmas.append((np.abs(np.log(img + params.i0) - meas.log) / np.sqrt(noise))[well])
             err.append(np.abs(np.log(img + params.i0) - truth)[well])
             frame_err.append(np.abs(meas.log - truth)[well])
         sigmas, err, frame_err = map(np.concatenate, (sigmas, err, frame_err))

@@ -38,7 +38,7 @@ def _digest(*arrays: np.ndarray) -> str:
 
 
 DVS_HASHES = {"ideal": "ec5c723727f83e01", "davis346": "33fdeec7b284de54", "noisy": "7799904bbd8615a9"}
-AKF_HASHES = {"akf": "c270a194df427be0", "cf": "64e1a6cef77558de", "akf_leak": "67d5fc5d30c7e559"}
+AKF_HASHES = {"akf": "23902f11cf956027", "cf": "64e1a6cef77558de", "akf_leak": "50e94e39cec95564"}
 
 
 @pytest.mark.parametrize("preset", sorted(DVS_HASHES))

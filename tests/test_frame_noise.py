@@ -11,7 +11,7 @@ from scipy import ndimage
 import akf
 import crf_models
 import sim
-from akf.frame_noise import estimate_read_noise, frame_noise_variance, frame_update_scale
+from akf.frame_noise import estimate_read_noise, frame_log_variance, frame_noise_variance
 from evsim_eval.protocols import with_read_noise
 from generators.formats.recording import Recording
 
@@ -69,13 +69,20 @@ def test_camera_read_noise_is_recovered_still_and_panned(speed):
     assert estimate_read_noise(frames).read_noise_dn == pytest.approx(expected, rel=0.07)
 
 
-def test_frame_variance_of_linear_frames_is_read_noise_and_quantisation_in_x():
-    """Linear 8-bit frames: x = DN / 255, so a pixel's variance is (sigma^2 + 1/12) / 255^2 (the frame update's
-    variance, in sigma_im2 units, scales eq. 9's R by it)."""
+def test_frame_variance_is_read_noise_and_quantisation_through_the_crf():
+    """Linear 8-bit frames: x = DN / 255, so a pixel's variance is (sigma^2 + 1/12) / 255^2 in x^2, and in
+    log(I + I0) that over (I + I0)^2; a 2.2 gamma curve, y = x^(1/2.2), divides the response variance by its
+    squared slope y' = y / (2.2 x); twice the exposure time (gain 1/2) halves I and its standard deviation."""
     assert frame_noise_variance(1.5, LINEAR, 8) == pytest.approx((1.5**2 + 1 / 12) / 255**2, rel=1e-9)
-    params = akf.AKFParams(read_noise_dn=1.5)
-    assert frame_update_scale(params, np.zeros((1, 4, 4)), LINEAR) == pytest.approx(
-        (1.5**2 + 1 / 12) / 255**2 / params.sigma_im2, rel=1e-9)
+    var_y = (1.5**2 + 1 / 12) / 255**2
+    y = np.array([0.2, 0.5, 0.9])
+    np.testing.assert_allclose(frame_log_variance(y, LINEAR, 1.5, i0=1e-3), var_y / (y + 1e-3) ** 2, rtol=1e-9)
+    gamma = crf_models.get("gamma", gamma=2.2)
+    x = y**2.2
+    np.testing.assert_allclose(frame_log_variance(y, gamma, 1.5, i0=1e-3), var_y / (y / (2.2 * x) * (x + 1e-3)) ** 2,
+                               rtol=1e-5)
+    np.testing.assert_allclose(frame_log_variance(y, LINEAR, 1.5, gain=0.5, i0=1e-3),
+                               0.25 * var_y / (0.5 * y + 1e-3) ** 2, rtol=1e-9)
 
 
 def _recording(rng):
