@@ -149,7 +149,7 @@ class _Frames:
             self._own[gain] = frame_log_variance(levels, self.crf, self.read_noise_dn,
                                                  int(self.inp.full_scale).bit_length(), gain, self.params.i0)
         own = np.take(self._own[gain], self.inp.frames[k])
-        return m.log.ravel(), np.where(m.clipped, 0.0, own).ravel(), m.side.ravel()
+        return m.log.ravel(), np.where(m.clipped | ~np.isfinite(own), 0.0, own).ravel(), m.side.ravel()
 
     def interval(self, j) -> _Interval:
         """The interval from frame j to frame j + 1. The last frame's interval is open-ended: forward integration
