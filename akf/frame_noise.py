@@ -61,8 +61,8 @@ class FrameNoise:
     """A frame noise estimate.
 
     read_noise_dn: the temporal noise of a frame pixel before quantisation (DN rms of the frames' bit depth).
-    bit_depth: the frames' bits. pixels: how many pixel pairs it was read from. source: where it comes from
-    (e.g. "estimated from 29 frames", "sensor file road.toml").
+    bit_depth: the frames' bits. pixels: how many pixel pairs it was read from. source: how it was obtained
+    (e.g. "estimated from 16 frame pairs (321331 flat pixel pairs)").
     """
 
     read_noise_dn: float
@@ -113,8 +113,8 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
 
 
 def frame_noise_variance(read_noise_dn: float, crf: CRF, bit_depth: int = 8) -> float:
-    """The AKF's sigma_im2 (x^2): the variance in the CRF's x units of a frame pixel where f^w is largest (eq. 6's
-    Rbar = sigma_im2 / f^w), from its temporal noise in DN, quantisation included:
+    """The variance (x^2) of a frame pixel at the response of largest f^w, what eq. 6's sigma_im2 stands for (Rbar =
+    sigma_im2 / f^w), from its temporal noise in DN, quantisation included:
     (read_noise_dn^2 + 1/12) / (2^bit_depth - 1)^2 / CRF'(x*)^2 with x* = CRF^-1(y*), y* the response of largest
     weight."""
     full = float((1 << int(bit_depth)) - 1)
