@@ -301,7 +301,9 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     Frame update (params.frame_update, default on; not in the paper): at each frame's mid-exposure time every pixel
     the frame measures gets a discrete Kalman update with the frame, its prior variance matched to the innovation
     (akf.kernels.akf_frame_update), so at frame times the estimate is within the frame's noise of a well-exposed
-    frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
+    frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away). The
+    frame's noise is its read noise (params.read_noise_dn, else estimated from the frames: akf.frame_noise) and
+    quantisation through the CRF.
     Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
     bilateral-filtered where the last frame did not measure the pixel (clipped) and the state is uncertain, weighted
     by its variance P and never past the clipped frame's level (akf.smoothing); this averages the event speckle of
