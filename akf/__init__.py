@@ -4,13 +4,16 @@ Exports:
 - the filter: reconstruct, AKFParams; augmented_measurement, AugmentedMeasurement (its frame augmentation);
 - baselines (reconstruct's inputs and outputs): complementary_filter, frames_only, direct_integration, and the
   events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
-  the pixel's log offset from the data);
+  the pixel's log offset from the data); estimate_read_noise, FrameNoise (the frames' read noise, which sets the
+  frame update's variance);
 - metrics: mse, psnr, ssim, mse01, ssim01, log_mse, pu21_encode, pu21_psnr, pu21_ssim, score, METRICS (by name),
   NORMALISATION (how each one normalises);
 - evaluation and tuning: evaluate_sequence, METHODS (name -> method); tune, Tuned, SEARCH_SPACES.
 Submodules with more:
 - akf.evaluate: Case, the one scoring path (evaluate_sequence, evsim_eval's dataset protocols and the tuning
   objective all score through it);
+- akf.frame_noise: the frames' read noise from the frames (quantisation-corrected robust median of aligned
+  frame differences) and the frame update's variance it implies;
 - akf.exposure: a method's output averaged over a frame's exposure window (exposure-matched scoring);
 - akf.pixel_classes: the pixel and time classes of the per-class scores;
 - akf.tuning: setting_options, default_setting, describe_setting, and tune_cases (the objective over Cases);
@@ -43,6 +46,7 @@ from .baselines import complementary_filter, direct_integration, frames_only, hi
 from .contrast import ContrastEstimate, estimate_contrast, estimate_log_offset
 from .evaluate import METHODS, evaluate_sequence
 from .filter import AugmentedMeasurement, augmented_measurement, reconstruct
+from .frame_noise import FrameNoise, estimate_read_noise
 from .metrics import (
     METRICS,
     NORMALISATION,
@@ -63,7 +67,7 @@ from .tuning import SEARCH_SPACES, Tuned, tune
 __all__ = [
     "reconstruct", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
     "complementary_filter", "frames_only", "direct_integration", "high_pass_filter",
-    "estimate_contrast", "estimate_log_offset", "ContrastEstimate",
+    "estimate_contrast", "estimate_log_offset", "ContrastEstimate", "estimate_read_noise", "FrameNoise",
     "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",
     "METRICS", "NORMALISATION",
     "evaluate_sequence", "METHODS", "tune", "Tuned", "SEARCH_SPACES",

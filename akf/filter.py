@@ -25,6 +25,7 @@ from sim.parallel import in_parallel
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .clip_prior import fill_unmeasured
+from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
@@ -87,8 +88,10 @@ class _Interval(NamedTuple):
 class _Frames:
     """Per-frame measurements and deblurred frames, computed on demand and kept for a few frames only."""
 
-    def __init__(self, inp: Inputs, crf, params: AKFParams):
+    def __init__(self, inp: Inputs, crf, params: AKFParams, read_noise_dn: float = 0.0):
         self.inp, self.crf, self.params = inp, crf, params
+        self.read_noise_dn = read_noise_dn  # the frames' read noise: the frame update's variance (akf.frame_noise)
+        self._own = {}  # exposure gain -> the frame update's log variance of every raw level
         self._meas, self._deb, self._tables = {}, {}, {}
         self._calibration = ContrastCalibration(inp.c_on.shape[0], params)
         self._next = 0  # intervals must be taken in order (the calibration accumulates)
@@ -132,12 +135,18 @@ class _Frames:
         """Frame k as a measurement at its mid-exposure time tau_k for the discrete frame update (flat): its
         bias-corrected log (the mean of the radiance over the exposure equals the radiance at mid-exposure up to
         second order in the change over the exposure, with no event quantisation, unlike the EDI-deblurred value)
-        and its log variance R, 0 where the frame is clipped (no update there), and its clip side (+1 / -1 / 0).
-        None when params.frame_update is off."""
+        and its own log variance (its read noise and quantisation through the CRF: akf.frame_noise.
+        frame_log_variance), 0 where the frame is clipped (no update there), and its clip side (+1 / -1 / 0). None
+        when params.frame_update is off."""
         if not self.params.frame_update:
             return None
-        m = self.measurement(k)
-        return m.log.ravel(), np.where(m.clipped, 0.0, m.r).ravel(), m.side.ravel()
+        m, gain = self.measurement(k), self.inp.exposure_gain(k)
+        if gain not in self._own:
+            levels = np.arange(self.inp.full_scale + 1) / self.inp.full_scale
+            self._own[gain] = frame_log_variance(levels, self.crf, self.read_noise_dn,
+                                                 int(self.inp.full_scale).bit_length(), gain, self.params.i0)
+        own = np.take(self._own[gain], self.inp.frames[k])
+        return m.log.ravel(), np.where(m.clipped | ~np.isfinite(own), 0.0, own).ravel(), m.side.ravel()
 
     def interval(self, j) -> _Interval:
         """The interval from frame j to frame j + 1. The last frame's interval is open-ended: forward integration
@@ -289,7 +298,9 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     Frame update (params.frame_update, default on; not in the paper): at each frame's mid-exposure time every pixel
     the frame measures gets a discrete Kalman update with the frame, its prior variance matched to the innovation
     (akf.kernels.akf_frame_update), so at frame times the estimate is within the frame's noise of a well-exposed
-    frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away).
+    frame (the paper's continuous measurement leaves pixels that leave a clipped region tens of sigmas away). The
+    frame's noise is its read noise (params.read_noise_dn, else estimated from the frames: akf.frame_noise) and
+    quantisation through the CRF.
     Output smoothing (params.smooth_range > 0, default; not in the paper): each published log image is
     bilateral-filtered where the last frame did not measure the pixel (clipped) and the state is uncertain, weighted
     by its variance P and never past the clipped frame's level (akf.smoothing), with the range smooth_range between
@@ -321,7 +332,10 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
-    fr = _Frames(inp, crf, params)
+    read_noise = params.read_noise_dn
+    if read_noise is None and params.frame_update:
+        read_noise = frame_read_noise(inp.frames, bit_depth)
+    fr = _Frames(inp, crf, params, read_noise or 0.0)
     strong = params.sigma_im2 / params.max_variance
     noise = kernels.noise_params(params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
                                  leak_rate_hz * 1e-6)

@@ -48,14 +48,19 @@ class AKFParams:
     Filter:
         p0: initial state variance P (log^2) at the start of the first exposure.
         frame_update: at each frame's mid-exposure time tau_k, a discrete Kalman update (Kalman 1960) of every pixel
-            the frame measures (not clipped) with the frame's bias-corrected log z and variance R, its prior
-            variance matched to the innovation (covariance matching, Mehra 1972: P_prior = max(P, (z - L)^2 - R)),
+            the frame measures (not clipped) with the frame's bias-corrected log z and its own variance F (the read
+            noise below), its prior variance matched to the innovation (covariance matching, Mehra 1972:
+            P_prior = max(P, (z - L)^2 - F)),
             which the paper does not do. The paper's continuous measurement alone (eqs. 16-20) integrates R(t),
             interpolated between a clipped frame's saturated variance and a well-exposed frame's small one (eq. 7),
             and its P shrinks between frames as if the augmented frame's errors were white, so a pixel that becomes
             well exposed (or whose event-interpolated curve is off) is barely corrected by the time of the frame.
-            With the update the state ends each frame within sqrt(R) of the frame (see akf.kernels.
+            With the update the state ends each frame within sqrt(F) of the frame (see akf.kernels.
             akf_frame_update). False: the paper's filter.
+        read_noise_dn: the frames' temporal (read) noise, DN rms before quantisation, which sets the frame update's
+            variance F: with the quantisation, through the CRF's slope at each pixel's response
+            (akf.frame_noise.frame_log_variance). The continuous measurement (the augmented frame) keeps eq. 9's R.
+            None (default): estimated from the frames themselves (akf.frame_noise.estimate_read_noise).
     Output smoothing (not in the paper; akf.smoothing):
         smooth_range: range sigma (log) of the bilateral filter of each published log image; 0 disables it. Each
             pixel the last frame did not measure (clipped) takes the filtered value with the weight
@@ -101,6 +106,7 @@ class AKFParams:
     bias_max_variance: float = 0.1
     p0: float = 0.09
     frame_update: bool = True
+    read_noise_dn: float | None = None
     smooth_range: float = 4.0
     smooth_variance: float = 3e-5
     clip_prior: bool = True
@@ -120,6 +126,8 @@ class AKFParams:
                       unit="microseconds" if name == "rho_bar_us" else "")
         for name in POSITIVE_FIELDS:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
+        if self.read_noise_dn is not None:
+            check_number("AKFParams.read_noise_dn", self.read_noise_dn, positive=False)
         for name in ("bias_max_variance", "calib_prior", "smooth_range"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range

@@ -14,7 +14,8 @@ Parameters (all multiplicative or in the method's units):
 - frame_noise_scale: multiplies the AKF's frame noise sigma_im2, the variance of a well-exposed pixel; the
   saturated variance of clipped pixels (max_variance) is the clip's, not noise, and stays (raised to sigma_im2
   if the scaled noise exceeds it), so the mse01 tuning of HDR photos, whose error sits in clipped highlights,
-  cannot buy a weaker pull of clipped frames with noisier well-exposed pixels.
+  cannot buy a weaker pull of clipped frames with noisier well-exposed pixels. The frame update's variance is the
+  frames' measured read noise (AKFParams.read_noise_dn, akf.frame_noise), a property of the data: not scaled.
 - smooth_range: the AKF's output smoothing range sigma (log units; 0: off; see akf.smoothing).
 - max_intensity: the output bound (x units; None: unbounded) of every event-based method that has one (the AKF and
   both complementary filters), 1 (the full well) by default. Events can tell what lies above the full well, so

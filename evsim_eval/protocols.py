@@ -26,7 +26,8 @@ a given sensor file (the camera calibrated by `evsim calibrate`), else the thres
 and the fed frames by calibrate's own model and first stage (evsim_eval.calibrate.estimate_thresholds: the log
 offset and the thresholds fitted by simulation; never the held-out frames); the AKF also gets its DVS
 leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see akf.reconstruct),
-unless method_options say otherwise.
+unless method_options say otherwise, and the frames' read noise for its frame update: a sensor file's
+[input] read_noise_dn, else estimated from the fed frames (akf.frame_noise); a note says which.
 
 References (full citations also in docs/models/references.md):
 
@@ -37,6 +38,7 @@ References (full citations also in docs/models/references.md):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -48,6 +50,7 @@ import akf
 import crf_models
 import sim
 from akf.evaluate import Case
+from akf.frame_noise import estimate_read_noise, frame_noise_variance
 from generators.formats import detect
 from generators.formats.recording import Recording, missing_part_error
 from sim import EvsimInputError, OptionError
@@ -203,10 +206,37 @@ def recording_case(rec: Recording, protocol: str = "reference",
     contrast, c_note = recording_contrast_or_estimate(rec, fed, sensor)
     if c_note:
         notes.append(c_note)
+    if "akf" in options:
+        options["akf"], n_note = with_read_noise(options["akf"], rec, crf, fed, sensor)
+        notes.append(n_note)
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
                 rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options,
                 windows=windows, exposure_matched=exposure_matched)
     return case, notes
+
+
+def with_read_noise(akf_options: dict[str, Any], rec: Recording, crf: crf_models.CRF, fed: np.ndarray,
+                    sensor: str | None = None) -> tuple[dict[str, Any], str]:
+    """(AKF options, note): the options with params.read_noise_dn, the frames' read noise that sets the AKF's
+    frame update variance, and a note saying which and where it comes from: the options' own when set, else the
+    [input] read_noise_dn of `sensor` (a sensor file from `evsim calibrate` on this camera) when it has one, else
+    estimated from the fed frames (akf.frame_noise.estimate_read_noise; held-out frames are never used)."""
+    params = akf_options.get("params", akf.AKFParams())
+    if params.read_noise_dn is not None:
+        noise, where = params.read_noise_dn, "as given"
+    else:
+        s = sim.load_sensor(sensor) if sensor is not None else None
+        noise = s.tables.get("input", {}).get("read_noise_dn") if s is not None else None
+        if noise is not None:
+            where = f"from sensor file {Path(s.path).name}" if s.path else f"from preset {s.name}"
+        else:
+            est = estimate_read_noise(rec.frames[fed], rec.frame_bit_depth)
+            noise, where = est.read_noise_dn, f"{est.source} of the fed frames (akf.frame_noise)"
+        params = dataclasses.replace(params, read_noise_dn=float(noise))
+    sigma2 = frame_noise_variance(float(noise), crf, rec.frame_bit_depth)
+    return ({**akf_options, "params": params},
+            f"AKF frame update noise: read noise {noise:.3g} DN {where}, frame variance {sigma2:.3g} x^2 "
+            f"({sigma2 / params.sigma_im2:.3g} sigma_im2)")
 
 
 def recording_contrast_or_estimate(rec: Recording, fed: np.ndarray,

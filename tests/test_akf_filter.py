@@ -33,11 +33,13 @@ def test_static_scene_without_events_has_closed_form_variance_and_gain():
         info = 1 / params.p0 + (times[:, None, None] - ts[0]) * 1e-6 / R[None]  # eq. 20, constant R
         # a clipped pixel sits at its clip level, which says only that the truth is at or beyond it: P stays p0
         info = np.where(meas.clipped[None], 1 / params.p0, info)
-        if frame_update:  # each frame passed (mid-exposure at or before t) adds 1 / R where it is not clipped
+        if frame_update:  # each frame passed (mid-exposure at or before t) adds 1 / R_frame where it is not clipped,
+            # R_frame the frame's own noise: noise-free 8-bit frames, so their quantisation, 1/12 DN^2
+            r_frame = (1 / 12 / 255**2) / (meas.intensity + params.i0) ** 2
             passed = np.searchsorted((ts + te) / 2, times, side="right")
-            info = info + np.where(meas.clipped, 0, 1)[None] * passed[:, None, None] / R[None]
+            info = info + np.where(meas.clipped, 0, 1)[None] * passed[:, None, None] / r_frame[None]
         np.testing.assert_allclose(P, 1 / info, rtol=1e-5)
-        np.testing.assert_allclose(K, (1 / info) / R[None], rtol=1e-5)  # eq. 18
+        np.testing.assert_allclose(K, (1 / info) / R[None], rtol=1e-5)  # eq. 18 (the continuous measurement's R)
         # the state stays at the (bias-corrected) frame log: I = exp(L^F) - I0
         np.testing.assert_allclose(img, np.broadcast_to(np.exp(meas.log) - params.i0, img.shape), rtol=1e-6)
         assert img[0, 1, 1] == pytest.approx(100 / 255, rel=1e-5)
@@ -71,20 +73,23 @@ WINDOW = crf_models.get("window")
 
 def test_noise_free_akf_matches_a_well_exposed_frame_within_its_noise_at_the_frame_time():
     """At each frame's mid-exposure time, in the pixels the frame measures (not clipped), the noise-free AKF is
-    within the frame's own noise sqrt(R) of the frame, and as close to the true log radiance as the frame; the
-    paper's filter (continuous measurement only) is tens of sigmas away where pixels leave a clipped region."""
+    within the frame's own noise of the frame (read_noise_dn=0: noise-free frames, so their quantisation), and as
+    close to the true log radiance as the frame; the paper's filter (continuous measurement only) is tens of
+    sigmas (sqrt(R) of eq. 9) away where pixels leave a clipped region."""
     radiance, events, frames, ts, te = _clipping_scene()
     tau = (ts + te) // 2
     ks = np.arange(3, len(ts) - 1)
     for frame_update in (True, False):
-        params = akf.AKFParams(i0=1e-4, frame_update=frame_update)
+        params = akf.AKFParams(i0=1e-4, frame_update=frame_update, read_noise_dn=0.0)
         out = akf.reconstruct(events, frames, ts, te, WINDOW, tau[ks], params=params, contrast=0.1)
         sigmas, err, frame_err = [], [], []
         for img, k in zip(out, ks):
             meas = frame_measurement(frames[k] / 255.0, WINDOW, params)
             well = ~meas.clipped
             truth = np.log(radiance(tau[k]) + params.i0)
-            sigmas.append((np.abs(np.log(img + params.i0) - meas.log) / np.sqrt(meas.r))[well])
+            noise = akf.frame_noise.frame_log_variance(frames[k] / 255.0, WINDOW, 0.0, i0=params.i0) \
+                if frame_update else meas.r  # the frame's own (quantisation), or eq. 9's R
+            sigmas.append((np.abs(np.log(img + params.i0) - meas.log) / np.sqrt(noise))[well])
             err.append(np.abs(np.log(img + params.i0) - truth)[well])
             frame_err.append(np.abs(meas.log - truth)[well])
         sigmas, err, frame_err = map(np.concatenate, (sigmas, err, frame_err))

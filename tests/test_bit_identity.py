@@ -38,7 +38,7 @@ def _digest(*arrays: np.ndarray) -> str:
 
 
 DVS_HASHES = {"ideal": "ec5c723727f83e01", "davis346": "33fdeec7b284de54", "noisy": "7799904bbd8615a9"}
-AKF_HASHES = {"akf": "1d767df8f69766e2", "cf": "64e1a6cef77558de", "akf_leak": "10678a146022205f"}
+AKF_HASHES = {"akf": "d4ddea55982f6743", "cf": "64e1a6cef77558de", "akf_leak": "63c751b3174b0e8c"}
 
 
 @pytest.mark.parametrize("preset", sorted(DVS_HASHES))

@@ -93,10 +93,13 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
     """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring); n_times dense samples
     from the first exposure start to the end of the data."""
     import akf
+    from akf.frame_noise import frame_read_noise
 
     rec = prep.rec
     check_pixel(rec, x, y)
     params = dataclasses.replace(params or akf.AKFParams(), smooth_range=0.0)
+    if params.read_noise_dn is None:  # the whole frames' read noise: the neighbourhood is too small to measure it
+        params = dataclasses.replace(params, read_noise_dn=frame_read_noise(rec.frames, rec.frame_bit_depth))
     i0 = params.i0
     events, frames, (lx, ly) = _neighbourhood(prep, x, y)
     bw = frames.shape[2]

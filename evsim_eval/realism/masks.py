@@ -2,12 +2,12 @@
 noise, and the frame intervals in which each pixel changed (motion), which tell passages from noise bursts.
 
 A pixel is static when no frame over the scored windows departs from its temporal median by more than the change
-threshold, max(STATIC_SIGMAS x the frames' read noise, MIN_CHANGE_DN); quiet when it is static, unsaturated and
-its whole 5x5 neighbourhood is static (no moving edge within 2 pixels); dark when quiet and its median is below
-DARK_DN (8-bit DN, scaled by 2**(bits - 8) for deeper frames). A pixel moves in the interval between frames k and
-k + 1 when its value changes by more than the change threshold. The read noise is estimated from the
-frame-to-frame differences of every pixel, MAD / 0.6745 / sqrt(2) (Hampel, "The influence curve and its role in
-robust estimation", 1974), which moving pixels, a small minority, do not bias.
+threshold, max(STATIC_SIGMAS x the frames' temporal noise (read noise and quantisation), MIN_CHANGE_DN); quiet
+when it is static, unsaturated and its whole 5x5 neighbourhood is static (no moving edge within 2 pixels); dark
+when quiet and its median is below DARK_DN (8-bit DN, scaled by 2**(bits - 8) for deeper frames). A pixel moves
+in the interval between frames k and k + 1 when its value changes by more than the change threshold. The read
+noise is the one the AKF's frame update uses, estimated from the frame-to-frame differences of the flat pixels
+(akf.frame_noise.estimate_read_noise: a robust median corrected for the frames' quantisation).
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
+
+from akf.frame_noise import estimate_read_noise
 
 STATIC_SIGMAS = 6.0  # a static pixel stays within this many read-noise sigmas of its median (59 frames: ~1e-6 miss)
 MIN_CHANGE_DN = 3.0  # floor of the change threshold (8-bit DN): three quantisation steps
@@ -65,8 +67,9 @@ def frame_masks(frames: np.ndarray, frame_t_us: np.ndarray, windows_us: np.ndarr
     f, h, w = frames.shape
     scale = 2.0 ** (bit_depth - 8)
     diffs = np.abs(np.diff(frames.astype(np.float32), axis=0)) if f > 1 else np.zeros((0, h, w), np.float32)
-    read_noise = float(np.median(diffs) / 0.6745 / np.sqrt(2)) if diffs.size else 0.0
-    change = max(STATIC_SIGMAS * read_noise, MIN_CHANGE_DN * scale)
+    noise = estimate_read_noise(frames, bit_depth) if f > 1 else None
+    read_noise, total = (noise.read_noise_dn, noise.total_dn) if noise else (0.0, 0.0)
+    change = max(STATIC_SIGMAS * total, MIN_CHANGE_DN * scale)
     used = bracketing_frames(t, windows_us)
     sel = frames[used].astype(np.float32)
     median = np.median(sel, axis=0) if used.size else np.zeros((h, w), np.float32)
