@@ -146,13 +146,13 @@ PRESETS: dict[str, DVSParams] = {
     # FITTED: the DAVIS346 of ../shared/data/events/davis346_road (iniVation DV, daylight road, 25 fps APS frames
     # with a 500 us exposure; MIT, from neuromorphicsystems/aedat) by `evsim calibrate davis346_road.aedat4
     # --window 0.4 2.32` (evsim_eval.calibrate: the recording's own frames simulated as convert does, with its
-    # temporal input conditioning, and the realism statistics of the events matched; loss 0.33, 145 simulations).
+    # temporal input conditioning, and the realism statistics of the events matched; loss 0.32, 145 simulations).
     # dark_fraction is relative to the 99th percentile of the first frame (convert's auto illumination): a log
-    # offset of 33 DN of the 8-bit frames. Fit table and scores: docs/guide/calibrate.md.
+    # offset of 38 DN of the 8-bit frames. Fit table and scores: docs/guide/calibrate.md.
     "davis346_road": DVSParams(
-        pos_threshold=0.1899, neg_threshold=0.2170, threshold_sigma=0.0558, refractory_us=41, cutoff_hz=422.0,
-        dark_fraction=0.1296, shot_noise_hz=0.00203, dark_shot_noise_hz=0.0, leak_hz=0.0,
-        hot_pixel_fraction=1.1e-5, hot_pixel_hz=5.73,
+        pos_threshold=0.1740, neg_threshold=0.2011, threshold_sigma=0.0472, refractory_us=108, cutoff_hz=334.0,
+        dark_fraction=0.1504, shot_noise_hz=0.00223, dark_shot_noise_hz=0.0, leak_hz=0.0,
+        hot_pixel_fraction=2.2e-5, hot_pixel_hz=5.99,
     ),
     # The same sensor with the noise of v2e's "noisy" setting (5 Hz shot noise) and more leak and hot pixels.
     "noisy": DVSParams(shot_noise_hz=5.0, dark_shot_noise_hz=10.0, leak_hz=0.5, hot_pixel_fraction=1e-3),

@@ -65,6 +65,8 @@ def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: st
         raise EvsimInputError(f"{name} must be a numpy array of sim.EVENT_DTYPE, got {got}")
     if events.ndim != 1:
         raise EvsimInputError(f"{name} must be one-dimensional, got shape {events.shape}")
+    if events.size == 0:  # nothing to check (and no kernel to compile: `evsim info` loads no numba)
+        return events
     bad = _first_bad_polarity(events["p"])
     if bad >= 0:
         raise EvsimInputError(f"{name}: polarity must be -1 or +1, got {events['p'][bad]} at index {bad}")

@@ -32,6 +32,8 @@ from .prophesee import _geometry as _prophesee_geometry
 
 Chunk = np.ndarray | Mapping[str, np.ndarray]
 
+__all__ = ["EventStream", "open_event_stream"]
+
 
 class EventStream:
     """The events of one recording, read a chunk or a window at a time.

@@ -87,9 +87,14 @@ SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixe
 
 class InputTimingWarning(UserWarning):
     """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
-    contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
+    contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note), in
+    its flags: str() names a remedy in keywords, cli_message in command-line flags (as sim.OptionError)."""
 
     evsim_note = True
+
+    def __init__(self, message: str, cli_message: str | None = None):
+        super().__init__(message)
+        self.cli_message = message if cli_message is None else cli_message
 
 
 def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
@@ -99,7 +104,7 @@ def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
     try:
         tokens = path.read_text().split()
     except OSError as e:
-        raise fail(path, f"cannot read the timestamps file: {e}") from None
+        raise fail(path, f"cannot read the timestamps file: {e.strerror or e}") from None
     try:
         if all(t.lstrip("+-").isdigit() for t in tokens):
             times, unit = np.array([int(t) for t in tokens], dtype=np.int64), "us"
@@ -669,9 +674,10 @@ class VideoScene(Scene):
         motion = self._pair_motion * scale
         if (rate["fps"] <= SLOW_MOTION_MAX_CONTAINER_FPS and np.median(motion) < SLOW_MOTION_MOTION_PX
                 and np.max(motion) * (self.times.size - 1) > 4 * SLOW_MOTION_MOTION_PX):
-            warnings.warn(f"{self.path.name}: at its container rate of {rate['fps']:g} fps it moves only "
-                          f"{np.median(motion):.2f} px per frame (median): if it is a slow-motion clip, pass "
-                          "--slowmo FACTOR or --input-fps (scene keys slowmo, fps)", InputTimingWarning, stacklevel=3)
+            said = (f"{self.path.name}: at its container rate of {rate['fps']:g} fps it moves only "
+                    f"{np.median(motion):.2f} px per frame (median): if it is a slow-motion clip, give")
+            warnings.warn(InputTimingWarning(f"{said} slowmo=FACTOR or fps (the capture rate)",
+                                             f"{said} --slowmo FACTOR or --input-fps"), stacklevel=3)
 
     def _scan_motion(self) -> None:
         """Fill _pair_motion for the intervals not yet seen, with a separate decoder (the window is untouched)."""
