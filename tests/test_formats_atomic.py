@@ -58,3 +58,32 @@ def test_atomic_outputs_get_the_umask_mode_not_private(tmp_path):
         os.umask(old)
     assert (tmp_path / "f.bin").stat().st_mode & 0o777 == 0o644
     assert (tmp_path / "d").stat().st_mode & 0o777 == 0o755
+
+
+def test_a_ctrl_c_inside_an_hdf5_callback_is_deferred_to_check_with_the_bytes_written(tmp_path, monkeypatch):
+    """h5py calls the sink from C: a KeyboardInterrupt raised there crashes the interpreter, so the sink finishes
+    the operation (the file holds every byte, the position is where one write leaves it) and check() raises it."""
+    import h5py
+    import numpy as np
+
+    from generators.formats import atomic
+
+    real, calls = atomic._pwrite, []
+
+    def interrupted_once(fd, data, offset):
+        calls.append(offset)
+        k = real(fd, data, offset)
+        if len(calls) == 3:  # after the bytes landed: the worst place, a retry must not count them twice
+            raise KeyboardInterrupt
+        return k
+
+    monkeypatch.setattr(atomic, "_pwrite", interrupted_once)
+    sink = atomic.GuardedSink(tmp_path / "f.h5")
+    data = np.arange(100_000, dtype=np.int64)
+    with h5py.File(sink, "w") as f:
+        f["x"] = data
+    assert sink.interrupted and len(calls) >= 4  # deferred, and the interrupted write was run again
+    with pytest.raises(KeyboardInterrupt):
+        sink.close()
+    with h5py.File(tmp_path / "f.h5", "r") as f:
+        np.testing.assert_array_equal(f["x"][()], data)
