@@ -60,30 +60,59 @@ def test_atomic_outputs_get_the_umask_mode_not_private(tmp_path):
     assert (tmp_path / "d").stat().st_mode & 0o777 == 0o755
 
 
-def test_a_ctrl_c_inside_an_hdf5_callback_is_deferred_to_check_with_the_bytes_written(tmp_path, monkeypatch):
-    """h5py calls the sink from C: a KeyboardInterrupt raised there crashes the interpreter, so the sink finishes
-    the operation (the file holds every byte, the position is where one write leaves it) and check() raises it."""
+def test_a_ctrl_c_inside_an_hdf5_callback_waits_for_check_and_the_file_stays_whole(tmp_path, monkeypatch):
+    """h5py calls the sink from C: a KeyboardInterrupt raised there is swallowed or crashes the interpreter, so
+    while an H5Output is open the signal is only recorded; check() raises it, and close() one that came after."""
+    import signal
+
     import h5py
     import numpy as np
 
     from generators.formats import atomic
+    from generators.formats.common import H5Output
 
     real, calls = atomic._pwrite, []
 
-    def interrupted_once(fd, data, offset):
+    def signalled_once(fd, data, offset):
         calls.append(offset)
-        k = real(fd, data, offset)
-        if len(calls) == 3:  # after the bytes landed: the worst place, a retry must not count them twice
-            raise KeyboardInterrupt
-        return k
+        if len(calls) == 3:
+            signal.raise_signal(signal.SIGINT)  # Python runs the handler right here, inside HDF5's call
+        return real(fd, data, offset)
 
-    monkeypatch.setattr(atomic, "_pwrite", interrupted_once)
-    sink = atomic.GuardedSink(tmp_path / "f.h5")
-    data = np.arange(100_000, dtype=np.int64)
-    with h5py.File(sink, "w") as f:
-        f["x"] = data
-    assert sink.interrupted and len(calls) >= 4  # deferred, and the interrupted write was run again
-    with pytest.raises(KeyboardInterrupt):
-        sink.close()
+    monkeypatch.setattr(atomic, "_pwrite", signalled_once)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal
+    try:
+        data = np.arange(100_000, dtype=np.int64)
+        out = H5Output(tmp_path / "f.h5")
+        out.file["x"] = data
+        out.file.flush()
+        assert len(calls) >= 3
+        with pytest.raises(KeyboardInterrupt):
+            out.check()
+        out.file["y"] = data
+        signal.raise_signal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            out.close()  # after the file is closed
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
     with h5py.File(tmp_path / "f.h5", "r") as f:
         np.testing.assert_array_equal(f["x"][()], data)
+        np.testing.assert_array_equal(f["y"][()], data)
+
+
+def test_a_second_ctrl_c_while_one_is_held_interrupts_at_once(tmp_path):
+    import signal
+
+    from generators.formats.common import H5Output
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        out = H5Output(tmp_path / "f.h5")
+        signal.raise_signal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            signal.raise_signal(signal.SIGINT)
+        out.abort()  # nothing left to deliver
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -16,17 +16,15 @@ file's objects are freed; the writer raises the recorded error itself once HDF5 
 from __future__ import annotations
 
 import errno
-import functools
 import glob
 import io
 import os
 import shutil
 import socket
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
 
 #: the temporary files and folders this process is writing (added by temp_sibling, removed by commit and discard)
 LIVE: set[Path] = set()
@@ -186,41 +184,19 @@ def disk_full_error(e: BaseException, path: str | Path) -> DiskFullError:
     return DiskFullError(n, strerror, str(path))
 
 
-def _deferring_interrupts(method: Callable) -> Callable:
-    """A GuardedSink method that a Ctrl-C does not break: h5py calls the sink from C, and a KeyboardInterrupt
-    raised there (Python runs the SIGINT handler at whatever line it is on) makes h5py re-enter the sink while
-    deallocating and crash the interpreter (exit -11, the output left behind). The method is run again from the
-    position it started at (every operation is repeatable: writes and reads are at absolute offsets), and the
-    interrupt is recorded for check() to raise."""
-
-    @functools.wraps(method)
-    def run(self: GuardedSink, *args: Any) -> Any:
-        state = (self._pos, self._size)
-        while True:
-            try:
-                return method(self, *args)
-            except KeyboardInterrupt:
-                self.interrupted = True
-                self._pos, self._size = state
-
-    return run
-
-
 class GuardedSink(io.RawIOBase):
     """A binary file for h5py's fileobj driver (`h5py.File(sink, "w")`) whose writes never fail as HDF5 sees
     them: the first OSError (a full disk, a size limit, an I/O error) is recorded in `error`, and that write and
     all later ones are kept in memory instead, so that HDF5 reads back what it wrote and closes the file cleanly.
-    A Ctrl-C during a call from HDF5 is recorded in `interrupted` the same way (_deferring_interrupts).
-    Writers call check() after each block of data (raises the interrupt or the recorded error: the memory kept
-    stays one block) and close() after closing the h5py.File (also raises them); the temporary file is then
-    discarded."""
+    Writers call check() after each block of data (raises the recorded error: the memory kept stays one block)
+    and close() after closing the h5py.File (also raises it); the temporary file is then discarded. Signals that
+    would raise inside HDF5's calls are held meanwhile by the writer (common.H5Output, held_interrupts)."""
 
     def __init__(self, path: str | Path):
         super().__init__()
         self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC | getattr(os, "O_BINARY", 0), 0o600)
         self._pos = self._size = 0
         self.error: OSError | None = None
-        self.interrupted = False  # a KeyboardInterrupt deferred by _deferring_interrupts
         self._kept: list[tuple[int, bytes]] = []  # (offset, data) written since the error
 
     def readable(self) -> bool:
@@ -232,16 +208,13 @@ class GuardedSink(io.RawIOBase):
     def seekable(self) -> bool:
         return True
 
-    @_deferring_interrupts
     def seek(self, pos: int, whence: int = os.SEEK_SET) -> int:
         self._pos = {os.SEEK_SET: 0, os.SEEK_CUR: self._pos, os.SEEK_END: self._size}[whence] + int(pos)
         return self._pos
 
-    @_deferring_interrupts
     def tell(self) -> int:
         return self._pos
 
-    @_deferring_interrupts
     def readinto(self, b: bytearray | memoryview) -> int:
         view = memoryview(b).cast("B")
         n = max(0, min(len(view), self._size - self._pos))
@@ -255,7 +228,6 @@ class GuardedSink(io.RawIOBase):
         self._pos += n
         return n
 
-    @_deferring_interrupts
     def write(self, b: bytes | bytearray | memoryview) -> int:
         view = memoryview(b).cast("B")
         n, off = len(view), self._pos
@@ -272,7 +244,6 @@ class GuardedSink(io.RawIOBase):
         self._size = max(self._size, self._pos)
         return n
 
-    @_deferring_interrupts
     def truncate(self, size: int | None = None) -> int:
         size = self._pos if size is None else int(size)
         if self.error is None:
@@ -287,10 +258,7 @@ class GuardedSink(io.RawIOBase):
         pass
 
     def check(self) -> None:
-        """Raise the deferred KeyboardInterrupt, else the recorded write error, if any."""
-        if self.interrupted:
-            self.interrupted = False
-            raise KeyboardInterrupt
+        """Raise the recorded write error, if any."""
         if self.error is not None:
             raise self.error
 

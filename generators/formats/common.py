@@ -20,6 +20,7 @@ import numpy as np
 
 from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
 
+from . import held_interrupts
 from .atomic import GuardedSink, is_disk_full
 from .recording import MAX_SENSOR_PX, MAX_TIME_US, Recording, validate_recording
 
@@ -179,18 +180,29 @@ def open_h5(path: str | Path) -> Iterator[h5py.File]:
 class H5Output:
     """An HDF5 file being written to `tmp` through an atomic.GuardedSink, so that a failed write (a full disk)
     never reaches HDF5: `file` is the h5py.File; check() raises the error of a failed write (call it after each
-    block of data); close() closes the file and raises that error; abort() closes without raising."""
+    block of data); close() closes the file and raises that error; abort() closes without raising it.
+
+    From creation to close() or abort() (one of which every path must call), Ctrl-C and SIGTERM are held
+    (held_interrupts): check() delivers them, and close() and abort() deliver one received meanwhile once the
+    file is closed."""
 
     def __init__(self, tmp: str | Path):
-        self.sink = GuardedSink(tmp)
+        self._holding = held_interrupts.hold()
+        try:
+            self.sink = GuardedSink(tmp)
+        except BaseException:
+            self._release()
+            raise
         try:
             self.file = h5py.File(self.sink, "w")
         except BaseException:
             self._close_sink_quietly()
+            self._release()
             raise
 
     def check(self) -> None:
-        """Raise the error of a failed write, if any."""
+        """Deliver a Ctrl-C or SIGTERM received since the last check; raise the error of a failed write, if any."""
+        held_interrupts.deliver_pending()
         self.sink.check()
 
     def close(self) -> None:
@@ -199,16 +211,26 @@ class H5Output:
             self.file.close()
         except BaseException:
             self._close_sink_quietly()
+            self._release()
             raise
-        self.sink.close()
+        try:
+            self.sink.close()
+        finally:
+            self._release()
 
     def abort(self) -> None:
-        """Close without raising (the caller has an error of its own to report)."""
+        """Close without raising a failed write's error (the caller has an error of its own to report)."""
         try:
             self.file.close()
         except Exception:
             pass
         self._close_sink_quietly()
+        self._release()
+
+    def _release(self) -> None:
+        if self._holding:
+            self._holding = False
+            held_interrupts.release()
 
     def _close_sink_quietly(self) -> None:
         try:

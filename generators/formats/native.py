@@ -286,11 +286,12 @@ class NativeWriter:
             append_rows(self._ds[name], data)
         else:
             appender.append(data)
-        error = self._out.sink.error
-        if error is not None:  # a failed write (full disk): stop here
+        try:
+            self._out.check()  # a failed write (full disk), Ctrl-C or SIGTERM: stop here
+        except BaseException as e:
             self.abort()
-            self._raise_disk_full(error)
-            raise error
+            self._raise_disk_full(e)
+            raise
 
     def _raise_disk_full(self, e: BaseException) -> None:
         if is_disk_full(e) and not isinstance(e, DiskFullError):
