@@ -628,8 +628,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
-                         "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
-                         "every sequence's scored frames; all methods are then scored on the rest")
+                         "parameters (CF gain, contrast scale, AKF noise scales and smoothing, output bound; "
+                         "akf.tuning.SEARCH_SPACES) on the first --tune-fraction of every sequence's scored frames; "
+                         "all methods are then scored on the rest")
     ev.add_argument("--tune-fraction", type=float, default=TUNE_FRACTION,
                     help=f"fraction of each sequence's scored frames that tunes (default {TUNE_FRACTION:.3g})")
     ev.add_argument("--tune-metric", default=TUNE_METRIC,
