@@ -604,7 +604,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     info = sub.add_parser("info", help="what a dataset holds (duration, events, rates, frames, exposure, CRF, seed)",
                           epilog=EPILOG)
-    info.add_argument("file", type=Path, help="a dataset: native or E2VID HDF5, IJRR folder, AKF .mat")
+    info.add_argument("file", type=Path, help="a file or recording folder evsim reads (native or E2VID HDF5, AEDAT4, "
+                                              "Prophesee .raw/.dat, IJRR or EXR folder, AKF .mat, ...) or a folder "
+                                              "of them (a dataset folder: each sequence in turn)")
     info.set_defaults(func=_cmd_info)
 
     ev = sub.add_parser("evaluate", help="score HDR reconstructions per sequence (AKF, baselines) and print a table",
