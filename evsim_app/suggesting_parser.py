@@ -34,6 +34,8 @@ class SuggestingParser(argparse.ArgumentParser):
             hints = [f"{w!r}: did you mean {hint!r}?" for w in words if (hint := self._hint(w, flags))]
             if hints:
                 message += f" ({'; '.join(hints)})"
+            # argparse reports unrecognised flags from the top-level parser: show the usage of the subcommand typed
+            argparse.ArgumentParser.error(self._deepest_in_use(), message)
         super().error(message)
 
     def _hint(self, word: str, flags: list[str]) -> str | None:
@@ -50,6 +52,16 @@ class SuggestingParser(argparse.ArgumentParser):
         """(what to type instead of an unknown flag, how close: 0..1) or None; set on the top-level parser (e.g.
         evsim_app.model_flags.flag_hint: a model field -> --dvs FIELD=VALUE)."""
         return None
+
+    def _deepest_in_use(self) -> argparse.ArgumentParser:
+        """The innermost subparser that took part in the parse (this parser when none did)."""
+        parser = self
+        while True:
+            inner = [p for action in parser._actions if isinstance(action, argparse._SubParsersAction)
+                     for p in action.choices.values() if getattr(p, "_took_part", False)]
+            if not inner:
+                return parser
+            parser = inner[0]
 
     def _flags_in_use(self) -> list[str]:
         """The option strings of this parser and of the subparsers that took part in the parse."""

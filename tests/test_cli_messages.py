@@ -46,6 +46,13 @@ def test_mistyped_flags_and_subcommands_get_a_suggestion(capsys, args, hint):
     assert hint in err, err
 
 
+def test_an_unrecognised_flag_shows_the_usage_of_the_subcommand_typed(capsys):
+    err = _error(capsys, ["generate", "ahdr", "--overwite"])
+    assert err.startswith("usage: evsim generate ahdr [-h]"), err
+    assert "evsim generate ahdr: error: unrecognized arguments: --overwite" in err
+    assert _error(capsys, ["--bogus"]).startswith("usage: evsim [-h]")  # no subcommand: the top-level usage
+
+
 def test_a_subcommands_flags_are_suggested_only_when_it_is_the_one_typed(capsys):
     err = _error(capsys, ["info", "f.h5", "--overwite"])  # info has no --overwrite: no suggestion of another's
     assert "unrecognized arguments: --overwite" in err and "did you mean" not in err
