@@ -121,6 +121,7 @@ writer = dv.io.MonoCameraWriter(head["path"], config)
 del writer  # closes the file (a failed write aborts this process)
 """
 PACKET_EVENTS = 32768  # events per EVTS packet at most
+MAX_SIDE = 32767  # pixels: the Event struct's int16 x and y
 
 
 def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | None = None) -> None:
@@ -137,6 +138,9 @@ def write_aedat4(rec: Recording, path: str | Path, *, event_source: Iterator | N
     atomic.DiskFullError naming `path`; a failure of dv-processing an OSError with its message.
     """
     validate_recording(rec)
+    if max(rec.width, rec.height) > MAX_SIDE:
+        raise EvsimInputError(f"aedat4 holds sensors up to {MAX_SIDE}x{MAX_SIDE} pixels (int16 x and y), not "
+                              f"{rec.width}x{rec.height}: choose another format")
     for module, what in (("dv_processing", "dv-processing"), ("lz4", "lz4")):
         if importlib.util.find_spec(module) is None:
             raise EvsimInputError(f"writing AEDAT4 needs the optional '{what}' package (pip install {what})")
