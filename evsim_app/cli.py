@@ -114,6 +114,9 @@ def _dataset_config(args):
 
 _FOLDER_OUTPUT_COMMANDS = ("demo", "generate", "convert", "reconstruct")  # their --out is a folder
 _FILE_OUTPUT_FLAGS = ("json", "out", "animate")  # of the other commands (evaluate, plot): files
+#: suffixes of the files evsim reads and writes: a new --out folder ending in one is a mistaken file name
+_FILE_SUFFIXES = (".h5", ".hdf5", ".aedat4", ".aedat2", ".aedat", ".raw", ".dat", ".mat", ".zip", ".exr", ".txt",
+                  ".json", ".mp4", ".avi", ".mov")
 MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows file systems)
 
 
@@ -158,6 +161,10 @@ def _check_output(flag: str, text: str, *, folder: bool | None) -> None:
             raise sim.EvsimInputError(f"{flag} {path}: the folder is not writable (permissions or a read-only "
                                       "file system)")
         return
+    if folder and path.suffix.lower() in _FILE_SUFFIXES:
+        raise sim.EvsimInputError(f"{flag} {text} ends in {path.suffix}, a file's suffix, but names the output "
+                                  f"folder (the files inside are named after each sequence): give a folder, e.g. "
+                                  f"{flag} {path.with_suffix('')}")
     parent = next((q for q in path.absolute().parents if q.exists()), None)
     if parent is not None and not parent.is_dir():
         raise sim.EvsimInputError(f"{flag}: {parent} is a file, not a folder, so {path} cannot be created")
