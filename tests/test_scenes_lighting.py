@@ -80,3 +80,5 @@ def test_the_lighting_table_and_flag_are_checked_and_recorded(tmp_path, capsys):
 
     meta = load(tmp_path / "lit" / "checkerboard.h5").metadata
     assert meta["scene"]["lighting"] == {"flicker_hz": 100.0, "depth": 0.25, "phase_rad": 0.0}
+    assert main(["info", str(tmp_path / "lit" / "checkerboard.h5")]) == 0
+    assert "  lighting    flicker 100 Hz, depth 0.25, phase 0 rad" in capsys.readouterr().out
