@@ -501,7 +501,8 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
     g.add_argument("--lighting", action="append", metavar="FIELD=VALUE",
                    help="light every scene with a flickering lamp (generators.scenes.FlickerLighting; repeatable, "
                         "FIELD=VALUE,FIELD=VALUE): flicker_hz (Hz: 100 for 50 Hz mains, 120 for 60 Hz), depth "
-                        "(modulation, 0..1; default 0.2), phase_rad (default 0)")
+                        "(modulation, 0..1; default 0.2), phase_rad (default 0), rise_fraction (share of the "
+                        "period in which the light rises, 0.05..0.95; default 0.5, a cosine)")
     add_model_flags(g)
 
 

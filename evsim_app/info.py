@@ -35,10 +35,10 @@ def describe(path: str | Path) -> dict:
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
     reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
     seed_entropy, generator, input (a converted video: path, capture_fps, rate_from, resize, linearisation,
-    conditioning) or None, lighting (a scene under flickering light: flicker_hz, depth, phase_rad) or None,
-    sensor_model (the sensor's record: name, file, provenance, ...), dvs_changes ({field: value} of the DVS fields
-    the run set over that sensor's, auto-resolved illumination aside), packages, outputs (what the generator was
-    asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
+    conditioning) or None, lighting (a scene under flickering light: flicker_hz, depth, phase_rad, rise_fraction)
+    or None, sensor_model (the sensor's record: name, file, provenance, ...), dvs_changes ({field: value} of the
+    DVS fields the run set over that sensor's, auto-resolved illumination aside), packages, outputs (what the
+    generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
     whether it has index.json, sequences: [one such dict each]}. Raises DatasetFormatError for unreadable files."""
     path = Path(path)
     sequences = folder_sequences(path)
@@ -227,7 +227,7 @@ def format_description(d: dict) -> str:
     if d.get("lighting"):
         light = d["lighting"]
         lines.append(f"  lighting    flicker {light['flicker_hz']:g} Hz, depth {light['depth']:g}, phase "
-                     f"{light['phase_rad']:g} rad")
+                     f"{light['phase_rad']:g} rad, rising over {light.get('rise_fraction', 0.5):g} of the period")
     if d["seed_entropy"] is not None:
         lines.append(f"  seed        {d['seed_entropy']} (SeedSequence entropy)")
     if d["packages"]:

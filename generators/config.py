@@ -434,7 +434,7 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
     if lighting is None:
         return base
     lighting = _check_table(f"{where}.lighting", lighting, _LIGHTING_TABLE)
-    keys = {"flicker_hz": "frequency_hz", "depth": "depth", "phase_rad": "phase_rad"}
+    keys = {"flicker_hz": "frequency_hz", "depth": "depth", "phase_rad": "phase_rad", "rise_fraction": "rise_fraction"}
     try:
         return scenes.FlickerLighting(base, **{keys[k]: v for k, v in lighting.items()})
     except InvalidParameterError as e:  # "lighting: depth must be ..."
