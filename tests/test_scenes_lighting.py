@@ -126,3 +126,9 @@ def test_the_realism_score_finds_the_flicker_of_the_event_rate():
     assert compare(on, on).scores["flicker_share_ratio"] == 1.0
     assert compare(on, both).scores["flicker_share_ratio"] == 0.0  # its flicker is elsewhere
     assert math.isnan(compare(noise, on).scores["flicker_share_ratio"])  # nothing to match
+    from evsim_eval.calibrate.fit import flicker_warning  # calibrate says what the frames cannot give it
+
+    note = flicker_warning(both)
+    assert "the real events flicker at 200 Hz" in str(note) and "'flicker_hz': 200" in str(note)
+    assert "convert with --lighting flicker_hz=200," in note.cli_message and note.evsim_note
+    assert flicker_warning(noise) is None
