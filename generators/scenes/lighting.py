@@ -1,8 +1,8 @@
 """Any scene under flickering light: the mains flicker of fluorescent and LED lamps, which event cameras record.
 
 A lamp on an AC supply of 50 (60) Hz modulates its light at twice that, 100 (120) Hz, by a depth that ranges from
-a few percent (good LED drivers) to nearly 100 % (magnetic-ballast fluorescent tubes; IEEE Std 1789-2015 calls
-2 depth / (1 + depth) the "percent flicker" of such a waveform). A DVS pixel sees every pixel of the scene
+a few percent (good LED drivers) to nearly 100 % (magnetic-ballast fluorescent tubes); depth is IEEE Std
+1789-2015's "percent flicker", (max - min) / (max + min), as a fraction. A DVS pixel sees every pixel of the scene
 change by log(1 + depth w(t)) in step: bursts of ON and OFF events at the flicker frequency over the whole
 picture, as in the DAVIS346 lab recording of ../shared/data/events/davis346_lab (its event rate peaks every
 10 ms: a sharp ON burst as the light rises, OFF events spread over its slower fall). FlickerLighting multiplies a
