@@ -225,11 +225,12 @@ def _cmd_generate_sweep(args) -> int:
 
     cfg = _dataset_config(args)
     spec = cfg.sequences[0]
-    grid = dict(cfg.sweep) or dict(DEFAULT_GRID)
+    grid = dict(cfg.sweep)  # the configuration's [sweep], the grid flags over it; DEFAULT_GRID when neither
     for key in GRID_KEYS:
         values = getattr(args, key)
         if values is not None:
             grid[key] = values
+    grid = grid or dict(DEFAULT_GRID)
     s = spec.settings
     scene = build_scene(spec.scene, s["height"], s["width"], spec.duration_us, where=f"sequence {spec.name!r}")
     index = generate_sweep(scene, args.out, grid, to_ahdr_config(s), cfg.seed if args.seed is None else args.seed,
@@ -622,7 +623,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_flags(sweep)
     _add_output_flags(sweep, "evsim_sweep")
     _add_run_flags(sweep)
-    grid = sweep.add_argument_group("grid (lists of values; default threshold_sigma 0 0.05 x shot_noise_hz 0 2)")
+    grid = sweep.add_argument_group("grid (lists of values, over the configuration's [sweep]; without "
+                                     "either: threshold_sigma 0 0.05 x shot_noise_hz 0 2)")
     grid.add_argument("--threshold-sigma", type=float, nargs="+", help="threshold mismatch std (log units)")
     grid.add_argument("--shot-noise-hz", type=float, nargs="+", help="shot-noise rate per pixel (Hz)")
     grid.add_argument("--leak-hz", type=float, nargs="+", help="leak-event rate per pixel (Hz)")
@@ -635,13 +637,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     info = sub.add_parser("info", help="what a dataset holds (duration, events, rates, frames, exposure, CRF, seed)",
                           epilog=EPILOG)
-    info.add_argument("file", type=Path, help="a dataset: native or E2VID HDF5, IJRR folder, AKF .mat")
+    info.add_argument("file", type=Path, help="a file or recording folder evsim reads (native or E2VID HDF5, AEDAT4, "
+                                              "Prophesee .raw/.dat, IJRR or EXR folder, AKF .mat, ...) or a folder "
+                                              "of them (a dataset folder: each sequence in turn)")
     info.set_defaults(func=_cmd_info)
 
     ev = sub.add_parser("evaluate", help="score HDR reconstructions per sequence (AKF, baselines) and print a table",
                         epilog=EPILOG)
-    ev.add_argument("dataset", type=Path, help="a native .h5 file, a dataset folder (index.json or .h5 files), "
-                                               "an IJRR folder or an AKF .mat")
+    ev.add_argument("dataset", type=Path, help="a file evsim reads with frames (native .h5, AEDAT4, AKF .mat, ...), an "
+                                               "IJRR folder, a dataset folder (index.json) or a folder of native .h5 "
+                                               "files")
     ev.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                     help=f"comma-separated methods (akf.METHODS; default {','.join(DEFAULT_METHODS)})")
     ev.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
@@ -658,8 +663,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
                     help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
-                         "parameters (CF gain, contrast scale, AKF noise scales) on the first --tune-fraction of "
-                         "every sequence's scored frames; all methods are then scored on the rest")
+                         "parameters (CF gain, contrast scale, AKF noise scales and smoothing, output bound; "
+                         "akf.tuning.SEARCH_SPACES) on the first --tune-fraction of every sequence's scored frames; "
+                         "all methods are then scored on the rest")
     ev.add_argument("--tune-fraction", type=float, default=TUNE_FRACTION,
                     help=f"fraction of each sequence's scored frames that tunes (default {TUNE_FRACTION:.3g})")
     ev.add_argument("--tune-metric", default=TUNE_METRIC,

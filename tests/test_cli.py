@@ -85,6 +85,17 @@ def test_sweep_from_config_with_grid_flags(tmp_path):
         assert dvs["leak_hz"] == e["sweep_point"]["leak_hz"]
 
 
+def test_sweep_grid_flags_alone_are_the_grid(tmp_path):
+    # without a configuration, --shot-noise-hz alone sweeps the shot noise only (the default grid is not mixed in)
+    out = tmp_path / "sw"
+    assert main(["generate", "sweep", "--scene", "moving_edge", "--sensor", "ideal", "--shot-noise-hz", "0", "5",
+                 "--out", str(out), *SMALL]) == 0
+    index = json.loads((out / "index.json").read_text())
+    assert index["grid"] == {"shot_noise_hz": [0.0, 5.0]}
+    shot = [load(out / e["file"]).metadata["config"]["dvs"]["shot_noise_hz"] for e in index["sequences"]]
+    assert shot == [0.0, 5.0]
+
+
 def test_unexpected_errors_exit_1(monkeypatch, tmp_path, capsys):
     import generators.dataset
 

@@ -2,6 +2,7 @@
 behind the pixel figure is checked against the ground truth of a noise-free sequence."""
 
 import json
+import os
 import subprocess
 import sys
 import types
@@ -158,6 +159,9 @@ def test_plot_events_and_animation(seq, prep, tmp_path):
     from PIL import Image
 
     out = animate(prep, tmp_path / "anim.gif", n_frames=4)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out["path"].stat().st_mode & 0o777 == 0o666 & ~umask  # readable as every other output, not private
     with Image.open(out["path"]) as gif:
         assert gif.n_frames == 4
         frame = np.asarray(gif.convert("RGB"), float)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from generators.formats.atomic import commit
 from sim import EvsimInputError
 
 from .common import PlotDependencyError, Prepared, ToneMap, pyplot
@@ -91,7 +92,7 @@ def animate(prep: Prepared, out: str | Path, *, n_frames: int = 40, fps: float =
     os.close(fd)
     try:
         anim.save(tmp, writer=writer)
-        os.replace(tmp, out)
+        commit(Path(tmp), out)  # with the mode a plain open() gives (mkstemp's file is private, 0600)
     finally:
         plt.close(fig)
         Path(tmp).unlink(missing_ok=True)

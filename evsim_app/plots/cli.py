@@ -13,9 +13,10 @@ from pathlib import Path
 
 from sim import EvsimInputError
 
-PLOT_EPILOG = ("Times in milliseconds (-ms) as the flag names say, pixel coordinates from 0 (x: column, y: row). "
-               "Log intensities are natural logs of the CRF's scaled irradiance plus I0. "
-               "Needs matplotlib: pip install 'evsim[plot]'. Exit codes: 0 success, 2 bad input, 1 unexpected failure.")
+PLOT_EPILOG = ("Times in milliseconds (-ms) or seconds (-s) as the flag names say, pixel coordinates from 0 "
+               "(x: column, y: row). Log intensities are natural logs of the CRF's scaled irradiance plus I0. "
+               "Needs matplotlib: pip install 'evsim[plot]'. Exit codes: 0 success, 2 bad input, 1 unexpected failure, "
+               "130 Ctrl-C, 143 SIGTERM.")
 
 
 def _default_out(dataset: Path, kind: str) -> Path:
@@ -125,7 +126,8 @@ def _cmd_roc(args) -> int:
 
 def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
-    plot = subparsers.add_parser("plot", help="figures: one pixel over time, events, method comparison, sweeps",
+    plot = subparsers.add_parser("plot", help="figures: one pixel over time, events and DVS videos, method comparison, "
+                                              "sweeps, denoisers' ROC curves, realism",
                                  epilog=PLOT_EPILOG)
     psub = plot.add_subparsers(dest="plot_kind", required=True)
 
