@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 from scipy import ndimage
 from scipy.optimize import brentq
 from scipy.special import ndtr
@@ -94,10 +95,11 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
     pairs = np.unique(np.linspace(0, n - 2, min(max_pairs, n - 1)).round().astype(np.int64))
     counts = np.zeros(1, np.int64)
     shifts = [(dy, dx) for dy in range(-max_shift, max_shift + 1) for dx in range(-max_shift, max_shift + 1)]
+    shift_array = np.array(shifts, np.int64).reshape(-1, 2)
     still = len(shifts) // 2  # (0, 0)
     for k in pairs:
         pair = _Pair(frames[k], frames[k + 1], full, m, flat_fraction)
-        medians = [pair.coarse(dy, dx) for dy, dx in shifts]
+        medians = pair.coarse(shift_array)
         best = int(np.argmin(medians))
         if medians[best] > STILL_RATIO * medians[still]:  # no shift clearly better: the scene is still
             best = still
@@ -158,18 +160,16 @@ class _Pair:
         a_grid, slope_grid = self.a[grid], self.slope_a[grid]
         ok = (a_grid > 0) & (a_grid < full)
         self._coarse = ok & (slope_grid <= np.quantile(slope_grid[ok], flat_fraction)) if ok.any() else ok
-        self._grid = grid
 
-    def _at(self, dy: int, dx: int, step: int = 1) -> tuple[slice, slice]:
+    def _at(self, dy: int, dx: int) -> tuple[slice, slice]:
         """The slices of b that sit under a's inner region (margin from the border) when b is shifted by (dy, dx)."""
         m, (h, w) = self.margin, self.b.shape
-        return slice(m - dy, h - m - dy, step), slice(m - dx, w - m - dx, step)
+        return slice(m - dy, h - m - dy), slice(m - dx, w - m - dx)
 
-    def coarse(self, dy: int, dx: int) -> float:
-        """The grouped median of |a - b shifted by (dy, dx)| over a's flattest unclipped pixels on a coarse grid
-        (the alignment search's criterion; inf where none)."""
-        d = np.abs(self.a[self._grid] - self.b[self._at(dy, dx, COARSE_STEP)])[self._coarse]
-        return _grouped_median(np.bincount(d) / d.size) if d.size else np.inf
+    def coarse(self, shifts: np.ndarray) -> np.ndarray:
+        """For each (dy, dx) row of shifts, the grouped median of |a - b shifted by (dy, dx)| over a's flattest
+        unclipped pixels on a coarse grid (the alignment search's criterion; inf where none)."""
+        return _coarse_medians(self.a, self.b, self._coarse, self.margin, COARSE_STEP, shifts, self.full)
 
     def diffs(self, dy: int, dx: int) -> np.ndarray:
         """|a - b shifted by (dy, dx)| over the flat_fraction flattest of the unclipped pixels at least margin from
@@ -190,6 +190,38 @@ def _local_slope(frame: np.ndarray) -> np.ndarray:
     replicated): the pixel's own value cancels from it, so selecting pixels by it does not select their noise."""
     m = np.pad(ndimage.uniform_filter(frame.astype(np.float64), 3, mode="nearest"), 1, mode="edge")
     return np.maximum(np.abs(m[1:-1, 2:] - m[1:-1, :-2]), np.abs(m[2:, 1:-1] - m[:-2, 1:-1]))
+
+
+@njit(cache=True)
+def _coarse_medians(a: np.ndarray, b: np.ndarray, mask: np.ndarray, margin: int, step: int, shifts: np.ndarray,
+                    full: int) -> np.ndarray:
+    """_grouped_median of |a[y, x] - b[y - dy, x - dx]| over the grid points (y, x) = (margin + i step,
+    margin + j step) where mask[i, j], for each (dy, dx) of shifts."""
+    out = np.empty(shifts.shape[0])
+    hist = np.empty(full + 1, np.int64)
+    for s in range(shifts.shape[0]):
+        dy, dx = shifts[s, 0], shifts[s, 1]
+        hist[:] = 0
+        n = 0
+        for i in range(mask.shape[0]):
+            y = margin + i * step
+            for j in range(mask.shape[1]):
+                if mask[i, j]:
+                    x = margin + j * step
+                    hist[abs(a[y, x] - b[y - dy, x - dx])] += 1
+                    n += 1
+        if n == 0:
+            out[s] = np.inf
+            continue
+        cum, below, k = 0.0, 0.0, 0
+        for k in range(full + 1):  # as _grouped_median on hist / n: the same sums in the same order
+            below = cum
+            cum += hist[k] / n
+            if cum >= 0.5:
+                break
+        lo, width = (0.0, 0.5) if k == 0 else (k - 0.5, 1.0)
+        out[s] = lo + (0.5 - below) / (hist[k] / n) * width
+    return out
 
 
 def _grouped_median(p: np.ndarray) -> float:

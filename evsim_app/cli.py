@@ -22,10 +22,11 @@ import sim
 from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, OUTPUTS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
+from sim.suggest import unknown_name
 
 from . import export_command
 from .calibrate_command import add_parser as add_calibrate_parser
-from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, sensor_size
+from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, parse_assignments, sensor_size
 from .plots.cli import add_plot_parser
 from .realism_command import add_realism_flags
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
@@ -89,6 +90,19 @@ _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "sensor_size"
                 "labels", "reference_rate_hz", "sampling", "outputs")
 
 
+def _lighting(args) -> dict | None:
+    """The scene lighting table of --lighting (None without it); EvsimInputError naming the flag for an unknown
+    field."""
+    from generators.scenes import LIGHTING_KEYS, checked_lighting
+
+    table = parse_assignments("--lighting", args.lighting)
+    for name in table:
+        if name not in LIGHTING_KEYS:
+            raise sim.EvsimInputError(f"--lighting: {unknown_name('field', name, LIGHTING_KEYS)}")
+    checked_lighting(**table, owner="--lighting")
+    return table or None
+
+
 def _dataset_config(args):
     from generators.config import load_config, parse_config, resolve_sensor
 
@@ -100,13 +114,19 @@ def _dataset_config(args):
         cfg = load_config(args.config)
         sensor = None if args.sensor is None else resolve_sensor("--sensor", args.sensor)
         dvs, camera = dvs_overrides(args), camera_overrides(args)
+        lighting = _lighting(args)
         for spec in cfg.sequences:  # the model flags over every sequence's settings
             if sensor is not None:
                 spec.settings["sensor"] = sensor
             spec.settings["dvs"] = {**spec.settings["dvs"], **dvs}
             spec.settings["camera"] = {**spec.settings["camera"], **camera}
+            if lighting is not None:
+                spec.scene = {**spec.scene, "lighting": {**spec.scene.get("lighting", {}), **lighting}}
         return cfg
-    data = {"defaults": _settings_from_flags(args), "sequence": _scene_sequences(args)}
+    sequences, lighting = _scene_sequences(args), _lighting(args)
+    if lighting is not None:
+        sequences = [{**seq, "scene": {**seq["scene"], "lighting": lighting}} for seq in sequences]
+    data = {"defaults": _settings_from_flags(args), "sequence": sequences}
     return parse_config(data, source="<command line>")
 
 
@@ -114,6 +134,9 @@ def _dataset_config(args):
 
 _FOLDER_OUTPUT_COMMANDS = ("demo", "generate", "convert", "reconstruct")  # their --out is a folder
 _FILE_OUTPUT_FLAGS = ("json", "out", "animate")  # of the other commands (evaluate, plot): files
+#: suffixes of the files evsim reads and writes: a new --out folder ending in one is a mistaken file name
+_FILE_SUFFIXES = (".h5", ".hdf5", ".aedat4", ".aedat2", ".aedat", ".raw", ".dat", ".mat", ".zip", ".exr", ".txt",
+                  ".json", ".mp4", ".avi", ".mov")
 MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows file systems)
 
 
@@ -158,6 +181,10 @@ def _check_output(flag: str, text: str, *, folder: bool | None) -> None:
             raise sim.EvsimInputError(f"{flag} {path}: the folder is not writable (permissions or a read-only "
                                       "file system)")
         return
+    if folder and path.suffix.lower() in _FILE_SUFFIXES:
+        raise sim.EvsimInputError(f"{flag} {text} ends in {path.suffix}, a file's suffix, but names the output "
+                                  f"folder (the files inside are named after each sequence): give a folder, e.g. "
+                                  f"{flag} {path.with_suffix('')}")
     parent = next((q for q in path.absolute().parents if q.exists()), None)
     if parent is not None and not parent.is_dir():
         raise sim.EvsimInputError(f"{flag}: {parent} is a file, not a folder, so {path} cannot be created")
@@ -231,6 +258,7 @@ def _cmd_convert(args) -> int:
     video = {k: getattr(args, k) for k in ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow",
                                            "flow_preset", "flow_scale", "input_crf", "resize", "black_level")}
     video["conditioning"] = _conditioning_option(args)
+    video["lighting"] = _lighting(args)
     video = {k: v for k, v in video.items() if v is not None}
     seed = args.seed if args.seed is not None else cfg.get("seed") or 0
     index = convert(args.inputs, args.out, settings=settings, height=height, width=width, seed=seed,
@@ -471,6 +499,11 @@ def _add_sensor_flags(g, crf_default: str = "window") -> None:
                         "reference; default: all three for generate, events only for convert)")
     g.add_argument("--reference-rate-hz", type=float,
                    help="rate in Hz of extra HDR reference frames, besides one per LDR frame (default 0)")
+    g.add_argument("--lighting", action="append", metavar="FIELD=VALUE",
+                   help="light every scene with a flickering lamp (generators.scenes.FlickerLighting; repeatable, "
+                        "FIELD=VALUE,FIELD=VALUE): flicker_hz (Hz: 100 for 50 Hz mains, 120 for 60 Hz), depth "
+                        "(modulation, 0..1; default 0.2), phase_rad (default 0), rise_fraction (share of the "
+                        "period in which the light rises, 0.05..0.95; default 0.5, a cosine)")
     add_model_flags(g)
 
 

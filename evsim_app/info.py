@@ -9,6 +9,8 @@ output with one folder per sequence) is described sequence by sequence.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,7 @@ from generators.formats.native import (
     open_native_images,
     recording_event_chunks,
 )
+from sim.dvs_params import PRESETS
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")
 
@@ -32,8 +35,10 @@ def describe(path: str | Path) -> dict:
     t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
     reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
     seed_entropy, generator, input (a converted video: path, capture_fps, rate_from, resize, linearisation,
-    conditioning) or None, sensor_model (the sensor's record: name, file, provenance, ...), packages, outputs
-    (what the generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
+    conditioning) or None, lighting (a scene under flickering light: flicker_hz, depth, phase_rad, rise_fraction)
+    or None, sensor_model (the sensor's record: name, file, provenance, ...), dvs_changes ({field: value} of the
+    DVS fields the run set over that sensor's, auto-resolved illumination aside), packages, outputs (what the
+    generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
     whether it has index.json, sequences: [one such dict each]}. Raises DatasetFormatError for unreadable files."""
     path = Path(path)
     sequences = folder_sequences(path)
@@ -75,10 +80,33 @@ def describe(path: str | Path) -> dict:
         "seed_entropy": seed.get("entropy") if isinstance(seed, dict) else seed,
         "generator": meta.get("generator"),
         "input": _video_input(meta.get("scene")),
+        "lighting": meta["scene"].get("lighting") if isinstance(meta.get("scene"), dict) else None,
         "sensor_model": (meta.get("config") or {}).get("sensor") or None,
+        "dvs_changes": _dvs_changes(meta.get("config")),
         "packages": meta.get("packages"),
         "outputs": meta.get("config", {}).get("outputs") if isinstance(meta.get("config"), dict) else None,
     }
+
+
+def _dvs_changes(config: object) -> dict:
+    """{field: value} of the DVS fields of a generator's config that differ from its sensor's (the base preset with
+    the sensor file's [dvs] table); full_illumination is left out where the run resolved it from the scene."""
+    if not isinstance(config, dict) or not isinstance(config.get("dvs"), dict):
+        return {}
+    sensor = config.get("sensor") if isinstance(config.get("sensor"), dict) else {}
+    base = PRESETS.get(sensor.get("base") or sensor.get("name") or "davis346")
+    if base is None:
+        return {}
+    expected = {**dataclasses.asdict(base), **(sensor.get("dvs") or {})}
+    skip = {"full_illumination"} if config.get("auto_illumination") else set()
+    return {k: v for k, v in config["dvs"].items()
+            if k in expected and k not in skip and not _same(v, expected[k])}
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=0.0)
+    return a == b
 
 
 def _fields(rec: Recording) -> tuple:
@@ -185,7 +213,10 @@ def format_description(d: dict) -> str:
     lines.append(f"  CRF         {crf['name']} {crf.get('params', {})}" if crf else "  CRF         unknown")
     model = d.get("sensor_model")
     if model:
-        lines.append(f"  model       {model.get('name')} ({model.get('file') or 'preset'})")
+        changes = "".join(f", {k}={v:g}" if isinstance(v, float) else f", {k}={v}"
+                          for k, v in sorted(d.get("dvs_changes", {}).items()))
+        lines.append(f"  model       {model.get('name')} ({model.get('file') or 'preset'})"
+                     + (f"; DVS changed{changes[1:]}" if changes else ""))
     if d["generator"]:
         lines.append(f"  generator   {d['generator']}")
     if d.get("input"):
@@ -193,6 +224,10 @@ def format_description(d: dict) -> str:
         lines.append(f"  input       {i['path']}: captured at {i['capture_fps']:.6g} fps ({i['rate_from']}), resize "
                      f"{i['resize']}, conditioning {i['conditioning']}")
         lines.append(f"  linearised  {i['linearisation']}")
+    if d.get("lighting"):
+        light = d["lighting"]
+        lines.append(f"  lighting    flicker {light['flicker_hz']:g} Hz, depth {light['depth']:g}, phase "
+                     f"{light['phase_rad']:g} rad, rising over {light.get('rise_fraction', 0.5):g} of the period")
     if d["seed_entropy"] is not None:
         lines.append(f"  seed        {d['seed_entropy']} (SeedSequence entropy)")
     if d["packages"]:

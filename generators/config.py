@@ -93,6 +93,7 @@ OUTPUT_KEYS = {"labels": bool, "threshold_maps": bool, "reference_times_us": lis
                "compression": str, "outputs": list}
 SEQUENCE_KEYS = {"duration_s": float, "height": int, "width": int, "sensor": str, "dvs": dict, "camera": dict,
                  "crf": dict, "sampling": dict, "output": dict}
+_LIGHTING_TABLE = dict.fromkeys(scenes.LIGHTING_KEYS, float)  # a scene's lighting table: all numbers
 #: the DVS parameters a [sweep] table may vary
 SWEEP_KEYS = ("threshold_sigma", "shot_noise_hz", "leak_hz", "refractory_us", "hot_pixel_fraction", "hot_pixel_hz")
 
@@ -281,6 +282,8 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
             scene[key] = str(p if p.is_absolute() else (base_dir / p).resolve())
     if "path" not in scene and scene["type"] in ("image", "frames", "video"):
         raise _fail(f"{where}.path", f"required for scene type {scene['type']!r}")
+    if "lighting" in scene:
+        scene["lighting"] = _check_table(f"{where}.lighting", scene["lighting"], _LIGHTING_TABLE)
     return scene
 
 
@@ -424,7 +427,21 @@ def _as_tuples(v):
 
 
 def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where: str = "scene") -> scenes.Scene:
-    """Construct the radiance source described by a scene table (see SCENE_TYPES) at the given size/duration."""
+    """Construct the radiance source described by a scene table (see SCENE_TYPES) at the given size/duration; a
+    `lighting` table (scenes.LIGHTING_KEYS) puts it under flickering light (scenes.FlickerLighting)."""
+    lighting = scene.get("lighting")
+    base = _build_scene({k: v for k, v in scene.items() if k != "lighting"}, height, width, duration_us, where)
+    if lighting is None:
+        return base
+    lighting = _check_table(f"{where}.lighting", lighting, _LIGHTING_TABLE)
+    keys = {"flicker_hz": "frequency_hz", "depth": "depth", "phase_rad": "phase_rad", "rise_fraction": "rise_fraction"}
+    try:
+        return scenes.FlickerLighting(base, **{keys[k]: v for k, v in lighting.items()})
+    except InvalidParameterError as e:  # "lighting: depth must be ..."
+        raise _fail(where, str(e)) from None
+
+
+def _build_scene(scene: dict, height: int, width: int, duration_us: int, where: str) -> scenes.Scene:
     params = {k: _as_tuples(v) for k, v in scene.items() if k != "type"}
     kind = scene["type"]
     try:

@@ -31,7 +31,7 @@ CONVERT_OUTPUTS = ("events",)
 # keys of the video scene table that convert() passes through (see generators.config.SCENE_TYPES["video"])
 SCENE_OPTIONS = ("start_s", "stop_s", "fps", "slowmo", "timestamps", "upsample", "flow", "flow_preset", "flow_scale",
                  "key_step_px", "max_keys", "input_crf", "input_crf_params", "channel", "resize", "conditioning",
-                 "black_level", "warm_up_s")
+                 "black_level", "warm_up_s", "lighting")
 #: the LDR camera's CRF when the settings name none: ordinary video looks as it did (the AHDR `window` CRF of
 #: `generate` maps all but a narrow band of radiance to black or white)
 DEFAULT_CRF = {"name": "srgb", "params": {}}

@@ -17,6 +17,8 @@ pairs (one image alive at a time, so memory stays flat) that count the samples t
   with log_linear_until(t_us) -> the end of the piece that starts at t_us; the sampler then steps from piece end
   to piece end without the bound: the DVS emulator interpolates log intensity linearly between its samples, so
   samples inside a log-linear piece would change nothing.
+  A source with max_frequency_hz (a flickering light) caps the step at 1 / (SAMPLES_PER_PERIOD x that
+  frequency): the prediction from two samples one flicker period apart would see no change.
 - FixedRateSampler: a regular grid at rate_hz, plus the end time.
 
 Times are int64 microseconds, strictly increasing, from t_start_us to t_end_us inclusive, and include every
@@ -46,6 +48,9 @@ if TYPE_CHECKING:
 
 # Fraction of the predicted step actually taken, so that a constant rate of change lands below the bound.
 _SAFETY = 0.9
+#: AdaptiveSampler's longest step for a source with max_frequency_hz (a flickering light): this many per period, so
+#: that no step aliases the flicker and its peaks are sampled within cos(pi / 16) = 98 % of their height
+SAMPLES_PER_PERIOD = 16
 
 
 def _time_range(source, t_start_us, t_end_us) -> tuple[int, int]:
@@ -95,6 +100,9 @@ class AdaptiveSampler:
         self.max_step = _positive_int("max_step_us", max_step_us)
         if self.max_step < self.min_step:
             raise InvalidParameterError(f"max_step_us={max_step_us} is below min_step_us={min_step_us}")
+        frequency = getattr(source, "max_frequency_hz", None)
+        if frequency is not None and frequency() > 0:  # a flicker: steps that could alias it are not tried
+            self.max_step = max(self.min_step, min(self.max_step, int(1e6 / (SAMPLES_PER_PERIOD * frequency()))))
         self.log_eps = np.float32(log_eps)
         self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
         self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)

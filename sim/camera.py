@@ -39,6 +39,10 @@ if TYPE_CHECKING:
 
     from crf_models import CRF
 
+#: sub-frames per period of a source's flicker (max_frequency_hz): the midpoint rule then integrates a sinusoid
+#: over whole periods exactly
+SUBFRAMES_PER_PERIOD = 8
+
 
 @dataclass
 class LDRFrame:
@@ -113,12 +117,16 @@ class LDRCamera:
         speed = float(source.max_speed_px_per_s())
         if not (math.isfinite(speed) and speed >= 0):
             raise EvsimInputError(f"source.max_speed_px_per_s() must be finite and >= 0, got {speed}")
-        return self._frames(source, schedule, speed, irradiance, clean_response)
+        rate = getattr(source, "max_frequency_hz", None)
+        frequency = float(rate()) if rate is not None else 0.0
+        if not (math.isfinite(frequency) and frequency >= 0):
+            raise EvsimInputError(f"source.max_frequency_hz() must be finite and >= 0, got {frequency}")
+        return self._frames(source, schedule, speed, frequency, irradiance, clean_response)
 
-    def _frames(self, source, schedule, speed, keep_irradiance, keep_clean) -> Iterator[LDRFrame]:
+    def _frames(self, source, schedule, speed, frequency, keep_irradiance, keep_clean) -> Iterator[LDRFrame]:
         for k, (t_start, t_mid, t_end) in enumerate(schedule):
             exposure = int(t_end - t_start)
-            n_sub = self.subframes_for(exposure, speed)
+            n_sub = self.subframes_for(exposure, speed, frequency)
             irr = self._integrate(source, int(t_start), exposure, n_sub)
             yield self._sense(irr, k, t_start, t_mid, t_end, n_sub, keep_irradiance, keep_clean)
 
@@ -144,14 +152,16 @@ class LDRCamera:
         t_start = np.int64(t_start_us)
         return self._sense(rad, frame_index, t_start, t_start + exposure_us // 2, t_start + exposure_us, subframes)
 
-    def subframes_for(self, exposure_us: int, speed_px_per_s: float) -> int:
+    def subframes_for(self, exposure_us: int, speed_px_per_s: float, frequency_hz: float = 0.0) -> int:
         """Sub-frames per exposure: params.n_subframes, or enough that motion between them is at most
-        max_px_per_subframe, within [1, max_subframes] and at most one per microsecond."""
+        max_px_per_subframe and a flicker of frequency_hz gets SUBFRAMES_PER_PERIOD per period, within
+        [1, max_subframes] and at most one per microsecond."""
         p = self.params
         if p.n_subframes is not None:
             n = p.n_subframes
         else:
-            n = math.ceil(speed_px_per_s * exposure_us * 1e-6 / p.max_px_per_subframe)
+            n = max(math.ceil(speed_px_per_s * exposure_us * 1e-6 / p.max_px_per_subframe),
+                    math.ceil(frequency_hz * exposure_us * 1e-6 * SUBFRAMES_PER_PERIOD))
             n = min(max(n, 1), p.max_subframes)
         return max(1, min(n, exposure_us))
 

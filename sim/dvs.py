@@ -35,12 +35,13 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
   (DVSParams.observed_leak_hz; DVSParams.with_observed_leak sets leak_hz from a measured rate).
 - Shot noise: a Poisson process per pixel of rate shot_noise_hz + dark_shot_noise_hz * I_d / J (J as above),
   polarity +-1 with equal odds. Hot pixels (a fixed random set) add a Poisson process of rate hot_pixel_hz, also
-  with random polarity. Both have continuous arrival times (stamped by ceil like crossings).
+  with random polarity. Both have continuous arrival times (stamped by ceil like crossings). Dead pixels (a fixed
+  random set, dead_pixel_fraction) never fire: their events are dropped from the output.
 - Noise events act on the pixel like real ones: an arrival while the pixel is blind is lost; otherwise the pixel
   fires, goes blind for refractory_us and its reference is reset to the current Lf (at the end of the refractory
   time, or at once when refractory_us = 0), which also restarts its leak drift.
 
-Determinism: fixed patterns (thresholds, leak rates, hot pixels, initial phases) come from the seed's
+Determinism: fixed patterns (thresholds, leak rates, hot and dead pixels, initial phases) come from the seed's
 SeedSequence; every later draw comes from a per-pixel counter-based stream kept in the state. The events are
 bit-identical for the same seed, whatever the chunking of the frames into calls and the numba thread count.
 
@@ -141,6 +142,12 @@ class DVSEmulator:
             K.FX_HOT: hot.astype(np.uint8),
         })
         self._leak_hz, self._hot = leak_hz, hot
+        self._dead = None  # drawn from a seed of its own, so that the other fixed patterns do not depend on it
+        if p.dead_pixel_fraction > 0:
+            dead = np.zeros(self.height * self.width, dtype=bool)
+            n_dead = int(round(p.dead_pixel_fraction * dead.size))
+            dead[np.random.default_rng(child_seed(ss, 2)).choice(dead.size, n_dead, replace=False)] = True
+            self._dead = dead.reshape(shape)
         self._scal = _slot_tuple(K.N_SCAL, {
             K.SC_REFRACTORY: np.int64(p.refractory_us),
             K.SC_K_CUT: 2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
@@ -176,6 +183,11 @@ class DVSEmulator:
     def hot_pixel_mask(self) -> np.ndarray:
         """(H, W) bool, True at hot pixels."""
         return self._hot.copy()
+
+    @property
+    def dead_pixel_mask(self) -> np.ndarray:
+        """(H, W) bool, True at dead pixels (which never fire)."""
+        return self._dead.copy() if self._dead is not None else np.zeros((self.height, self.width), dtype=bool)
 
     @property
     def log_intensity(self) -> np.ndarray:
@@ -218,6 +230,9 @@ class DVSEmulator:
             outs.append(self._run(frames[i:i + m], times[i:i + m]))
             i += m
         events, labels = _join(outs)
+        if self._dead is not None and events.size:
+            alive = ~self._dead[events["y"], events["x"]]
+            events, labels = events[alive], labels[alive]
         return (events, labels) if self.return_labels else events
 
     def _check_input(self, radiance, t_us):

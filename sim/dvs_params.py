@@ -46,6 +46,9 @@ class DVSParams:
         the per-pixel rates average to leak_hz.
     hot_pixel_fraction: fraction of pixels that are hot, in [0, 1] (rounded to a whole number of pixels).
     hot_pixel_hz: Poisson rate of the extra events of each hot pixel (ON and OFF together, Hz, >= 0).
+    dead_pixel_fraction: fraction of pixels that never fire, signal or noise (stuck or masked pixels, as the
+        Prophesee simulator models them), in [0, 1] (rounded to a whole number of pixels; a dead pixel drawn among
+        the hot ones is dead).
     """
 
     pos_threshold: float = 0.2
@@ -62,15 +65,17 @@ class DVSParams:
     leak_spread: float = 0.5
     hot_pixel_fraction: float = 5e-4
     hot_pixel_hz: float = 50.0
+    dead_pixel_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("pos_threshold", "neg_threshold", "min_threshold", "full_illumination", "dark_fraction"):
             check_number(name, getattr(self, name), positive=True)
         for name in ("threshold_sigma", "cutoff_hz", "shot_noise_hz", "dark_shot_noise_hz", "leak_hz",
-                     "leak_spread", "hot_pixel_fraction", "hot_pixel_hz"):
+                     "leak_spread", "hot_pixel_fraction", "hot_pixel_hz", "dead_pixel_fraction"):
             check_number(name, getattr(self, name), positive=False)
-        if self.hot_pixel_fraction > 1:
-            raise InvalidParameterError(f"hot_pixel_fraction must be in [0, 1], got {self.hot_pixel_fraction}")
+        for name in ("hot_pixel_fraction", "dead_pixel_fraction"):
+            if getattr(self, name) > 1:
+                raise InvalidParameterError(f"{name} must be in [0, 1], got {getattr(self, name)}")
         # a numpy integer is stored as an int (the parameters go into JSON metadata)
         object.__setattr__(self, "refractory_us", check_int("refractory_us", self.refractory_us, minimum=0,
                                                             unit="microseconds"))
@@ -166,4 +171,5 @@ FIELD_UNITS: dict[str, str] = {
     "full_illumination": "radiance units", "dark_fraction": "fraction of full_illumination",
     "shot_noise_hz": "Hz per pixel", "dark_shot_noise_hz": "Hz per pixel", "leak_hz": "Hz per pixel",
     "leak_spread": "std of log rate", "hot_pixel_fraction": "fraction of pixels", "hot_pixel_hz": "Hz",
+    "dead_pixel_fraction": "fraction of pixels",
 }

@@ -21,6 +21,9 @@ class RadianceSource(Protocol):
     radiance(t_us): float32 (height, width) array, linear radiance (any scale), finite and >= 0.
     max_speed_px_per_s(): an upper bound of image-plane motion in pixels per second over the whole source
         (0 for static or flicker-only sources); used to choose how many sub-frames a blurred exposure needs.
+
+    Optional: max_frequency_hz(), the highest temporal frequency of the radiance that is not motion (a flickering
+    light); an exposure then takes at least sim.camera.SUBFRAMES_PER_PERIOD sub-frames per period of it.
     """
 
     height: int

@@ -99,6 +99,17 @@ def test_a_mistyped_scene_type_gets_a_suggestion():
         parse_config({"sequence": [{"scene": {"type": "moving_egde"}}]})
 
 
+def test_an_output_folder_named_like_a_file_is_refused_before_any_work(tmp_path, capsys):
+    """`convert clip.mp4 --out clip.h5` would write the folder clip.h5/ holding clip.h5: refused, nothing made."""
+    for command in (["convert", str(tmp_path / "clip.mp4")], ["generate", "ahdr", "--scene", "moving_edge", *SMALL]):
+        err = _error(capsys, [*command, "--out", str(tmp_path / "events.h5")])
+        assert "--out " in err and "ends in .h5, a file's suffix, but names the output folder" in err, err
+        assert f"--out {tmp_path / 'events'}" in err
+    assert not (tmp_path / "events.h5").exists()
+    (tmp_path / "old.h5").mkdir()  # an existing folder of that name is the user's choice
+    assert main(["generate", "ahdr", "--scene", "moving_edge", "--out", str(tmp_path / "old.h5"), *SMALL]) == 0
+
+
 def test_an_existing_output_folder_names_the_flags_on_the_command_line_and_the_keywords_in_python(tmp_path, capsys):
     out = tmp_path / "d"
     out.mkdir()

@@ -107,3 +107,24 @@ def test_leak_rate_with_shot_noise_on_is_the_documented_one_and_can_be_set(refra
     if refractory_us == 0:
         assert base.observed_leak_hz(0.5) == pytest.approx(0.1 / (np.e - 1))  # 0.058 Hz, as measured above
     assert base.with_observed_leak(0.1, 0.5).leak_hz > 0.1
+
+
+def test_dead_pixels_never_fire_and_every_other_pixel_fires_as_without_them():
+    """A dead pixel drops its signal and noise events; the set is drawn from a seed of its own, so the living
+    pixels' events (times, polarities, labels) are those of the same seed without dead pixels."""
+    params = sim.DVSParams.preset("noisy").replace(shot_noise_hz=20.0)
+    rng = np.random.default_rng(1)
+    times = np.arange(41, dtype=np.int64) * FRAME_US
+    frames = (0.5 + 0.4 * rng.random((41, H, W))).astype(np.float32)  # every pixel changes
+    base, base_labels = sim.emulate(frames, times, params, seed=7, return_labels=True)
+    assert np.unique(base["y"].astype(np.int64) * W + base["x"]).size == N  # all fire: the test can fail
+    emu = sim.DVSEmulator(H, W, params.replace(dead_pixel_fraction=0.1), seed=7, return_labels=True)
+    events, labels = emu.feed(frames, times)
+    dead = emu.dead_pixel_mask
+    assert dead.sum() == round(0.1 * N)
+    assert not dead[events["y"], events["x"]].any()
+    alive = ~dead[base["y"], base["x"]]
+    np.testing.assert_array_equal(events, base[alive])
+    np.testing.assert_array_equal(labels, base_labels[alive])
+    with pytest.raises(sim.InvalidParameterError, match="dead_pixel_fraction must be in"):
+        sim.DVSParams(dead_pixel_fraction=1.5)

@@ -65,3 +65,20 @@ def test_describe_without_frames_and_bad_path(tmp_path):
     assert "frames      none" in format_description(d)
     with pytest.raises(DatasetFormatError, match="missing.h5: no such file"):
         describe(tmp_path / "missing.h5")
+
+
+def test_info_names_the_dvs_fields_a_run_set_over_its_sensor(tmp_path, capsys):
+    """`--dvs` changes are part of the model: info lists them after the sensor's name; a plain run lists none."""
+    from evsim_app.cli import main
+
+    small = ["--scene", "moving_edge", "--duration-s", "0.05", "--height", "8", "--width", "10", "--no-progress"]
+    for name, extra in (("plain", []), ("changed", ["--sensor", "davis346_road", "--dvs",
+                                                     "pos_threshold=0.25,dead_pixel_fraction=0.1"])):
+        assert main(["generate", "ahdr", *small, *extra, "--out", str(tmp_path / name)]) == 0
+    capsys.readouterr()
+    plain = format_description(describe(tmp_path / "plain" / "moving_edge.h5"))
+    assert "  model       davis346 (preset)\n" in plain + "\n" and "DVS changed" not in plain
+    changed = describe(tmp_path / "changed" / "moving_edge.h5")
+    assert changed["dvs_changes"] == {"pos_threshold": 0.25, "dead_pixel_fraction": 0.1}
+    assert "model       davis346_road (preset); DVS changed dead_pixel_fraction=0.1, pos_threshold=0.25" in \
+        format_description(changed)

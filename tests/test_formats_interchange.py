@@ -16,7 +16,7 @@ from generators.formats import DatasetFormatError, ExportDropWarning, detect, ex
 from generators.formats.native import write_native
 from generators.formats.prophesee import PropheseeWriter
 from generators.formats.recording import Recording
-from sim import EVENT_DTYPE
+from sim import EVENT_DTYPE, EvsimInputError
 
 from recordings import T0, H, W, make_recording
 
@@ -315,6 +315,34 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_reco
     np.testing.assert_array_equal(back.frames, rec.frames)
     np.testing.assert_array_equal(back.frame_t_start_us, rec.frame_t_start_us)
     np.testing.assert_array_equal(back.frame_t_mid_us, rec.frame_t_mid_us)
+
+
+def test_aedat4_splits_events_into_packets_between_the_frames_and_refuses_what_int16_cannot_hold(tmp_path):
+    """100 000 events: four EVTS packets of at most PACKET_EVENTS, the frames in between in time order; dv-processing
+    reads them back whole, with the packet boundaries where the writer put them."""
+    dv = pytest.importorskip("dv_processing")
+    aedat = pytest.importorskip("aedat")
+    from generators.formats.aedat4 import PACKET_EVENTS
+
+    rec = make_recording(n_events=100_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExportDropWarning)
+        export(rec, tmp_path / "r.aedat4", "aedat4")
+    packets = list(aedat.Decoder(str(tmp_path / "r.aedat4")))
+    sizes = [len(p["events"]) for p in packets if "events" in p]
+    assert sizes == [PACKET_EVENTS] * 3 + [100_000 - 3 * PACKET_EVENTS]
+    order = [p["frame"]["t"] if "frame" in p else p["events"]["t"][0] for p in packets]
+    assert order == sorted(order) and sum("frame" in p for p in packets) == rec.frames.shape[0]
+    r = dv.io.MonoCameraRecording(str(tmp_path / "r.aedat4"))
+    stores = []
+    while (batch := r.getNextEventBatch()) is not None:
+        stores.append(batch.numpy())
+    got = np.concatenate(stores)
+    _assert_same((got["timestamp"], got["x"], got["y"], np.where(got["polarity"] > 0, 1, -1)), rec.events)
+    wide = Recording(events=rec.events[:1], height=H, width=40_000)
+    with pytest.raises(EvsimInputError, match="aedat4 holds sensors up to 32767x32767 pixels"):
+        export(wide, tmp_path / "w.aedat4", "aedat4")
+    assert not list(tmp_path.glob("*w.aedat4*"))
 
 
 def test_evt3_reader_decodes_vector_words_as_metavision_cameras_write_them(tmp_path):

@@ -36,6 +36,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -247,6 +248,33 @@ def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVS
     return candidates
 
 
+class LightFlickerWarning(UserWarning):
+    """The real events flicker with the light (a lamp on AC mains), which the recording's frames cannot show: the
+    fit takes it for noise. The evsim command line prints it as one line "evsim: note: ..." (evsim_note), in its
+    flags (cli_message)."""
+
+    evsim_note = True
+
+    def __init__(self, message: str, cli_message: str):
+        super().__init__(message)
+        self.cli_message = cli_message
+
+
+def flicker_warning(real: RealismStats) -> LightFlickerWarning | None:
+    """The LightFlickerWarning for real statistics whose event rate flickers (RealismStats.flicker_hz), else
+    None."""
+    if not math.isfinite(real.flicker_hz):
+        return None
+    what = (f"the real events flicker at {real.flicker_hz:.0f} Hz ({real.flicker_share:.0%} of the 1 ms event "
+            "rate's variance: a lamp on AC mains), which the frames cannot show; the fit takes it for noise. "
+            "Simulate it under flickering light: ")
+    return LightFlickerWarning(
+        what + f"lighting={{'flicker_hz': {real.flicker_hz:.0f}, 'depth': ..., 'rise_fraction': ...}} in the scene "
+               "(generators.scenes.FlickerLighting)",
+        what + f"convert with --lighting flicker_hz={real.flicker_hz:.0f},depth=...,rise_fraction=... "
+               "(docs/guide/convert.md)")
+
+
 def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, preset: str = "davis346",
               black_level: float | None = None, conditioning: str | None = None, seed: int = 0,
               max_evaluations: int = 120,
@@ -263,6 +291,9 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
     _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
     real, simulation = prepare(path, load(path), window_s, black_level, conditioning, log)
+    note = flicker_warning(real)
+    if note is not None:
+        warnings.warn(note, stacklevel=2)
     bar = tqdm(total=len(OFFSET_GRID_DN) * 3 + max_evaluations + 8, unit="sim", desc="calibrate",
                disable=not progress, leave=False)
     objective = _Objective(simulation, real, seed, bar)
@@ -351,4 +382,5 @@ def _nelder_mead(objective: _Objective, dvs: sim.DVSParams, max_evaluations: int
     return best if best is not None and objective.best[0] <= result.fun else params(result.x)
 
 
-__all__ = ["Calibration", "calibrate", "fit_offset_and_thresholds", "prepare", "loss_of", "OFFSET_GRID_DN", "WEIGHTS"]
+__all__ = ["Calibration", "calibrate", "fit_offset_and_thresholds", "prepare", "loss_of", "OFFSET_GRID_DN", "WEIGHTS",
+           "LightFlickerWarning", "flicker_warning"]

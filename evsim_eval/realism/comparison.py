@@ -14,7 +14,9 @@ Scores (perfect value in brackets):
   whole-sensor event rate in 10 ms bins;
 - interval_l1 [0]: L1 distance sum |p_sim - p_real| (0..2) between the histograms of same-pixel inter-event
   intervals (log bins, normalised to 1);
-- passage_median_diff [0]: median events per pixel per passage, simulated minus real.
+- passage_median_diff [0]: median events per pixel per passage, simulated minus real;
+- flicker_share_ratio [1]: the share of the 1 ms event rate's variance at the real recording's flicker frequency
+  (lamps on AC mains; stats module), simulated over real (NaN when the real recording has no flicker).
 
 seed_noise holds, for each score, the deviation from perfect two independent draws of one Poisson process with the
 measured counts would show (one standard deviation for ratios and the median; the expected value for the
@@ -41,7 +43,8 @@ BLUR_PX = 5  # side of the box blur of the blurred per-pixel correlation (pixels
 #: the value of every score for a simulation whose statistics equal the real recording's
 PERFECT = {"count_ratio": 1.0, "on_ratio": 1.0, "off_ratio": 1.0, "quiet_on_ratio": 1.0, "quiet_off_ratio": 1.0,
            "dark_on_ratio": 1.0, "dark_off_ratio": 1.0, "count_corr": 1.0, "count_corr_blurred": 1.0,
-           "rate_corr": 1.0, "rate_rel_rmse": 0.0, "interval_l1": 0.0, "passage_median_diff": 0.0}
+           "rate_corr": 1.0, "rate_rel_rmse": 0.0, "interval_l1": 0.0, "passage_median_diff": 0.0,
+           "flicker_share_ratio": 1.0}
 
 
 @dataclass
@@ -122,7 +125,14 @@ def _seed_noise(real: RealismStats, sim: RealismStats) -> dict:
         "rate_rel_rmse": math.sqrt(float((rc + sc).sum()) / float(np.sum(rc * rc))) if rc.any() else float("nan"),
         "interval_l1": l1,
         "passage_median_diff": math.hypot(_median_sd(real.passages), _median_sd(sim.passages)),
+        "flicker_share_ratio": float("nan"),  # not modelled
     }
+
+
+def _flicker_share_at(stats: RealismStats, frequency_hz: float) -> float:
+    """stats' flicker share if its flicker is at frequency_hz (within 5 %), else 0."""
+    f = stats.flicker_hz
+    return stats.flicker_share if math.isfinite(f) and abs(f - frequency_hz) <= 0.05 * frequency_hz else 0.0
 
 
 def compare(real: RealismStats, sim: RealismStats) -> Comparison:
@@ -151,6 +161,8 @@ def compare(real: RealismStats, sim: RealismStats) -> Comparison:
         "rate_rel_rmse": float(np.sqrt(np.sum((rate_s - rate_r) ** 2))) / norm if norm > 0 else float("nan"),
         "interval_l1": float(np.abs(sim.interval_pdf - real.interval_pdf).sum()),
         "passage_median_diff": sim.passage_median - real.passage_median,
+        "flicker_share_ratio": (_flicker_share_at(sim, real.flicker_hz) / real.flicker_share
+                                if math.isfinite(real.flicker_hz) else float("nan")),
     }
     notes = [f"real: {n}" for n in real.notes] + [f"simulation: {n}" for n in sim.notes]
     if real.masks is None and not real.notes:
@@ -204,7 +216,14 @@ def table_rows(c: Comparison) -> list[tuple[str, str, str, str]]:
          _num(k["rate_rel_rmse"])),
         ("inter-event-interval histogram mismatch (L1, 0..2)", "0", _num(k["interval_l1"]),
          _num(k["interval_l1"])),
+        ("event-rate flicker (1 ms bins; share of the variance)", _flicker(r), _flicker(s),
+         ratio(_num(k["flicker_share_ratio"]))),
     ]
+
+
+def _flicker(stats: RealismStats) -> str:
+    f = stats.flicker_hz
+    return f"{f:.0f} Hz, {stats.flicker_share:.0%}" if math.isfinite(f) else f"none, {stats.flicker_share:.0%}"
 
 
 def format_comparison(c: Comparison, real_name: str = "real", sim_name: str = "sim") -> str:

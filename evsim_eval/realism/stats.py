@@ -6,6 +6,10 @@ RATE_BIN_US bins, the histogram of the intervals between successive events of a 
 per pixel per passage. measure(sim_events, like=real) measures a simulation on the windows and pixel classes of a
 real recording's statistics, which are computed once (measure_recording) and reused.
 
+Flicker: the whole-sensor event count in FLICKER_BIN_US bins over the longest window; its power spectrum's
+strongest frequency in FLICKER_BAND_HZ (lamps on AC mains: 100 or 120 Hz) is the flicker when that frequency and
+its two neighbouring bins hold at least FLICKER_MIN_SHARE of the rate's variance.
+
 A passage is a maximal run of one pixel's events whose successive intervals are at most PASSAGE_GAP_US, counted
 only where the recording's frames saw that pixel change (FrameMasks.motion) in a frame interval overlapping the
 run: an edge or object crossing the pixel, not a noise event.
@@ -33,6 +37,9 @@ PASSAGE_GAP_US = 50_000  # a pixel's events further apart than this belong to di
 INTERVAL_DECADES = (0, 7)  # interval histogram from 10**0 to 10**7 us (1 us .. 10 s), out-of-range intervals clipped
 BINS_PER_DECADE = 10
 BUSY_EVENTS_PER_BIN = 20
+FLICKER_BIN_US = 1_000  # event-rate bins of the flicker spectrum (us): frequencies up to 500 Hz
+FLICKER_BAND_HZ = (40.0, 500.0)  # where a flicker peak is looked for
+FLICKER_MIN_SHARE = 0.2  # share of the rate's variance a peak must hold to count as flicker
 GAP_CONTEXT_BINS = 5
 #: edges (us) of the log bins of the same-pixel inter-event-interval histogram, BINS_PER_DECADE per decade
 INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] + 1e-9, 1 / BINS_PER_DECADE)
@@ -48,7 +55,8 @@ class RealismStats:
     interval_counts: (len(INTERVAL_EDGES_US) - 1,) number of same-pixel intervals per log bin. passages: events of
     each passage. quiet_hz, dark_hz: (ON, OFF) mean event rate per quiet / dark pixel, NaN without masks.
     quiet_counts, dark_counts: (ON, OFF) events on those pixels. origin_us: the recording's time zero, from which
-    windows given in seconds count (measure_recording).
+    windows given in seconds count (measure_recording). flicker_hz, flicker_share: the event rate's flicker
+    frequency (Hz; NaN without one) and the share of the rate's variance it holds (see the module).
     """
 
     height: int
@@ -67,6 +75,8 @@ class RealismStats:
     dark_counts: tuple[int, int]
     notes: list[str] = field(default_factory=list)
     origin_us: int = 0
+    flicker_hz: float = float("nan")
+    flicker_share: float = 0.0
 
     @property
     def duration_s(self) -> float:
@@ -108,6 +118,7 @@ class RealismStats:
             "dark_on_hz": self.dark_hz[0], "dark_off_hz": self.dark_hz[1],
             "passages": int(self.passages.size), "passage_median": self.passage_median,
             "mean_rate_hz": self.n_events / self.duration_s if self.duration_s else float("nan"),
+            "flicker_hz": self.flicker_hz, "flicker_share": self.flicker_share,
             "notes": list(self.notes),
         }
 
@@ -262,10 +273,39 @@ def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = N
         dark_counts = (int(counts[0][dark].sum()), int(counts[1][dark].sum()))
         quiet_hz = tuple(_rate(c, quiet, duration) for c in quiet_counts)
         dark_hz = tuple(_rate(c, dark, duration) for c in dark_counts)
+    flicker_hz, flicker_share = _flicker(t, windows)
     return RealismStats(height, width, windows, gaps, masks, counts.reshape(2, height, width),
                         np.concatenate(rate_hz), np.concatenate(rate_counts), interval_counts,
                         np.concatenate(passages) if passages else np.zeros(0, np.int64),
-                        quiet_hz, dark_hz, quiet_counts, dark_counts, notes, origin)
+                        quiet_hz, dark_hz, quiet_counts, dark_counts, notes, origin, flicker_hz, flicker_share)
+
+
+def _flicker(t: np.ndarray, windows: np.ndarray) -> tuple[float, float]:
+    """(frequency Hz or NaN, share of the rate variance) of the flicker of the event times t (sorted, us) over the
+    longest window (see the module)."""
+    if not windows.size:
+        return float("nan"), 0.0
+    a, b = windows[int(np.argmax(windows[:, 1] - windows[:, 0]))]
+    edges = np.arange(a, b + 1, FLICKER_BIN_US)
+    if edges.size < 33:  # fewer than 32 bins: no spectrum worth the name
+        return float("nan"), 0.0
+    counts = np.diff(np.searchsorted(t, edges)).astype(np.float64)
+    power = np.abs(np.fft.rfft(counts - counts.mean())) ** 2
+    freq = np.fft.rfftfreq(counts.size, FLICKER_BIN_US * 1e-6)
+    total = float(power[1:].sum())
+    band = np.flatnonzero((freq >= FLICKER_BAND_HZ[0]) & (freq <= FLICKER_BAND_HZ[1]))
+    if total <= 0 or not band.size:
+        return float("nan"), 0.0
+    k = int(band[np.argmax(power[band])])
+    share = float(power[max(k - 1, 1):k + 2].sum()) / total
+    if share < FLICKER_MIN_SHARE:
+        return float("nan"), share
+    # the frequency from a 16x zero-padded spectrum, between the peak's neighbouring bins (a short window's bins
+    # are coarse: 13 Hz apart for 75 ms)
+    fine = np.abs(np.fft.rfft(counts - counts.mean(), 16 * counts.size)) ** 2
+    fine_freq = np.fft.rfftfreq(16 * counts.size, FLICKER_BIN_US * 1e-6)
+    near = np.flatnonzero((fine_freq >= freq[max(k - 1, 0)]) & (fine_freq <= freq[min(k + 1, freq.size - 1)]))
+    return float(fine_freq[near[np.argmax(fine[near])]]), share
 
 
 def shifted(stats: RealismStats, origin_us: int) -> RealismStats:

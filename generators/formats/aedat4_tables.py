@@ -1,4 +1,4 @@
-"""The few AEDAT4 flatbuffer tables evsim writes itself: Frame (FRME) packets with every time field, the
+"""The AEDAT4 flatbuffer tables evsim writes itself: EventPacket (EVTS) and Frame (FRME) packets, the
 FileDataTable (FTAB) index, and the IOHeader's dataTablePosition.
 
 AEDAT4 (iniVation, "AEDAT 4.0" file format; schemas frame.fbs, FileDataTable.fbs, IOHeader.fbs of dv-processing):
@@ -7,6 +7,9 @@ packets of int32 stream id, int32 size and the (compressed) size-prefixed flatbu
 then the FileDataTable at dataTablePosition, compressed alike. Flatbuffers: little-endian; a table starts with an
 int32 offset back to its vtable (uint16 vtable size, uint16 table size, one uint16 field offset per field, 0 for a
 field left at its default); references to vectors and tables are uint32 offsets forward from where they are stored.
+
+EventPacket (events.fbs): one field, elements, a vector of Event structs {timestamp int64 us, x int16, y int16,
+polarity bool (true = ON)}, 16 bytes each (8-byte alignment), the vector's elements starting at a multiple of 8.
 
 Frame fields (frame.fbs, in order): timestamp, timestampStartOfFrame, timestampEndOfFrame, timestampStartOfExposure,
 timestampEndOfExposure (int64 us), format (int8, 0 = 8-bit grey), sizeX, sizeY, positionX, positionY (int16),
@@ -18,7 +21,12 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 
+import numpy as np
+
 MAGIC = b"#!AER-DAT4.0\r\n"
+#: an EventPacket element (events.fbs struct Event)
+EVENT_STRUCT = np.dtype({"names": ["t", "x", "y", "on"], "formats": ["<i8", "<i2", "<i2", "u1"],
+                         "offsets": [0, 8, 10, 12], "itemsize": 16})
 
 
 @dataclass
@@ -78,23 +86,6 @@ def stream_ids(info: str, type_identifier: str) -> list[int]:
     return out
 
 
-def read_data_table(buf: bytes) -> list[PacketEntry]:
-    """The rows of a size-prefixed FileDataTable flatbuffer (decompressed)."""
-    root = 4 + struct.unpack_from("<I", buf, 4)[0]
-    vec = _ref(buf, _table(buf, root), 0)
-    if vec is None:
-        return []
-    out = []
-    for k in range(struct.unpack_from("<I", buf, vec)[0]):
-        at = vec + 4 + 4 * k
-        row = _table(buf, at + struct.unpack_from("<I", buf, at)[0])
-        pos, offs = row
-        sid, size = struct.unpack_from("<ii", buf, pos + offs[1]) if len(offs) > 1 and offs[1] else (0, 0)
-        out.append(PacketEntry(_field(buf, row, 0, "<q"), sid, size, _field(buf, row, 2, "<q"),
-                               _field(buf, row, 3, "<q"), _field(buf, row, 4, "<q")))
-    return out
-
-
 class _Builder:
     """Lays out one size-prefixed flatbuffer front to back: size, root offset, identifier, then tables and vectors,
     each reference pointing forward (flatbuffers' offsets are unsigned). Scalars are aligned to their size from
@@ -126,9 +117,11 @@ class _Builder:
             struct.pack_into("<H", self.buf, vt + 4 + 2 * i, at - table)
         return table, positions
 
-    def vector(self, data: bytes, count: int) -> int:
-        """Write a vector (uint32 length, then the elements); returns its position."""
+    def vector(self, data: bytes, count: int, element_align: int = 4) -> int:
+        """Write a vector (uint32 length, then the elements, starting at a multiple of element_align); returns its
+        position."""
         self.align(4)
+        self.buf += bytes(-(len(self.buf) + 4) % element_align)
         at = len(self.buf)
         self.buf += struct.pack("<I", count) + data
         return at
@@ -141,6 +134,17 @@ class _Builder:
         self.align(8)
         struct.pack_into("<I", self.buf, 0, len(self.buf) - 4)
         return bytes(self.buf)
+
+
+def event_packet(events: np.ndarray) -> bytes:
+    """A size-prefixed EVTS flatbuffer of events (a structured array with fields t, x, y and p, p > 0 = ON)."""
+    elements = np.zeros(events.size, EVENT_STRUCT)
+    elements["t"], elements["x"], elements["y"] = events["t"], events["x"], events["y"]
+    elements["on"] = events["p"] > 0
+    b = _Builder(b"EVTS")
+    table, pos = b.table([("<I", None)])
+    b.patch_ref(pos[0], b.vector(elements.tobytes(), events.size, element_align=8))
+    return b.finish(table)
 
 
 def frame_packet(t: int, t_start_frame: int, t_end_frame: int, t_start_exp: int, t_end_exp: int,

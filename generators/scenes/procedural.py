@@ -235,6 +235,10 @@ class FlickeringLight(Scene):
     def period_us(self) -> float:
         return 1e6 / self.frequency
 
+    def max_frequency_hz(self) -> float:
+        """The lamp's flicker frequency (Hz), the highest temporal frequency of the radiance; 0 at depth 0."""
+        return self.frequency if self.depth > 0 else 0.0
+
     def lamp_intensity(self, t_us: float) -> float:
         """Analytic lamp radiance at time t_us."""
         return self.mean * (1 + self.depth * math.sin(2 * math.pi * self.frequency * t_us * 1e-6 + self.phase))
