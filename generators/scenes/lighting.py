@@ -20,6 +20,7 @@ References (full citations also in docs/models/references.md):
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,7 +28,10 @@ from sim import InvalidParameterError
 
 from .base import Scene, number, positive
 
-__all__ = ["FlickerLighting", "LIGHTING_KEYS", "checked_lighting"]
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+__all__ = ["FlickerLighting", "LIGHTING_KEYS", "checked_lighting", "flicker_gain"]
 
 #: the keys of a scene table's `lighting = {...}`
 LIGHTING_KEYS = ("flicker_hz", "depth", "phase_rad", "rise_fraction")
@@ -47,6 +51,16 @@ def checked_lighting(flicker_hz: float = 100.0, depth: float = 0.2, phase_rad: f
     return positive("flicker_hz", flicker_hz, owner), depth, number("phase_rad", phase_rad, owner), rise
 
 
+def flicker_gain(t_us: npt.ArrayLike, flicker_hz: float, depth: float, phase_rad: float = 0.0,
+                 rise_fraction: float = 0.5) -> np.ndarray:
+    """1 + depth w(t) at scene times t_us (us; array or scalar): the light relative to its mean (see the module)."""
+    cycle = (flicker_hz * np.asarray(t_us, np.float64) * 1e-6 + phase_rad / (2 * math.pi)) % 1.0  # 0 at the peak
+    fall = 1.0 - rise_fraction
+    w = np.where(cycle < fall, np.cos(math.pi * cycle / fall),
+                 -np.cos(math.pi * (cycle - fall) / rise_fraction))
+    return 1.0 + depth * w
+
+
 class FlickerLighting(Scene):
     """`scene` lit by a lamp whose light is 1 + depth w(t) times its mean (see the module). depth in [0, 1);
     frequency_hz > 0 (100 for 50 Hz mains, 120 for 60 Hz); rise_fraction: the share of the period in which the
@@ -64,11 +78,7 @@ class FlickerLighting(Scene):
 
     def gain(self, t_us: float) -> float:
         """The light's level at scene time t_us, relative to its mean: 1 + depth w(t) (see the module)."""
-        cycle = (self.frequency * t_us * 1e-6 + self.phase / (2 * math.pi)) % 1.0  # 0 at the peak
-        fall = 1.0 - self.rise
-        if cycle < fall:
-            return 1.0 + self.depth * math.cos(math.pi * cycle / fall)
-        return 1.0 - self.depth * math.cos(math.pi * (cycle - fall) / self.rise)
+        return float(flicker_gain(t_us, self.frequency, self.depth, self.phase, self.rise))
 
     def _render(self, t_us: int) -> np.ndarray:
         return self.scene.radiance(t_us) * np.float32(self.gain(t_us))
