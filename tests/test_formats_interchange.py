@@ -117,6 +117,15 @@ def _faery_events(path):
     return a["t"], a["x"], a["y"], np.where(a["on"], 1, -1)
 
 
+def _dv_events(recording):
+    """(t, x, y, p) of every event of a dv-processing MonoCameraRecording (iniVation's own reader)."""
+    stores = []
+    while (batch := recording.getNextEventBatch()) is not None:
+        stores.append(batch.numpy())
+    got = np.concatenate(stores)
+    return got["timestamp"], got["x"], got["y"], np.where(got["polarity"] > 0, 1, -1)
+
+
 def _toolbox_dat_events(path):
     """Prophesee's own numpy reader convention (github.com/prophesee-ai/prophesee-automotive-dataset-toolbox,
     src/io/dat_events_tools.py): '% ' header lines, 1 byte type, 1 byte size, then (u4 t, i4 packed x|y|p)."""
@@ -282,11 +291,7 @@ def test_aedat4_export_reads_back_in_dv_processing_and_aedat(tmp_path, tiny_reco
     # iniVation's own reader
     r = dv.io.MonoCameraRecording(str(tmp_path / "r.aedat4"))
     assert r.getEventResolution() == (W, H) and r.getFrameResolution() == (W, H)
-    stores = []
-    while (batch := r.getNextEventBatch()) is not None:
-        stores.append(batch.numpy())
-    got = np.concatenate(stores)
-    _assert_same((got["timestamp"], got["x"], got["y"], np.where(got["polarity"] > 0, 1, -1)), rec.events)
+    _assert_same(_dv_events(r), rec.events)
     frames = []
     while (fr := r.getNextFrame()) is not None:
         frames.append(fr)
@@ -334,11 +339,7 @@ def test_aedat4_splits_events_into_packets_between_the_frames_and_refuses_what_i
     order = [p["frame"]["t"] if "frame" in p else p["events"]["t"][0] for p in packets]
     assert order == sorted(order) and sum("frame" in p for p in packets) == rec.frames.shape[0]
     r = dv.io.MonoCameraRecording(str(tmp_path / "r.aedat4"))
-    stores = []
-    while (batch := r.getNextEventBatch()) is not None:
-        stores.append(batch.numpy())
-    got = np.concatenate(stores)
-    _assert_same((got["timestamp"], got["x"], got["y"], np.where(got["polarity"] > 0, 1, -1)), rec.events)
+    _assert_same(_dv_events(r), rec.events)
     wide = Recording(events=rec.events[:1], height=H, width=40_000)
     with pytest.raises(EvsimInputError, match="aedat4 holds sensors up to 32767x32767 pixels"):
         export(wide, tmp_path / "w.aedat4", "aedat4")
