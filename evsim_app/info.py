@@ -183,7 +183,8 @@ def format_description(d: dict) -> str:
     if "sequences" in d:
         n = len(d["sequences"])
         head = (f"{d['path']} (dataset folder, {n} sequence{'s' * (n != 1)}"
-                + (")" if d["index"] else f", no {INDEX_FILE}: not written by generate/convert, or incomplete)"))
+                + (")" if d["index"] else f"; without {INDEX_FILE}: an export or a copy, or a generate/convert run "
+                                          "that did not finish)"))
         return "\n\n".join([head] + [format_description(s) for s in d["sequences"]])
     ev = d["events"]
     lines = [

@@ -306,7 +306,7 @@ def test_cli_export_prints_a_note_as_one_line(tiny_dataset, tmp_path, capsys):
     assert main(["export", str(tiny_dataset / "a.h5"), str(tmp_path / "a.raw"), "--format", "evt3"]) == 2
     assert "already exists; pass --overwrite" in capsys.readouterr().err
     assert main(["info", str(tiny_dataset)]) == 0
-    assert "(dataset folder, 2 sequences, no index.json" in capsys.readouterr().out
+    assert "(dataset folder, 2 sequences; without index.json: an export or a copy" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("value,message", [("events,frame", "unknown output 'frame'"),
