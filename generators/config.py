@@ -32,8 +32,9 @@ A configuration describes a dataset of sequences. Every key is optional except [
     threshold_sigma = [0.0, 0.03]
 
 Scene types: see SCENE_TYPES; the other keys of a scene table are the keyword arguments of the scene class
-(lists become tuples; "path" and "timestamps" are relative to the configuration file). Errors raise
-InvalidParameterError naming the file and the key.
+(lists become tuples; "path" and "timestamps" are relative to the configuration file). Any scene table may add
+lighting = { flicker_hz = 100.0, depth = 0.2, phase_rad = 0.0, rise_fraction = 0.5 }: the scene under a flickering
+lamp (generators.scenes.FlickerLighting). Errors raise InvalidParameterError naming the file and the key.
 """
 
 from __future__ import annotations
