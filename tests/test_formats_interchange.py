@@ -382,3 +382,17 @@ def test_a_real_dvxplorer_recording_survives_every_event_export(tmp_path, fmt, n
     if fmt in ("evt3", "evt2"):
         offset = int(real.events["t"][0]) // 1000 * 1000  # Unix time is past both ranges
         _assert_same(_evlib_events(tmp_path / name), real.events, offset)
+
+
+def test_aedat4_export_of_a_recording_with_an_empty_frame_stack_holds_its_events(tmp_path):
+    """Zero frames declare no frame stream: the writer takes the streams from the header dv-processing wrote."""
+    pytest.importorskip("dv_processing")
+    pytest.importorskip("aedat")
+    rec = make_recording(n_events=500)
+    empty = np.zeros(0, np.int64)
+    rec = Recording(events=rec.events, height=H, width=W, frames=np.zeros((0, H, W), np.uint8),
+                    frame_t_start_us=empty, frame_t_mid_us=empty, frame_t_end_us=empty)
+    export(rec, tmp_path / "e.aedat4", "aedat4")
+    back = load(tmp_path / "e.aedat4")
+    np.testing.assert_array_equal(back.events, rec.events)
+    assert back.frames is None
