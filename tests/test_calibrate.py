@@ -201,6 +201,10 @@ def test_offset_search_lands_between_grid_points():
         class simulation:  # noqa: N801 - stands for a RecordingSimulation
             dn_per_radiance, full_illumination = 255.0, 1.0
 
+            @staticmethod
+            def dark_fraction(offset_dn):
+                return offset_dn / 255.0
+
         def __call__(self, dvs, stage):
             b = dvs.dark_fraction * 255.0
             scores = {"on_ratio": 0.2 / dvs.pos_threshold, "off_ratio": 0.25 / dvs.neg_threshold}

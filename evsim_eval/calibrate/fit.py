@@ -152,11 +152,6 @@ class _Objective:
         return value, scores, stats
 
 
-def _offset_fraction(offset_dn: float, simulation: RecordingSimulation) -> float:
-    """DVSParams.dark_fraction of a log offset in frame DN."""
-    return offset_dn / simulation.dn_per_radiance / simulation.full_illumination
-
-
 def _match_counts(objective: _Objective, dvs: sim.DVSParams, stage: str, steps: int = 3):
     """Secant steps on log thresholds so that ON and OFF counts match: counts ~ threshold^-k (k from the steps,
     starting at 1). Returns (loss, dvs, scores)."""
@@ -192,7 +187,7 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
     grid = np.log(OFFSET_GRID_DN)
     tried, dvs = [], start
     for b in OFFSET_GRID_DN:
-        trial = dvs.replace(dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation))
+        trial = dvs.replace(dark_fraction=simulation.dark_fraction(b * simulation.dn_per_radiance / 255.0))
         value, dvs, _ = _match_counts(objective, trial, f"offset {b:g} DN", steps=2)
         tried.append((value, dvs))
     i = min(range(len(tried)), key=lambda k: tried[k][0])
@@ -205,7 +200,7 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
             b = math.exp(vertex)
             near = tried[i - 1 if vertex < x1 else i + 1][1]  # thresholds between the two: start from the mean
             trial = best[1].replace(
-                dark_fraction=_offset_fraction(b * simulation.dn_per_radiance / 255.0, simulation),
+                dark_fraction=simulation.dark_fraction(b * simulation.dn_per_radiance / 255.0),
                 pos_threshold=math.sqrt(best[1].pos_threshold * near.pos_threshold),
                 neg_threshold=math.sqrt(best[1].neg_threshold * near.neg_threshold))
             value, trial, _ = _match_counts(objective, trial, f"offset {b:.3g} DN", steps=2)
@@ -229,7 +224,7 @@ def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVS
         dark_excess = sum(max((r - s) / (n_dark * dur), 0.0) for r, s in zip(real.dark_counts, stats.dark_counts))
         # dark shot noise scales as I_d / (I + I_d) (sim.dvs): its share on the dark pixels, in frame DN
         sim_ = objective.simulation
-        b_dn = dvs.dark_fraction * sim_.full_illumination * sim_.dn_per_radiance
+        b_dn = sim_.offset_dn(dvs)
         level = np.maximum(masks.median_dn[masks.dark].astype(np.float64) - sim_.settings.black_level, 0.0)
         share = float(np.mean(b_dn / (level + b_dn)))
         if share > 0 and dark_excess > excess_on + excess_off:
@@ -314,7 +309,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         loss, final, fitted_scores = objective.best
     finally:
         bar.close()
-    offset_dn = final.dark_fraction * simulation.full_illumination * simulation.dn_per_radiance
+    offset_dn = simulation.offset_dn(final)
     return Calibration(
         path=path, window_s=tuple(window_s), dvs=simulation.params(final), preset=simulation.params(start),
         preset_name=preset, input=settings, read_noise_dn=float(real.masks.read_noise_dn), offset_dn=offset_dn,

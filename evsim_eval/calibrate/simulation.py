@@ -77,6 +77,14 @@ class RecordingSimulation:
         self.radiance = np.stack(pre + images)
         self.time_origin_us = scene.time_origin_us
 
+    def offset_dn(self, dvs: sim.DVSParams) -> float:
+        """The log offset b of `dvs` in frame DN (the pixel responds to log(DN - black level + b))."""
+        return dvs.dark_fraction * self.full_illumination * self.dn_per_radiance
+
+    def dark_fraction(self, offset_dn: float) -> float:
+        """DVSParams.dark_fraction of a log offset in frame DN (the inverse of offset_dn)."""
+        return offset_dn / self.dn_per_radiance / self.full_illumination
+
     def params(self, dvs: sim.DVSParams) -> sim.DVSParams:
         """dvs with this input's full illumination (what convert's auto illumination gives)."""
         return dvs.replace(full_illumination=self.full_illumination)

@@ -96,7 +96,7 @@ def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, 
         if value < (1 - IDEAL_GAIN) * loss:
             again = fit_offset_and_thresholds(objective, start.replace(**ideal), refine=True)
             loss, dvs = min((value, matched), again, key=lambda r: r[0])
-    offset_dn = dvs.dark_fraction * simulation.full_illumination * simulation.dn_per_radiance
+    offset_dn = simulation.offset_dn(dvs)
     return ThresholdEstimate(dvs.pos_threshold, dvs.neg_threshold, offset_dn, dvs.dark_fraction, window, float(loss),
                              objective.evaluations, time.process_time() - cpu0)
 
