@@ -214,10 +214,10 @@ def format_description(d: dict) -> str:
     lines.append(f"  CRF         {crf['name']} {crf.get('params', {})}" if crf else "  CRF         unknown")
     model = d.get("sensor_model")
     if model:
-        changes = "".join(f", {k}={v:g}" if isinstance(v, float) else f", {k}={v}"
-                          for k, v in sorted(d.get("dvs_changes", {}).items()))
+        changes = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                            for k, v in sorted(d.get("dvs_changes", {}).items()))
         lines.append(f"  model       {model.get('name')} ({model.get('file') or 'preset'})"
-                     + (f"; DVS changed{changes[1:]}" if changes else ""))
+                     + (f"; DVS changed {changes}" if changes else ""))
     if d["generator"]:
         lines.append(f"  generator   {d['generator']}")
     if d.get("input"):
