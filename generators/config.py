@@ -435,9 +435,8 @@ def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where
     if lighting is None:
         return base
     lighting = _check_table(f"{where}.lighting", lighting, _LIGHTING_TABLE)
-    keys = {"flicker_hz": "frequency_hz", "depth": "depth", "phase_rad": "phase_rad", "rise_fraction": "rise_fraction"}
     try:
-        return scenes.FlickerLighting(base, **{keys[k]: v for k, v in lighting.items()})
+        return scenes.FlickerLighting(base, **lighting)
     except InvalidParameterError as e:  # "lighting: depth must be ..."
         raise _fail(where, str(e)) from None
 

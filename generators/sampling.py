@@ -100,9 +100,9 @@ class AdaptiveSampler:
         self.max_step = _positive_int("max_step_us", max_step_us)
         if self.max_step < self.min_step:
             raise InvalidParameterError(f"max_step_us={max_step_us} is below min_step_us={min_step_us}")
-        frequency = getattr(source, "max_frequency_hz", None)
-        if frequency is not None and frequency() > 0:  # a flicker: steps that could alias it are not tried
-            self.max_step = max(self.min_step, min(self.max_step, int(1e6 / (SAMPLES_PER_PERIOD * frequency()))))
+        frequency = getattr(source, "max_frequency_hz", lambda: 0.0)()
+        if frequency > 0:  # a flicker: steps that could alias it are not tried
+            self.max_step = max(self.min_step, min(self.max_step, int(1e6 / (SAMPLES_PER_PERIOD * frequency))))
         self.log_eps = np.float32(log_eps)
         self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
         self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)

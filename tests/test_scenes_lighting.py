@@ -28,7 +28,7 @@ def test_a_static_scene_under_flicker_fires_bursts_at_its_frequency_with_the_bac
 
     params = sim.DVSParams.preset("ideal").replace(pos_threshold=C, neg_threshold=C)
     depth, f = 0.3, 100.0
-    for lit, scene in ((False, _static()), (True, FlickerLighting(_static(), frequency_hz=f, depth=depth))):
+    for lit, scene in ((False, _static()), (True, FlickerLighting(_static(), flicker_hz=f, depth=depth))):
         samples = AdaptiveSampler(scene, threshold=C, fraction=0.5, quantile=1.0)
         events = sim.emulate(((img, t) for t, img in samples), params=params, seed=0)
         if not lit:
@@ -52,7 +52,7 @@ def test_a_light_that_rises_fast_fires_its_on_events_in_the_rise_and_its_off_eve
     from generators.sampling import AdaptiveSampler
 
     rise, f, depth = 0.2, 100.0, 0.3
-    scene = FlickerLighting(_static(), frequency_hz=f, depth=depth, rise_fraction=rise)
+    scene = FlickerLighting(_static(), flicker_hz=f, depth=depth, rise_fraction=rise)
     ts = np.arange(0, 10_000, 10)
     assert np.mean([scene.gain(t) for t in ts]) == pytest.approx(1.0, abs=1e-3)
     assert max(scene.gain(t) for t in ts) == pytest.approx(1 + depth) and scene.max_frequency_hz() == 250.0
@@ -71,7 +71,7 @@ def test_frames_integrate_the_flicker_over_their_exposure(t_start, exposure):
     periods, 1 + d (sin(w t1 + p) - sin(w t0 + p)) / (w T) otherwise."""
     depth, f, phase = 0.4, 100.0, 0.7
     base = _static()
-    scene = FlickerLighting(base, frequency_hz=f, depth=depth, phase_rad=phase)
+    scene = FlickerLighting(base, flicker_hz=f, depth=depth, phase_rad=phase)
     mid = t_start + exposure // 2
     cam = sim.LDRCamera(H, W, sim.CameraParams(frame_times_us=(mid,), exposure_us=exposure), crf_models.get("linear"))
     frame = next(iter(cam.capture(scene)))
@@ -117,7 +117,7 @@ def test_the_realism_score_finds_the_flicker_of_the_event_rate():
         samples = AdaptiveSampler(scene, threshold=C, fraction=0.5, quantile=1.0)
         return sim.emulate(((img, t) for t, img in samples), params=p, seed=0)
 
-    lit = events(FlickerLighting(_static(), frequency_hz=100.0, depth=0.3))
+    lit = events(FlickerLighting(_static(), flicker_hz=100.0, depth=0.3))
     both, on = (measure(e, [0, DURATION_US], height=H, width=W) for e in (lit, lit[lit["p"] > 0]))
     noise = measure(events(_static(), params.replace(shot_noise_hz=50.0)), [0, DURATION_US], height=H, width=W)
     assert both.flicker_hz == pytest.approx(200.0, rel=0.02) and both.flicker_share > 0.5

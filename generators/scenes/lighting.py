@@ -63,14 +63,14 @@ def flicker_gain(t_us: npt.ArrayLike, flicker_hz: float, depth: float, phase_rad
 
 class FlickerLighting(Scene):
     """`scene` lit by a lamp whose light is 1 + depth w(t) times its mean (see the module). depth in [0, 1);
-    frequency_hz > 0 (100 for 50 Hz mains, 120 for 60 Hz); rise_fraction: the share of the period in which the
+    flicker_hz > 0 (100 for 50 Hz mains, 120 for 60 Hz); rise_fraction: the share of the period in which the
     light rises (0.5: a cosine)."""
 
-    def __init__(self, scene: Scene, *, frequency_hz: float = 100.0, depth: float = 0.2, phase_rad: float = 0.0,
+    def __init__(self, scene: Scene, *, flicker_hz: float = 100.0, depth: float = 0.2, phase_rad: float = 0.0,
                  rise_fraction: float = 0.5):
         self.scene = scene
         self._init_size(scene.height, scene.width, scene.duration_us)
-        self.frequency, self.depth, self.phase, self.rise = checked_lighting(frequency_hz, depth, phase_rad,
+        self.frequency, self.depth, self.phase, self.rise = checked_lighting(flicker_hz, depth, phase_rad,
                                                                              rise_fraction)
         for name in ("time_origin_us", "warm_up_us"):  # a recorded clip's time base and DVS warm-up
             if hasattr(scene, name):
@@ -88,7 +88,7 @@ class FlickerLighting(Scene):
 
     def max_frequency_hz(self) -> float:
         """The highest temporal frequency of the radiance (Hz): that of the flicker's shorter half cosine
-        (frequency_hz at rise_fraction 0.5; 0 at depth 0), or the scene's own if higher."""
+        (flicker_hz at rise_fraction 0.5; 0 at depth 0), or the scene's own if higher."""
         own = getattr(self.scene, "max_frequency_hz", None)
         flicker = self.frequency / (2 * min(self.rise, 1 - self.rise)) if self.depth > 0 else 0.0
         return max(flicker, float(own()) if own is not None else 0.0)
