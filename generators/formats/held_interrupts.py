@@ -46,7 +46,6 @@ def release() -> None:
     _depth -= 1
     if _depth > 0:
         return
-    _depth = 0
     for sig, handler in _previous.items():
         signal.signal(sig, handler)
     deliver_pending()
