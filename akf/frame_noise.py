@@ -202,33 +202,25 @@ def _coarse_medians(a: np.ndarray, b: np.ndarray, mask: np.ndarray, margin: int,
     for s in range(shifts.shape[0]):
         dy, dx = shifts[s, 0], shifts[s, 1]
         hist[:] = 0
-        n = 0
+        n = top = 0
         for i in range(mask.shape[0]):
             y = margin + i * step
             for j in range(mask.shape[1]):
                 if mask[i, j]:
                     x = margin + j * step
-                    hist[abs(a[y, x] - b[y - dy, x - dx])] += 1
-                    n += 1
-        if n == 0:
-            out[s] = np.inf
-            continue
-        cum, below, k = 0.0, 0.0, 0
-        for k in range(full + 1):  # as _grouped_median on hist / n: the same sums in the same order
-            below = cum
-            cum += hist[k] / n
-            if cum >= 0.5:
-                break
-        lo, width = (0.0, 0.5) if k == 0 else (k - 0.5, 1.0)
-        out[s] = lo + (0.5 - below) / (hist[k] / n) * width
+                    d = abs(a[y, x] - b[y - dy, x - dx])
+                    hist[d] += 1
+                    n, top = n + 1, max(top, d)
+        out[s] = _grouped_median(hist[:top + 1] / n) if n else np.inf  # (as np.bincount(d) / d.size)
     return out
 
 
+@njit(cache=True)
 def _grouped_median(p: np.ndarray) -> float:
     """The median of |d| with probabilities p[k] of |d| = k spread uniformly over [k - 1/2, k + 1/2) ([0, 1/2) for
     k = 0)."""
     cum = np.cumsum(p)
-    k = int(np.searchsorted(cum, 0.5))
+    k = np.searchsorted(cum, 0.5)
     below = cum[k - 1] if k else 0.0
     lo, width = (0.0, 0.5) if k == 0 else (k - 0.5, 1.0)
     return lo + (0.5 - below) / p[k] * width
