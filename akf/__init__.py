@@ -1,7 +1,8 @@
 """HDR reconstruction: frame augmentation, the Asynchronous Kalman Filter, baselines and metrics.
 
 Exports:
-- the filter: reconstruct, AKFParams; augmented_measurement, AugmentedMeasurement (its frame augmentation);
+- the filter: reconstruct, AKFParams; the smoother (offline: the filter forward and backward, fused):
+  reconstruct_smoothed; augmented_measurement, AugmentedMeasurement (its frame augmentation);
 - baselines (reconstruct's inputs and outputs): complementary_filter, frames_only, direct_integration, and the
   events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
   the pixel's log offset from the data); estimate_read_noise, FrameNoise (the frames' read noise, which sets the
@@ -62,10 +63,11 @@ from .metrics import (
     ssim01,
 )
 from .params import AKFParams
+from .smoother import reconstruct_smoothed
 from .tuning import SEARCH_SPACES, Tuned, tune
 
 __all__ = [
-    "reconstruct", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
+    "reconstruct", "reconstruct_smoothed", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
     "complementary_filter", "frames_only", "direct_integration", "high_pass_filter",
     "estimate_contrast", "estimate_log_offset", "ContrastEstimate", "estimate_read_noise", "FrameNoise",
     "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",

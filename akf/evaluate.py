@@ -17,6 +17,7 @@ from .filter import reconstruct
 from .inputs import as_crf
 from .metrics import METRICS, PER_PIXEL, SSIM_MAPS, score, score_map
 from .pixel_classes import CLASSES, TIME_CLASSES, nearest_frames, pixel_classes, time_classes, valid_region
+from .smoother import reconstruct_smoothed
 from .tuning import setting_options
 
 if TYPE_CHECKING:
@@ -34,7 +35,7 @@ __all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "output_bound"
 
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
-METHODS = {"akf": reconstruct, **BASELINES}
+METHODS = {"akf": reconstruct, "aks": reconstruct_smoothed, **BASELINES}
 
 
 def check_names(methods: Iterable[str] = (), metrics: Iterable[str] = ()) -> None:

@@ -10,6 +10,7 @@ camera (EDI), cited in full in the akf package docstring; and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, fields
@@ -25,6 +26,7 @@ from sim.parallel import in_parallel
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .clip_prior import fill_unmeasured
+from .flat_field import count_scales
 from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
@@ -258,7 +260,7 @@ def _leaked(et, c_on_intervals, inp: Inputs, leak_rate_hz: float) -> np.ndarray:
 def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                 frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                 contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0, params: AKFParams = _DEFAULT_PARAMS,
-                bit_depth: int = 8, max_intensity: float | None = 1.0, return_variance: bool = False,
+                bit_depth: int = 8, max_intensity: float | None = None, return_variance: bool = False,
                 return_gain: bool = False
                 ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], ...]:
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter (Wang, Ng,
@@ -280,10 +282,12 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
     nominal contrasts, as in the paper.
 
-    max_intensity: the output bound (x units; None: unbounded), the same rule as the complementary filter's: what
-    the sensor can represent, by default 1, the top of the CRF's input range (the full well). Events integrated in
-    regions where every frame is clipped otherwise run above anything the camera could record (up to 380 x on a
-    real HDR photo's highlights, where the truth was at most 127 x).
+    max_intensity: an output bound (x units), or None (default): unbounded, as high as the events carry a pixel
+    above the frames' clip (HDR is the point). What keeps pixels no frame measures from running off is evidence,
+    not a constant: their thresholds are flat-fielded from the event counts (params.flat_field; akf.flat_field),
+    the one-sided rule keeps them on their side of the clip level, and the clip prior and the output smoothing
+    average their speckle. On the AHDR pan of the real HDR photo Desk (davis346 sensor) the largest output is
+    5.4 x the truth's largest (2e9 x with the nominal thresholds).
 
     Returns float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative)
     in the CRF's scaled-irradiance units (of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k),
@@ -321,20 +325,87 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)
     without storing the result, so the image at t is the same, bit for bit, whatever other times are requested.
     """
+    check_filter_options(params, leak_rate_hz, max_intensity)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
+                          params)
+    crf = as_crf(crf)
+    nt, (h, w) = inp.out_t.shape[0], inp.shape
+    out_i = np.zeros((nt, h, w), np.float32)
+    out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
+    out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
+    run_filter(inp, crf, params, leak_rate_hz, out_i, out_p, out_k, finish_image(params, inp.shape))
+    np.clip(out_i, 0.0, np.inf if max_intensity is None else max_intensity, out=out_i)
+    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
+    return result[0] if len(result) == 1 else tuple(result)
+
+
+def check_filter_options(params: AKFParams, leak_rate_hz: float, max_intensity: float | None) -> None:
+    """The filter's own options checked at the boundary (InvalidParameterError naming the option)."""
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     check_max_intensity(max_intensity)
+
+
+def prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth: int,
+                    params: AKFParams) -> Inputs:
+    """The validated inputs (akf.inputs.validate_inputs), with the thresholds flat-fielded from the event counts
+    (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
-    crf = as_crf(crf)
+    if params.flat_field and np.ndim(contrast) < 2:
+        on, off = count_scales(inp.events, inp.shape, params.calib_scale_range)
+        inp = dataclasses.replace(inp, c_on=inp.c_on * on, c_off=inp.c_off * off)
+    return inp
+
+
+class Masks(NamedTuple):
+    """What the filter knows of each pixel (flat) at a published time, beside its state: the clip side of its current
+    interval (+1 / -1 / 0), whether a frame has measured it yet and when last (us; -inf: never), and the
+    smoothing's variance floor and log bounds from the last frame (see _filter)."""
+
+    side: np.ndarray
+    measured: np.ndarray
+    floor: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    when: np.ndarray
+
+
+def finish_image(params: AKFParams, shape: tuple[int, int]):
+    """The causal filter's last steps on each published image, in place: the clip prior, then the output smoothing
+    (see reconstruct). Returns post(j, intensity, variance, masks) for run_filter."""
+    prior = params.clip_prior and params.frame_update
+
+    def post(j, oi, op, masks: Masks):
+        if prior:  # before the smoothing, which then averages the filled levels too
+            fill_unmeasured(oi, params.i0, masks.side, masks.measured)
+        smooth_published(oi, op, masks, params, shape)
+    return post
+
+
+def smooth_published(oi: np.ndarray, op: np.ndarray, masks: Masks, params: AKFParams, shape: tuple[int, int]) -> None:
+    """The output smoothing of one published image (flat intensity and variance), in place: pixels between two frames
+    clipped on one side (only events and the bound know them) with the full range, the others the last frame clipped
+    (the next frame measures them: things moving across the edge of a clipped area) with at most EDGE_RANGE."""
+    if params.smooth_range <= 0:
+        return
+    one_sided = masks.side != 0
+    for part, rng in ((one_sided, params.smooth_range), (~one_sided, min(params.smooth_range, EDGE_RANGE))):
+        part_floor = np.where(part, masks.floor, np.float32(np.inf))
+        if np.isfinite(part_floor).any():
+            smooth_uncertain(oi.reshape(shape), op.reshape(shape), params.i0, rng, part_floor.reshape(shape),
+                             masks.low.reshape(shape), masks.high.reshape(shape))
+
+
+def run_filter(inp: Inputs, crf, params: AKFParams, leak_rate_hz: float, out_i, out_p, out_k, post) -> None:
+    """The filter over inp, writing exp(L) - I0 (and P, K when out_p / out_k are arrays) at inp.out_t into out_i
+    (T, H, W), each image then given to post(j, intensity, variance, masks) (flat views; variance a scratch array
+    when out_p is None) before the next."""
     nf, (h, w) = inp.frames.shape[0], inp.shape
-    n, nt = h * w, inp.out_t.shape[0]
-    out_i = np.zeros((nt, h, w), np.float32)
-    out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
-    out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
+    n = h * w
     read_noise = params.read_noise_dn
     if read_noise is None and params.frame_update:
-        read_noise = frame_read_noise(inp.frames, bit_depth)
+        read_noise = frame_read_noise(inp.frames, int(inp.full_scale).bit_length())
     fr = _Frames(inp, crf, params, read_noise or 0.0)
     strong = params.sigma_im2 / params.max_variance
     noise = kernels.noise_params(params.sigma_proc2, params.sigma_iso2, params.sigma_ref2, params.rho_bar_us, strong,
@@ -359,7 +430,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     mid0 = fr.at_mid(0)
 
     def run(ahead):
-        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params, out_i, out_p, out_k, mid0)
+        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params, out_i, out_p, out_k, mid0, post)
 
     if numba.get_num_threads() > 1:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
@@ -367,9 +438,6 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
             run(ahead)
     else:  # one thread allowed (e.g. a dataset worker's share of the cores): the frame work runs in turn
         run(_AtOnce())
-    np.clip(out_i, 0.0, np.inf if max_intensity is None else max_intensity, out=out_i)
-    result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
-    return result[0] if len(result) == 1 else tuple(result)
 
 
 class _AtOnce:
@@ -396,45 +464,31 @@ def _next_interval(fr: _Frames, k: int) -> tuple[_Interval, np.ndarray | None, t
 
 
 def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, params: AKFParams, out_i, out_p,
-            out_k, mid):
-    """The filter's window loop (see reconstruct). The frame work of the next interval (deblurring, calibration)
-    does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr from now
-    on) while this one processes the events, filling the cores left idle by the serial parts."""
+            out_k, mid, post):
+    """The filter's window loop (see reconstruct and run_filter). The frame work of the next interval (deblurring,
+    calibration) does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr
+    from now on) while this one processes the events, filling the cores left idle by the serial parts."""
     nf, w = inp.frames.shape[0], inp.shape[1]
     nt = inp.out_t.shape[0]
     none = np.empty(0, np.float32)
     i0 = params.i0
-    smooth = params.smooth_range > 0
     # the smoothing floor of each pixel: infinite (no smoothing) where the last frame measured it, smooth_variance
     # where it was clipped or before the first frame; and the bounds (log) the smoothing may not cross: a pixel the
-    # last frame clipped high (low) stays at or above (below) that frame's level, the one-sided rule of the filter
-    floor = np.full(S.shape[0], params.smooth_variance, np.float32)
-    low = np.full(S.shape[0], -np.inf, np.float32)
-    high = np.full(S.shape[0], np.inf, np.float32)
-    scratch_p = np.empty(S.shape[0], np.float32) if smooth and out_p is None else None
-    # the clip prior (akf.clip_prior): whether a frame has measured each pixel (the clip side is its interval's)
-    prior = params.clip_prior and params.frame_update
-    measured = np.zeros(S.shape[0], bool)
+    # last frame clipped high (low) stays at or above (below) that frame's level, the one-sided rule of the filter;
+    # whether a frame has measured each pixel (the clip prior's; the clip side is its interval's)
+    masks = Masks(C[:, kernels.CC_SIDE], np.zeros(S.shape[0], bool), np.full(S.shape[0], params.smooth_variance,
+                  np.float32), np.full(S.shape[0], -np.inf, np.float32), np.full(S.shape[0], np.inf, np.float32),
+                  np.full(S.shape[0], -np.inf))
+    scratch_p = np.empty(S.shape[0], np.float32) if out_p is None else None
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
 
-    def publish(t, win, oi, op, ok):  # output images (flat) at t (us)
-        if smooth and op.shape[0] == 0:
+    def publish(j, t, win, oi, op, ok):  # output images (flat) at t (us)
+        if op.shape[0] == 0:
             op = scratch_p
         blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
-        if prior:  # before the smoothing, which then averages the filled levels too
-            fill_unmeasured(oi, i0, C[:, kernels.CC_SIDE], measured)
-        if smooth:
-            # pixels between two frames clipped on one side (only events and the bound know them) with the full
-            # range, the others the last frame clipped (the next frame measures them: things moving across the
-            # edge of a clipped area) with at most EDGE_RANGE
-            one_sided = C[:, kernels.CC_SIDE] != 0
-            for part, rng in ((one_sided, params.smooth_range), (~one_sided, min(params.smooth_range, EDGE_RANGE))):
-                part_floor = np.where(part, floor, np.float32(np.inf))
-                if np.isfinite(part_floor).any():
-                    smooth_uncertain(oi.reshape(inp.shape), op.reshape(inp.shape), i0, rng,
-                                     part_floor.reshape(inp.shape), low.reshape(inp.shape), high.reshape(inp.shape))
+        post(j, oi, op, masks)
 
     def switch(t, win, iv: _Interval, r_next):  # bring every pixel to t = s_k (win: the window ending there), rotate
         on_new, off_new, side_new = iv.scale * inp.c_on, iv.scale * inp.c_off, iv.side.astype(np.float64)
@@ -449,10 +503,11 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
             kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w)  # commit to t
             kernels.akf_frame_update(S, z, r, y0 * w, y1 * w)
         blocks.run(part)
-        floor[:] = np.where(r > 0, np.inf, params.smooth_variance)
-        low[:] = np.where(side > 0, z, -np.inf)
-        high[:] = np.where(side < 0, z, np.inf)
-        measured[:] |= r > 0
+        masks.floor[:] = np.where(r > 0, np.inf, params.smooth_variance)
+        masks.low[:] = np.where(side > 0, z, -np.inf)
+        masks.high[:] = np.where(side < 0, z, np.inf)
+        masks.measured[:] |= r > 0
+        masks.when[:] = np.where(r > 0, t, masks.when)
 
     tau = inp.tau
     j = 0  # next output index
@@ -480,7 +535,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
                 n0, mid = n1, None
             n1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
             events(ev[n0:n1], win)
-            publish(float(t_out), win, out_i[j].reshape(-1), none if out_p is None else out_p[j].reshape(-1),
+            publish(j, float(t_out), win, out_i[j].reshape(-1), none if out_p is None else out_p[j].reshape(-1),
                     none if out_k is None else out_k[j].reshape(-1))
             n0 = n1
             j += 1

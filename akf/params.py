@@ -76,6 +76,20 @@ class AKFParams:
             both clipped on one side has only a bound (the clip level plus its events); each published image gives
             it the median of the levels beyond its bound of the pixels on the same side that a frame has measured
             (their events carried them beyond the clip level). False: such pixels stay at their bound.
+    Smoother (akf.reconstruct_smoothed only):
+        smoother_drift2: how fast (log^2 / s) the error of a level carried by events grows with the time since the
+            frame that measured it, beyond the filter's P; where a frame measured the pixel on both sides of t, the
+            two passes are weighted by P + smoother_drift2 * (time since / until that frame), so the nearer frame
+            counts more. The filter's event noise (eq. 2) leaves out the photoreceptor's lag and threshold mismatch,
+            which make events under- or over-report a change: on the AHDR pan of Desk with the davis346 sensor, a
+            pixel's log error one frame interval after its last measuring frame is about 0.3, after 0.5 s about 1.
+    Threshold flat field (not in the paper; akf.flat_field):
+        flat_field: where the contrast is given as a scalar or an (ON, OFF) pair, each pixel's thresholds are
+            scaled by its ON (OFF) event count relative to its 5 x 5 neighbourhood's over the whole input (threshold
+            mismatch read from the events; scales within calib_scale_range), before everything else. Without it,
+            pixels no frame measures integrate every event with the nominal threshold and run off (to 2e9 x on the
+            AHDR pan of the HDR photo Desk, whose truth peaks at 127 x). Per-pixel contrast maps given to the
+            filter are taken as they are. False: the nominal thresholds, as in the paper.
     Frame augmentation (section 4.1):
         deblur: EDI-deblur each frame to the start and end of its exposure (else the blurred frame is used as is).
         calibrate: per-pixel contrast calibration (eq. 12) over each interval between deblurred frames.
@@ -110,6 +124,8 @@ class AKFParams:
     smooth_range: float = 4.0
     smooth_variance: float = 3e-5
     clip_prior: bool = True
+    flat_field: bool = True
+    smoother_drift2: float = 1.0
     deblur: bool = True
     calibrate: bool = True
     calib_min_events: int = 2
@@ -118,7 +134,7 @@ class AKFParams:
 
     def __post_init__(self) -> None:
         """Check every field once, here (the boundary): each error names the field."""
-        for name in ("deblur", "calibrate", "frame_update", "clip_prior"):
+        for name in ("deblur", "calibrate", "frame_update", "clip_prior", "flat_field"):
             if not isinstance(getattr(self, name), bool):
                 raise InvalidParameterError(f"AKFParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name in ("rho_bar_us", "calib_min_events"):
@@ -128,7 +144,7 @@ class AKFParams:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
         if self.read_noise_dn is not None:
             check_number("AKFParams.read_noise_dn", self.read_noise_dn, positive=False)
-        for name in ("bias_max_variance", "calib_prior", "smooth_range"):
+        for name in ("bias_max_variance", "calib_prior", "smooth_range", "smoother_drift2"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range
         if not (isinstance(pair, (tuple, list)) and len(pair) == 2):

@@ -17,9 +17,11 @@ Parameters (all multiplicative or in the method's units):
   cannot buy a weaker pull of clipped frames with noisier well-exposed pixels. The frame update's variance is the
   frames' measured read noise (AKFParams.read_noise_dn, akf.frame_noise), a property of the data: not scaled.
 - smooth_range: the AKF's output smoothing range sigma (log units; 0: off; see akf.smoothing).
-- max_intensity: the output bound (x units; None: unbounded) of every event-based method that has one (the AKF and
-  both complementary filters), 1 (the full well) by default. Events can tell what lies above the full well, so
-  on HDR content a higher bound may score better; the same grid is searched for each method, last.
+- smoother_drift2: the smoother's growth (log^2 / s) of a carried level's error with the time since its frame
+  (AKFParams.smoother_drift2; the smoother only).
+- max_intensity: the output bound (x units; None: unbounded) of every event-based method that has one: None by
+  default for the AKF and the smoother (events tell what lies above the full well), 1 (the full well) for both
+  complementary filters; the same grid is searched for each method, last.
 """
 
 from __future__ import annotations
@@ -62,10 +64,13 @@ _ALPHA = (0.3, 1.0, 2 * math.pi * 0.5, 5.0, 15.0, 50.0, 150.0, 500.0)
 _NOISE = (1 / 4096, 1 / 256, 1 / 64, 1 / 16, 0.25, 1.0, 4.0, 16.0, 64.0, 256.0, 4096.0)
 _BOUND = (0.5, 1.0, 4.0, 16.0, 64.0, None)
 _SMOOTH = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
+_DRIFT = (0.01, 0.1, 1.0, 10.0, 100.0)
 #: method -> {parameter: the grid the tuning searches} (the parameters are listed in the module docstring)
 SEARCH_SPACES = {
     "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,
             "smooth_range": _SMOOTH, "max_intensity": _BOUND},
+    "aks": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,
+            "smooth_range": _SMOOTH, "smoother_drift2": _DRIFT, "max_intensity": _BOUND},
     "cf": {"alpha": _ALPHA, "contrast_scale": _CONTRAST, "max_intensity": _BOUND},
     "cf_adaptive": {"alpha": _ALPHA, "contrast_scale": _CONTRAST, "max_intensity": _BOUND},
     "direct": {"contrast_scale": _CONTRAST},
@@ -74,7 +79,10 @@ SEARCH_SPACES = {
 }
 #: the untuned value of every search parameter, where the search starts
 DEFAULTS = {"contrast_scale": 1.0, "alpha": 2 * math.pi * 0.5, "event_noise_scale": 1.0, "frame_noise_scale": 1.0,
-            "smooth_range": AKFParams.smooth_range, "max_intensity": 1.0}
+            "smooth_range": AKFParams.smooth_range, "smoother_drift2": AKFParams.smoother_drift2,
+            "max_intensity": 1.0}
+#: method -> {parameter: its untuned value} where it differs from DEFAULTS
+METHOD_DEFAULTS = {"akf": {"max_intensity": None}, "aks": {"max_intensity": None}}
 
 
 @dataclass(frozen=True)
@@ -97,19 +105,22 @@ def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, opti
         options.pop("crossover_hz", None)
     if "max_intensity" in setting:
         options["max_intensity"] = setting["max_intensity"]
-    if method == "akf" and {"event_noise_scale", "frame_noise_scale", "smooth_range"} & set(setting):
+    if method in ("akf", "aks") and {"event_noise_scale", "frame_noise_scale", "smooth_range",
+                                     "smoother_drift2"} & set(setting):
         p = options.get("params", AKFParams())
         e, f = setting.get("event_noise_scale", 1.0), setting.get("frame_noise_scale", 1.0)
         options["params"] = dataclasses.replace(p, sigma_proc2=p.sigma_proc2 * e, sigma_iso2=p.sigma_iso2 * e,
                                                 sigma_ref2=p.sigma_ref2 * e, sigma_im2=p.sigma_im2 * f,
                                                 max_variance=max(p.max_variance, p.sigma_im2 * f),
-                                                smooth_range=float(setting.get("smooth_range", p.smooth_range)))
+                                                smooth_range=float(setting.get("smooth_range", p.smooth_range)),
+                                                smoother_drift2=float(setting.get("smoother_drift2",
+                                                                                  p.smoother_drift2)))
     return (float(c) if c.ndim == 0 else tuple(c.tolist()) if c.ndim == 1 else c), options
 
 
 def default_setting(method: str) -> Setting:
     """The untuned setting of a method (its defaults for the searched parameters)."""
-    return {k: DEFAULTS[k] for k in SEARCH_SPACES.get(method, {})}
+    return {k: METHOD_DEFAULTS.get(method, {}).get(k, DEFAULTS[k]) for k in SEARCH_SPACES.get(method, {})}
 
 
 def tune(method: str, objective: Callable[[Setting], float],
@@ -120,7 +131,7 @@ def tune(method: str, objective: Callable[[Setting], float],
     unknown = [k for k in space if k not in DEFAULTS]
     if unknown:
         raise InvalidParameterError(f"unknown tuning parameters {unknown}; known: {sorted(DEFAULTS)}")
-    best = {k: DEFAULTS[k] for k in space}
+    best = {k: METHOD_DEFAULTS.get(method, {}).get(k, DEFAULTS[k]) for k in space}
     seen = {}
 
     def value(setting):
@@ -163,5 +174,6 @@ def describe_setting(setting: Setting) -> str:
                      f"bound {'none' if v is None else f'{v:.3g} x'}" if k == "max_intensity" else
                      f"contrast x{v:.3g}" if k == "contrast_scale" else
                      f"smoothing {v:.3g} log" if k == "smooth_range" else
+                     f"smoother drift {v:.3g} log^2/s" if k == "smoother_drift2" else
                      f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
     return ", ".join(parts) if parts else "no parameters"

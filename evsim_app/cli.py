@@ -391,8 +391,8 @@ def _evaluate_denoise(args) -> int:
 def _cmd_reconstruct(args) -> int:
     from evsim_eval.reconstruct import reconstruct_dataset
 
-    if args.leak_hz is not None and args.method != "akf":
-        raise sim.EvsimInputError(f"--leak-hz applies to the akf method only, not {args.method!r}")
+    if args.leak_hz is not None and args.method not in ("akf", "aks"):
+        raise sim.EvsimInputError(f"--leak-hz applies to the akf and aks methods only, not {args.method!r}")
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
         raise sim.EvsimInputError(f"output {out} already exists and is not an empty folder; pass --overwrite to "
@@ -402,7 +402,7 @@ def _cmd_reconstruct(args) -> int:
 
     with atomic_path(out, directory=True) as tmp:  # the whole --out appears at once, replacing the old one
         written = reconstruct_dataset(args.dataset, tmp, method=args.method, times=args.times,
-                                      method_options=options)
+                                      method_options=options, variance=args.variance)
     for name, folder, n in written:
         print(f"{name}: {n} {args.method} frames (linear, CRF x units) written to {out / folder.relative_to(tmp)}")
     return 0
@@ -410,7 +410,7 @@ def _cmd_reconstruct(args) -> int:
 
 def _akf_options(args) -> dict:
     """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
-    return {} if args.leak_hz is None else {"akf": {"leak_rate_hz": args.leak_hz}}
+    return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in ("akf", "aks")}
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -695,7 +695,12 @@ def build_parser() -> argparse.ArgumentParser:
     rc.add_argument("--out", required=True, help="output folder (one sub-folder per sequence when the "
                                                             "dataset has several), written atomically: it "
                                                             "appears whole")
-    rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf)")
+    rc.add_argument("--method", default="akf", help="reconstruction method (akf.METHODS; default akf, the causal "
+                                                     "filter; aks: the smoother, the filter run forward and "
+                                                     "backward and fused). The AKF's and the smoother's output is "
+                                                     "unbounded: HDR above the frames' clip")
+    rc.add_argument("--variance", action="store_true", help="also write the state variance P (log^2) of akf or aks "
+                                                            "as an EXR folder 'variance' in each sequence's folder")
     rc.add_argument("--times", default="reference", help="output times: reference, frames (mid-exposures) or "
                                                          "fps:N (N per second); default reference")
     rc.add_argument("--overwrite", action="store_true", help="replace an existing, non-empty --out (refused "

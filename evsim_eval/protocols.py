@@ -57,6 +57,8 @@ from sim import EvsimInputError, OptionError
 
 from .choices import PROTOCOLS
 
+#: the methods that take the AKF's options (leak rate, AKFParams): the filter and the smoother
+KALMAN_METHODS = ("akf", "aks")
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
 WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the methods' output bound): "
                       "see the notes)",
@@ -127,7 +129,7 @@ def recording_leak_rate(rec: Recording) -> float:
 def method_options_for(rec: Recording, method_options: dict[str, dict[str, Any]] | None = None) -> dict:
     """{method: {keyword: value}}: what the recording tells a method beyond the shared inputs (the AKF's
     leak_rate_hz), overridden by method_options."""
-    merged = {"akf": {"leak_rate_hz": recording_leak_rate(rec)}}
+    merged = {name: {"leak_rate_hz": recording_leak_rate(rec)} for name in KALMAN_METHODS}
     for name, options in (method_options or {}).items():
         merged[name] = {**merged.get(name, {}), **options}
     return merged
@@ -206,9 +208,11 @@ def recording_case(rec: Recording, protocol: str = "reference",
     contrast, c_note = recording_contrast_or_estimate(rec, fed, sensor)
     if c_note:
         notes.append(c_note)
-    if "akf" in options:
-        options["akf"], n_note = with_read_noise(options["akf"], rec, crf, fed, sensor)
-        notes.append(n_note)
+    for name in KALMAN_METHODS:
+        if name in options:
+            options[name], n_note = with_read_noise(options[name], rec, crf, fed, sensor)
+            if n_note not in notes:
+                notes.append(n_note)
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
                 rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options,
                 windows=windows, exposure_matched=exposure_matched)

@@ -44,13 +44,23 @@ def output_times(rec: Recording, times: str) -> np.ndarray:
                       "frames, fps:N")
 
 
+#: the methods that can return their state variance P (log^2) beside the images
+WITH_VARIANCE = ("akf", "aks")
+
+
 def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = "akf", times: str = "reference",
-                        method_options: dict[str, Any] | None = None) -> list[tuple[str, Path, int]]:
+                        method_options: dict[str, Any] | None = None,
+                        variance: bool = False) -> list[tuple[str, Path, int]]:
     """Reconstruct every sequence of a dataset with `method` and write float32 EXR folders (frame_NNNNNN.exr and
-    timestamps.txt, see generators.formats.exr; values in x units, see evsim_eval.protocols), atomically.
+    timestamps.txt, see generators.formats.exr; values in x units, unclipped for the AKF and the smoother, see
+    evsim_eval.protocols), atomically. With variance (akf and aks only) also the state variance P (log^2 of
+    log(I + I0)) as an EXR folder `variance` inside each sequence's folder.
     One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""
     if method not in akf.METHODS:
         raise EvsimInputError(f"unknown method {method!r}; one of {', '.join(sorted(akf.METHODS))}")
+    if variance and method not in WITH_VARIANCE:
+        raise OptionError(f"variance=True: only {' and '.join(WITH_VARIANCE)} have a variance, not {method!r}",
+                          f"--variance: only {' and '.join(WITH_VARIANCE)} have a variance, not --method {method}")
     sequences = dataset_sequences(path)
     written = []
     for name, file in sequences:
@@ -59,10 +69,15 @@ def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = 
         if t.size == 0:
             raise EvsimInputError(f"{name}: no output time at or after the first exposure start")
         crf, _ = recording_crf(rec)
-        images = akf.METHODS[method](rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf, t,
-                                     contrast=recording_contrast(rec), bit_depth=rec.frame_bit_depth,
-                                     **method_options_for(rec, {method: method_options or {}}).get(method, {}))
+        options = method_options_for(rec, {method: method_options or {}}).get(method, {})
+        if variance:
+            options = {**options, "return_variance": True}
+        result = akf.METHODS[method](rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf, t,
+                                     contrast=recording_contrast(rec), bit_depth=rec.frame_bit_depth, **options)
+        images, p = result if variance else (result, None)
         folder = Path(out_dir) if len(sequences) == 1 else Path(out_dir) / name
         write_exr_sequence(folder, images, t)
+        if p is not None:
+            write_exr_sequence(folder / "variance", p, t)
         written.append((name, folder, int(t.size)))
     return written

@@ -1,6 +1,8 @@
 """The clip prior (akf.clip_prior): pixels clipped since the first frame take the level their measured clipped
 neighbours show beyond the clip, against known truths."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -68,7 +70,8 @@ def test_a_highlight_clipped_since_the_start_takes_the_level_events_carried_its_
     ys, xs = np.mgrid[0:h, 0:5]
     t = np.concatenate([np.full(ys.size, 10_000 + 1_000 * k) for k in range(n_ev)])
     ev = sim.make_events(t, np.tile(xs.ravel(), n_ev), np.tile(ys.ravel(), n_ev), np.ones(t.size, int))
-    params = akf.AKFParams(clip_prior=clip_prior, smooth_range=0.0)  # no smoothing across the halves
+    params = akf.AKFParams(clip_prior=clip_prior, smooth_range=0.0,  # no smoothing across the halves
+                           flat_field=False)
     img = akf.reconstruct(ev, frames, ts, te, LINEAR, [125_000, 175_000], params=params, max_intensity=None)
     left = 0.4 * np.exp(0.2 * n_ev)  # 1.98 x
     np.testing.assert_allclose(img[:, :, :5], left, rtol=0.02)
@@ -80,16 +83,20 @@ def test_a_highlight_clipped_since_the_start_takes_the_level_events_carried_its_
 
 
 def test_a_hot_pixel_in_a_clipped_region_leaves_every_output_finite():
-    """Every frame clipped high and a hot pixel firing 600 ON events at a nominal contrast of 1 (its estimate runs
-    out of float32 range, as no clipped frame pulls it back): the output stays finite and within the bound, and
-    the smoothing does not spread the overflow to its neighbours (OpenCV's bilateral filter turned an infinity
-    into NaN, or crashed)."""
+    """Every frame clipped high and a hot pixel firing 600 ON events at a nominal contrast of 1: with the nominal
+    threshold its estimate runs out of float32 range (no clipped frame pulls it back), and with a bound the output
+    stays finite and within it, the smoothing not spreading the overflow to its neighbours (OpenCV's bilateral
+    filter turned an infinity into NaN, or crashed). At the defaults the flat field reads the hot pixel's
+    threshold from its count against its neighbours': finite, unbounded."""
     frames = np.full((4, 12, 12), 255, np.uint8)
     ts = np.array([0, 50_000, 100_000, 150_000])
     ev = sim.make_events(np.arange(600) * 100 + 10_000, [6] * 600, [6] * 600, [1] * 600)
-    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0, max_intensity=None,
-                           params=akf.AKFParams(smooth_range=0.0))
+    nominal = akf.AKFParams(flat_field=False)
+    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0,
+                           params=dataclasses.replace(nominal, smooth_range=0.0))
     assert np.isinf(free[0, 6, 6])  # the estimate did overflow
-    img = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [90_000, 175_000], contrast=1.0)
+    assert np.isfinite(akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0)).all()
+    img = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [90_000, 175_000], contrast=1.0, params=nominal,
+                          max_intensity=1.0)
     assert np.isfinite(img).all() and img.max() <= 1.0
     np.testing.assert_allclose(np.delete(img[1].ravel(), 6 * 12 + 6), 1.0, rtol=1e-5)  # the clip level, 1 x

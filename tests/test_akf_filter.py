@@ -165,12 +165,15 @@ def test_per_pixel_threshold_maps_reduce_the_error():
     times = np.arange(100_000, 380_000, 10_000)
     truth = np.log(np.stack([radiance(t) for t in times]) + 1e-4)
 
-    def err(contrast, calibrate):
-        params = akf.AKFParams(i0=1e-4, calibrate=calibrate, frame_update=False, smooth_range=0.0)
+    def err(contrast, calibrate, flat_field=False):
+        params = akf.AKFParams(i0=1e-4, calibrate=calibrate, frame_update=False, smooth_range=0.0,
+                               flat_field=flat_field)
         out = akf.reconstruct(events, frames, ts, te, LINEAR, times, params=params, bit_depth=16, contrast=contrast)
         return np.abs(np.log(out + 1e-4) - truth).mean()
 
     assert err(cmap, False) < 0.9 * err(0.2, False)
+    # the flat field reads the mismatch from the event counts: it recovers about half of what the maps gain (0.55)
+    assert err(0.2, False, flat_field=True) < err(cmap, False) + 0.6 * (err(0.2, False) - err(cmap, False))
 
 
 def test_publishing_does_not_change_the_trajectory(moving):
@@ -185,7 +188,7 @@ def test_image_at_t_includes_events_before_t_only():
     frames, ts, te = _static(n=2, period=100_000)
     ev = sim.make_events([50_000], [2], [1], [1])
     out = akf.reconstruct(ev, frames, ts, te, LINEAR, [50_000, 50_001],
-                         params=akf.AKFParams(calibrate=False, smooth_range=0.0))
+                         params=akf.AKFParams(calibrate=False, smooth_range=0.0, flat_field=False))
     jump = np.log(out[1, 1, 2] + 1e-3) - np.log(out[0, 1, 2] + 1e-3)
     assert jump == pytest.approx(0.2, abs=1e-4)  # the state steps by c at the event (eq. 15)
     np.testing.assert_allclose(out[1, 1, 3], out[0, 1, 3], rtol=1e-6)
@@ -222,7 +225,7 @@ def test_clipped_frames_are_one_sided_measurements():
     (consistent with a clipped frame, which says nothing more: state and variance stay) and pixel 0's state does not
     (impossible: pulled with R * sigma_im2 / max_variance, the closed form of eqs. 17 and 20:
     L - A = (L1 - A) / (1 + P1 dt / R_eff))."""
-    params = akf.AKFParams(smooth_range=0.0)
+    params = akf.AKFParams(smooth_range=0.0, flat_field=False)  # the given thresholds, not read from the counts
     frames = np.array([[[100, 100]], [[255, 255]], [[255, 255]]], np.uint8)
     ts = np.array([0, 50_000, 200_000])
     te = ts + 5_000
@@ -250,15 +253,16 @@ def test_clipped_frames_are_one_sided_measurements():
 
 def test_output_never_exceeds_the_representable_bound():
     """Frames clipped high after frame 0; 12 ON events at 0.2 raise the pixel 2.4 log units above frame 0's
-    100 / 255 (x = 4.3 unbounded): the output is bounded by max_intensity (default 1, the full well: the top of the
-    CRF's input range, the CF's bound too), at every time, as is the lower bound 0."""
+    100 / 255 (x = 4.3 unbounded, the default): a given max_intensity bounds the output at every time, as the
+    lower bound 0 always does."""
     frames = np.array([[[100, 100]], [[255, 255]], [[255, 255]], [[255, 255]]], np.uint8)
     ts = np.array([0, 50_000, 100_000, 150_000])
     ev = sim.make_events(np.arange(12) * 1_000 + 20_000, [0] * 12, [0] * 12, [1] * 12)
     times = np.arange(0, 200_000, 5_000)
-    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=None)
+    params = akf.AKFParams(flat_field=False)  # two pixels: no neighbourhood to read thresholds from
+    free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, params=params)
     assert free[:, 0, 0].max() > 3.0  # the unbounded filter does run above the full well here
-    bounded = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times)
+    bounded = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, params=params, max_intensity=1.0)
     assert bounded.max() <= 1.0 and bounded.min() >= 0.0
     np.testing.assert_array_equal(bounded, np.clip(free, 0.0, 1.0))  # a bound on the output, nothing else
     assert akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, times, max_intensity=0.5).max() <= 0.5
@@ -272,7 +276,7 @@ def test_isolated_event_in_a_clipped_region_keeps_its_level():
     P1 = P(t_e) + sigma_proc2 * 0.100 s (since the pixel's own last event) + sigma_iso2 * 0.205 s (since the latest
     neighbour event; the pixel itself excluded). Above the clip the state is consistent with the clipped frames,
     which say only that the truth is at or above the clip level: state and variance stay until the next event."""
-    params = akf.AKFParams(smooth_range=0.0)
+    params = akf.AKFParams(smooth_range=0.0, flat_field=False)  # the given thresholds, not read from the counts
     window = crf_models.get("window")
     frames = np.full((9, 3, 3), 255, np.uint8)
     ts = np.arange(9) * 50_000

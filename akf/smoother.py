@@ -1,0 +1,187 @@
+"""akf.reconstruct_smoothed: the asynchronous Kalman smoother, the AKF run forward and backward in time and fused
+(offline use: evaluation, `evsim reconstruct`, datasets; not in the paper).
+
+A causal filter cannot anchor a pixel that starts clipped: a frame that measures it later reveals its absolute
+level only in the future. The two-filter smoother (Fraser and Potter 1969) runs the filter a second time over the
+time-reversed inputs (frames and exposures in reverse order, every event's time mirrored and its polarity flipped,
+so the ON and OFF thresholds swap), and fuses the two estimates of each pixel at each published time:
+
+- a frame measured the pixel on both sides (the forward filter's data up to t, the backward filter's from t on):
+  the information-weighted mean L = (L_f / P_f + L_b / P_b) / (1 / P_f + 1 / P_b), P = 1 / (1 / P_f + 1 / P_b);
+- on one side only: that side's estimate; the other side holds only a clip bound and events, no level;
+- on neither side (no frame ever measures the pixel): its level comes from its neighbours (akf.anchoring: the
+  harmonic extension of the measured pixels' levels over the time-mean differences of the event curves), else the
+  clip prior (akf.clip_prior).
+
+Then the output smoothing of the filter (akf.smoothing) on the fused estimate. With no frame after t the backward
+filter knows nothing, so after the last frame's mid-exposure the smoother equals the filter. The backward pass uses
+the paper's event model (no leak correction: in reversed time the leak's ON events are OFF events).
+
+References (full citations also in docs/models/references.md):
+
+- Fraser DC, Potter JE (1969). The optimum linear smoother as a combination of two optimum linear filters. IEEE
+  Transactions on Automatic Control 14(4):387-390. doi:10.1109/TAC.1969.1099196
+- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
+  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457. arXiv:2012.05590
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .anchoring import anchor_offsets
+from .clip_prior import fill_unmeasured
+from .filter import Masks, check_filter_options, prepared_inputs, run_filter, smooth_published
+from .frame_noise import frame_read_noise
+from .inputs import Inputs, as_crf
+from .params import AKFParams
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    from crf_models import CRF
+
+__all__ = ["reconstruct_smoothed"]
+
+_DEFAULT_PARAMS = AKFParams()
+
+
+@dataclasses.dataclass
+class _Pass:
+    """One filter pass's raw outputs at its published times: intensity exp(L) - I0 and P (T, n), and its Masks as
+    (T, n) arrays."""
+
+    intensity: np.ndarray
+    variance: np.ndarray
+    side: np.ndarray
+    measured: np.ndarray
+    floor: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    age: np.ndarray
+
+
+def _run_pass(inp: Inputs, crf, params: AKFParams, leak_rate_hz: float) -> _Pass:
+    nt, (h, w) = inp.out_t.shape[0], inp.shape
+    n = h * w
+    out_i, out_p = np.zeros((nt, h, w), np.float32), np.zeros((nt, h, w), np.float32)
+    rec = _Pass(out_i.reshape(nt, n), out_p.reshape(nt, n), np.zeros((nt, n), np.int8), np.zeros((nt, n), bool),
+                np.zeros((nt, n), np.float32), np.zeros((nt, n), np.float32), np.zeros((nt, n), np.float32),
+                np.zeros((nt, n), np.float32))
+
+    def keep(j, oi, op, masks: Masks):
+        rec.side[j], rec.measured[j], rec.floor[j] = masks.side, masks.measured, masks.floor
+        rec.low[j], rec.high[j] = masks.low, masks.high
+        rec.age[j] = (inp.out_t[j] - masks.when) * 1e-6  # s since the last frame measured the pixel (inf: never)
+
+    run_filter(inp, crf, params, leak_rate_hz, out_i, out_p, None, keep)
+    return rec
+
+
+def _reversed(inp: Inputs, times: np.ndarray) -> Inputs:
+    """inp mirrored in time about (first exposure start + last exposure end) / 2, output at `times` mirrored plus
+    1 us (so the backward image at t holds the events at t and later, the forward one those before t)."""
+    mirror = int(inp.t_start[0]) + int(inp.t_end[-1])
+    ev = inp.events[::-1].copy()
+    ev["t"] = mirror - ev["t"]
+    ev["p"] = -ev["p"]
+    ts, te = mirror - inp.t_end[::-1], mirror - inp.t_start[::-1]
+    return dataclasses.replace(inp, events=ev, frames=np.ascontiguousarray(inp.frames[::-1]), t_start=ts, t_end=te,
+                               tau=(ts + te) / 2.0, out_t=(mirror - times[::-1] + 1).astype(np.int64),
+                               c_on=inp.c_off, c_off=inp.c_on)
+
+
+def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                         frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
+                         contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0,
+                         params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8, max_intensity: float | None = None,
+                         return_variance: bool = False
+                         ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """Reconstruct linear HDR intensity at output_times_us with the asynchronous Kalman smoother (see the module):
+    the same inputs, parameters and units as akf.reconstruct, every event and frame of the input used at every time.
+
+    Returns float32 (T, H, W) intensity in x units (frame 0's exposure), clipped to [0, max_intensity] (None:
+    unbounded), and with return_variance the fused variance P (log^2). Memory: the two passes keep their (T, H, W)
+    estimates, variances and masks (about 22 bytes per pixel and time each) until they are fused.
+    """
+    check_filter_options(params, leak_rate_hz, max_intensity)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
+                          params)
+    crf = as_crf(crf)
+    if params.read_noise_dn is None and params.frame_update:  # estimated once for both passes
+        params = dataclasses.replace(params, read_noise_dn=frame_read_noise(inp.frames,
+                                                                            int(inp.full_scale).bit_length()))
+    nt, (h, w) = inp.out_t.shape[0], inp.shape
+    fwd = _run_pass(inp, crf, params, leak_rate_hz)
+    # the backward filter knows something only before the last exposure ends
+    before_end = inp.out_t <= inp.t_end[-1]
+    times_b = inp.out_t[before_end]
+    intensity, variance = fwd.intensity.copy(), fwd.variance.copy()
+    masks = dataclasses.replace(fwd)
+    if times_b.size:
+        bwd = _run_pass(_reversed(inp, times_b), crf, params, 0.0)
+        order = np.arange(times_b.size)[::-1]  # backward output k is the forward time index order[k]
+        rev = {f.name: getattr(bwd, f.name)[order] for f in dataclasses.fields(bwd)}
+        gain = (inp.t_end[0] - inp.t_start[0]) / max(inp.t_end[-1] - inp.t_start[-1], 1) \
+            if inp.t_end[-1] > inp.t_start[-1] else 1.0  # backward x units are the last frame's exposure's
+        rev["intensity"] = rev["intensity"] * np.float32(gain)
+        sel = np.flatnonzero(before_end)
+        _fuse(intensity, variance, masks, sel, fwd, rev, params, float(np.log(gain)) if gain > 0 else 0.0)
+    _anchor(intensity, masks, params.i0, (h, w))
+    for j in range(nt):
+        smooth_published(intensity[j], variance[j], Masks(masks.side[j].astype(np.float64), masks.measured[j],
+                                                          masks.floor[j], masks.low[j], masks.high[j], None),
+                         params, (h, w))
+    out = intensity.reshape(nt, h, w)
+    np.clip(out, 0.0, np.inf if max_intensity is None else max_intensity, out=out)
+    return (out, variance.reshape(nt, h, w)) if return_variance else out
+
+
+def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params: AKFParams, log_gain: float) -> None:
+    """In place at the forward time indices sel: the fused estimate, variance and masks (see the module)."""
+    i0 = params.i0
+    mf, mb = fwd.measured[sel], rev["measured"]
+    lf = np.log(fwd.intensity[sel].astype(np.float64) + i0)
+    lb = np.log(rev["intensity"].astype(np.float64) + i0)
+    # each side's variance grows with the time since its last measuring frame (smoother_drift2: events carry a level
+    # with an error that grows with time, from the photoreceptor's lag and threshold mismatch the filter's P omits)
+    pf = fwd.variance[sel] + params.smoother_drift2 * np.where(mf, fwd.age[sel], 0.0)
+    pb = rev["variance"] + params.smoother_drift2 * np.where(mb, rev["age"], 0.0)
+    both = mf & mb
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fused_l = np.where(both, (lf * pb + lb * pf) / (pf + pb), np.where(mb, lb, lf))
+        fused_p = np.where(both, pf * pb / (pf + pb), np.where(mb, pb, pf))
+    intensity[sel] = (np.exp(fused_l) - i0).astype(np.float32)
+    variance[sel] = fused_p.astype(np.float32)
+    masks.measured[sel] = mf | mb
+    masks.side[sel] = np.where(fwd.side[sel] == rev["side"], fwd.side[sel], 0)
+    measured_now = np.isinf(fwd.floor[sel]) | np.isinf(rev["floor"])
+    masks.floor[sel] = np.where(measured_now, np.float32(np.inf), fwd.floor[sel])
+    masks.low[sel] = np.maximum(fwd.low[sel], rev["low"] + np.float32(log_gain))
+    masks.high[sel] = np.minimum(fwd.high[sel], rev["high"] + np.float32(log_gain))
+
+
+def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
+    """In place: the never-measured pixels shifted by their anchoring offsets (akf.anchoring), the clip prior's
+    level as the prior where no measured pixel reaches."""
+    nt = intensity.shape[0]
+    unknown = ~masks.measured.any(axis=0)
+    if not unknown.any() or unknown.all():
+        for j in range(nt):
+            fill_unmeasured(intensity[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
+        return
+    log = np.log(intensity.astype(np.float64) + i0)
+    filled = intensity.copy()
+    for j in range(nt):
+        fill_unmeasured(filled[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
+    prior = (np.log(filled.astype(np.float64) + i0) - log).mean(axis=0)
+    # the offsets that keep each pixel on its side of the clip bound at every time (low / high: log bounds)
+    lowest = np.max(np.where(np.isfinite(masks.low), masks.low - log, -np.inf), axis=0)
+    highest = np.min(np.where(np.isfinite(masks.high), masks.high - log, np.inf), axis=0)
+    lowest, highest = np.minimum(lowest, 0.0), np.maximum(highest, 0.0)  # never beyond where the filter put it
+    d = anchor_offsets(log.reshape(nt, *shape), unknown.reshape(shape), prior.reshape(shape),
+                       lowest.reshape(shape), highest.reshape(shape)).ravel()
+    intensity[:] = (np.exp(log + d) - i0).astype(np.float32)
