@@ -172,6 +172,9 @@ def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
     if not unknown.any() or unknown.all():
         for j in range(nt):
             fill_unmeasured(intensity[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
+        if unknown.any():
+            bounded = np.clip(np.log(intensity.astype(np.float64) + i0), masks.low, masks.high)
+            intensity[:] = (np.exp(bounded) - i0).astype(np.float32)
         return
     log = np.log(intensity.astype(np.float64) + i0)
     filled = intensity.copy()
@@ -184,4 +187,6 @@ def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
     lowest, highest = np.minimum(lowest, 0.0), np.maximum(highest, 0.0)  # never beyond where the filter put it
     d = anchor_offsets(log.reshape(nt, *shape), unknown.reshape(shape), prior.reshape(shape),
                        lowest.reshape(shape), highest.reshape(shape)).ravel()
-    intensity[:] = (np.exp(log + d) - i0).astype(np.float32)
+    # every frame clipped the never-measured pixels: each says "at least (at most) this level"
+    level = np.where(unknown, np.clip(log + d, masks.low, masks.high), log)
+    intensity[:] = (np.exp(level) - i0).astype(np.float32)

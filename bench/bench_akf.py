@@ -1,6 +1,6 @@
-"""Benchmark: events per second of the AKF and the complementary filter at DAVIS346 resolution (346 x 260),
-with 30 fps frames and images published at 30 Hz, on numba's default thread count (the machine's cores); and the
-peak memory.
+"""Benchmark: events per second of the AKF, its smoother and the complementary filter at DAVIS346 resolution
+(346 x 260), with 30 fps frames and images published at 30 Hz, on numba's default thread count (the machine's
+cores); and the peak memory.
 
 Synthetic input: spatially coherent random-walk events (walkers stepping one pixel per event, random polarity)
 at the requested rate, and 8-bit frames of a smooth pattern through the AHDR window CRF.
@@ -8,9 +8,11 @@ at the requested rate, and 8-bit frames of a smooth pattern through the AHDR win
     python bench/bench_akf.py [--rate 10e6] [--seconds 1.0] [--threads N] [--repeat 3] [--json FILE]
 
 AKF-paper is the AKF without the frame update and the output smoothing (AKFParams(frame_update=False,
-smooth_range=0)), for their cost as a ratio. Prints throughput (events/s, excluding the one-off numba compilation)
-against wall-clock and against the process's CPU time (the fairer figure on a shared machine: with N threads it is
-the work, not the elapsed time), the best of --repeat timed runs each, and peak memory; it is not a test.
+smooth_range=0)), for their cost as a ratio; AKS the smoother (akf.reconstruct_smoothed: the filter forward and
+backward, fused), whose time per event is printed as a ratio to the AKF's in the same run. Prints throughput
+(events/s, excluding the one-off numba compilation) against wall-clock and against the process's CPU time (the
+fairer figure on a shared machine: with N threads it is the work, not the elapsed time), the best of --repeat
+timed runs each, and peak memory; it is not a test.
 """
 
 from __future__ import annotations
@@ -82,6 +84,7 @@ def main() -> None:
     paper = akf.AKFParams(frame_update=False, smooth_range=0.0)  # the paper's filter: no frame update, no smoothing
     methods = (("AKF", functools.partial(akf.reconstruct, leak_rate_hz=args.leak_hz)),
                ("AKF-paper", functools.partial(akf.reconstruct, leak_rate_hz=args.leak_hz, params=paper)),
+               ("AKS", functools.partial(akf.reconstruct_smoothed, leak_rate_hz=args.leak_hz)),
                ("CF", akf.complementary_filter))
     # warm-up on the first 3 frames, with events between them and 2 published images: every kernel the timed run
     # uses is compiled (or loaded from the numba cache) here, not timed
@@ -105,6 +108,9 @@ def main() -> None:
               f"peak traced memory {peak / 2**20:.1f} MiB (output {len(out_t) * H * W * 4 / 2**20:.1f} MiB)")
         results["methods"][name] = {"wall_s": dt, "cpu_s": cpu, "events_per_s": events.size / dt,
                                     "events_per_cpu_s": events.size / cpu, "peak_traced_mib": peak / 2**20}
+    ratio = results["methods"]["AKS"]["wall_s"] / results["methods"]["AKF"]["wall_s"]
+    results["aks_over_akf_wall"] = ratio
+    print(f"AKS / AKF time per event: {ratio:.2f} (wall, same run)")
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"process max RSS {rss:.0f} MiB (includes the input events and frames)")
     if args.json:
