@@ -205,8 +205,9 @@ def log_mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
     return float(np.mean((np.log(x + LOG_EPS) - np.log(ref + LOG_EPS)) ** 2))
 
 
-#: log_rmse's floor as a fraction of the frames' top: 1e-3, ten stops below the brightest value the frames record,
-#: about what an 8-10 bit frame resolves below its white (a floor in x units would move with the exposure)
+#: log_rmse's floor as a fraction of the frames' top: 1e-3, ten stops below the brightest value the frames record
+#: (a 10-bit linear frame's step); tied to the frames' top rather than to x = 1, so that it follows the CRF's range
+#: and the exposures
 LOG_FLOOR_FRACTION = 1e-3
 
 
