@@ -7,8 +7,8 @@ Exports:
   events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
   the pixel's log offset from the data); estimate_read_noise, FrameNoise (the frames' read noise, which sets the
   frame update's variance);
-- metrics: mse, psnr, ssim, mse01, ssim01, log_mse, pu21_encode, pu21_psnr, pu21_ssim, score, METRICS (by name),
-  NORMALISATION (how each one normalises);
+- metrics: log_rmse (full range), mse, psnr, ssim, mse01, ssim01 (clipped at a white), log_mse, pu21_encode,
+  pu21_psnr, pu21_ssim, score, METRICS (by name), NORMALISATION (how each one normalises);
 - evaluation and tuning: evaluate_sequence, METHODS (name -> method); tune, Tuned, SEARCH_SPACES.
 Submodules with more:
 - akf.evaluate: Case, the one scoring path (evaluate_sequence, evsim_eval's dataset protocols and the tuning
@@ -52,6 +52,7 @@ from .metrics import (
     METRICS,
     NORMALISATION,
     log_mse,
+    log_rmse,
     mse,
     mse01,
     psnr,
@@ -70,7 +71,7 @@ __all__ = [
     "reconstruct", "reconstruct_smoothed", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
     "complementary_filter", "frames_only", "direct_integration", "high_pass_filter",
     "estimate_contrast", "estimate_log_offset", "ContrastEstimate", "estimate_read_noise", "FrameNoise",
-    "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",
+    "log_rmse", "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",
     "METRICS", "NORMALISATION",
     "evaluate_sequence", "METHODS", "tune", "Tuned", "SEARCH_SPACES",
 ]

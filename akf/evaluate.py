@@ -15,8 +15,16 @@ from .baselines import BASELINES
 from .exposure import exposure_average
 from .filter import reconstruct
 from .inputs import as_crf
-from .metrics import METRICS, PER_PIXEL, SSIM_MAPS, score, score_map
-from .pixel_classes import CLASSES, TIME_CLASSES, nearest_frames, pixel_classes, time_classes, valid_region
+from .metrics import METRICS, PER_PIXEL, ROOT_MEAN, SSIM_MAPS, score, score_map
+from .pixel_classes import (
+    CLASSES,
+    TIME_CLASSES,
+    nearest_frames,
+    pixel_classes,
+    range_classes,
+    time_classes,
+    valid_region,
+)
 from .smoother import reconstruct_smoothed
 from .tuning import setting_options
 
@@ -31,7 +39,7 @@ if TYPE_CHECKING:
     ScoreTable = dict[str, dict[str, float]]
 
 __all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "output_bound", "reachable_white", "exposure_gains",
-           "DEFAULT_OUTPUT_BOUND"]
+           "frames_range", "DEFAULT_OUTPUT_BOUND"]
 
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
@@ -58,12 +66,34 @@ def exposure_gains(frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLik
     return np.where(ok, length[0] / np.where(length > 0, length, 1.0), 1.0)
 
 
+def frames_range(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike
+                 ) -> tuple[float, float]:
+    """The range of intensity the input frames can record, in frame 0's x units.
+
+    Parameters
+    ----------
+    crf : CRF or str
+        The frames' camera response function (a crf_models name or object).
+    frame_t_start_us, frame_t_end_us : array_like
+        Every input frame's exposure window, int64 microseconds.
+
+    Returns
+    -------
+    lo, hi : float
+        x units: lo = CRF^-1(0) times the smallest exposure gain T_0 / T_k (exposure_gains: the longest
+        exposure's floor), hi = CRF^-1(1) times the largest (the shortest exposure's white), "the frames' top":
+        brighter x is clipped in every frame, darker than lo is black in every frame.
+    """
+    crf = as_crf(crf)
+    gains = exposure_gains(frame_t_start_us, frame_t_end_us)
+    return float(crf.inverse(0.0)) * float(np.min(gains)), float(crf.inverse(1.0)) * float(np.max(gains))
+
+
 def output_bound(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> float:
     """The largest value (x units) a method outputs at its defaults: DEFAULT_OUTPUT_BOUND (the AKF, the
-    complementary filters), or frames-only's largest, CRF^-1(1) T_0 / T_k of the shortest exposure, if larger."""
-    crf = as_crf(crf)
-    frames_max = float(crf.inverse(1.0)) * float(np.max(exposure_gains(frame_t_start_us, frame_t_end_us)))
-    return max(DEFAULT_OUTPUT_BOUND, frames_max)
+    complementary filters), or frames-only's largest, the frames' top CRF^-1(1) T_0 / T_k of the shortest exposure
+    (frames_range), if larger."""
+    return max(DEFAULT_OUTPUT_BOUND, frames_range(crf, frame_t_start_us, frame_t_end_us)[1])
 
 
 def reachable_white(scene_white: float, crf: CRF | str, frame_t_start_us: npt.ArrayLike,
@@ -83,6 +113,8 @@ class Case:
     in log units), the scored times (int64 us), the truth there (T, H, W) in the CRF's scaled-irradiance units x of
     frame 0's exposure, the white level (x) the [0, 1] metrics map to 1, and optionally the per-time range
     clip[k] = (lo, hi) in x a held-out frame can measure (reconstructions are clipped to it before scoring).
+    The range the input frames can record, frames_range (its top sets log_rmse's floor, and the truth against it
+    the range classes), follows from the CRF and the exposure times.
     windows: (T, 2) int64 exposure windows [t_start, t_end] us when the truth is a frame that integrated the scene
     over them (a held-out frame); then, with exposure_matched (default), every reconstruction is the average of the
     method over the window (akf.exposure), else the method at the scored time (point-in-time).
@@ -104,6 +136,11 @@ class Case:
     windows: np.ndarray | None = None
     exposure_matched: bool = True
     _classes: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @property
+    def frames_range(self) -> tuple[float, float]:
+        """(lo, hi) x the input frames can record (the module's frames_range of the case's CRF and exposures)."""
+        return frames_range(self.crf, self.t_start, self.t_end)
 
     @property
     def scoring(self) -> str:
@@ -133,27 +170,33 @@ class Case:
 
     def scores(self, images: np.ndarray, sel: slice | np.ndarray, metrics: Iterable[str],
                by_class: bool = False) -> dict[str, float]:
-        """{metric: mean over the frames} of images (at times[sel]) against the truth; with by_class also
-        "metric@class" for every per-pixel metric (akf.metrics.PER_PIXEL) and class (akf.pixel_classes.CLASSES:
-        the class's pixels pooled over the frames; NaN for an empty class) and "share@class", the class's share of
-        the scored pixels."""
+        """{metric: mean over the frames} of images (at times[sel]) against the truth (of a ROOT_MEAN metric,
+        log_rmse, the root of the mean square over the frames: the RMSE of all the frames' pixels pooled); with
+        by_class also "metric@class" for every per-pixel metric (akf.metrics.PER_PIXEL) and class
+        (akf.pixel_classes.CLASSES: the class's pixels pooled over the frames, a ROOT_MEAN metric the root of their
+        mean square; NaN for an empty class) and "share@class", the class's share of the scored pixels."""
         metrics = list(metrics)
         truth = self.truth[sel]
-        out = {m: float(np.mean([score(m, r, t, self.white) for r, t in zip(images, truth)])) for m in metrics}
+        top = self.frames_range[1]
+        out = {}
+        for m in metrics:
+            values = np.array([score(m, r, t, self.white, top) for r, t in zip(images, truth)])
+            out[m] = float(np.sqrt(np.mean(values**2))) if m in ROOT_MEAN else float(np.mean(values))
         if by_class:
             out.update(self._class_scores(images, np.arange(self.times.size)[sel], [m for m in metrics
                                                                                    if m in PER_PIXEL]))
         return out
 
     def classes(self, k: int) -> dict[str, np.ndarray]:
-        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel and time classes), cached per
-        white level (the flat class depends on it)."""
+        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel, range and time classes), cached
+        per white level (the flat class depends on it)."""
         key = (k, self.white)
         if key not in self._classes:
             mid = (np.asarray(self.t_start, np.int64) + np.asarray(self.t_end, np.int64)) // 2
             before, after = nearest_frames(mid, int(self.times[k]))
             masks = pixel_classes(np.asarray(self.frames[before]), np.asarray(self.frames[after]), as_crf(self.crf),
                                   self.bit_depth, self.truth[k], self.white)
+            masks.update(range_classes(self.truth[k], *self.frames_range))
             when = time_classes(int(self.times[k]), self.t_start, self.t_end)
             for name in TIME_CLASSES:
                 masks[name] = np.full(self.truth.shape[1:], name == when)
@@ -163,6 +206,7 @@ class Case:
     def _class_scores(self, images: np.ndarray, index: np.ndarray, metrics: list[str]) -> dict[str, float]:
         shape = self.truth.shape[1:]
         regions = {ssim: valid_region(shape, ssim) for ssim in (False, True)}
+        top = self.frames_range[1]
         sums = {(m, c): 0.0 for m in metrics for c in CLASSES}
         counts = {(ssim, c): 0 for ssim in (False, True) for c in CLASSES}
         for img, k in zip(images, index):
@@ -171,7 +215,7 @@ class Case:
                 for c in CLASSES:
                     counts[ssim, c] += int(np.count_nonzero(masks[c] & region))
             for m in metrics:
-                smap = score_map(m, img, self.truth[k], self.white)
+                smap = score_map(m, img, self.truth[k], self.white, top)
                 region = regions[m in SSIM_MAPS]
                 for c in CLASSES:
                     sums[m, c] += float(smap[masks[c] & region].sum())
@@ -179,7 +223,8 @@ class Case:
         for m in metrics:
             for c in CLASSES:
                 n = counts[m in SSIM_MAPS, c]
-                out[f"{m}@{c}"] = sums[m, c] / n if n else math.nan
+                mean = sums[m, c] / n if n else math.nan
+                out[f"{m}@{c}"] = math.sqrt(mean) if m in ROOT_MEAN else mean
         total = index.size * shape[0] * shape[1]
         out.update({f"share@{c}": counts[False, c] / total for c in CLASSES})
         return out

@@ -9,6 +9,11 @@ and the first whose mid-exposure is >= t; one frame when t is at or beyond a fra
 And a split of the truth's local structure, independent of the first: "flat" where the truth, mapped to [0, 1]
 by clip(I / white, 0, 1), has a local standard deviation below FLAT_STD over the 7x7 SSIM window, "textured"
 elsewhere.
+Range classes (RANGE_CLASSES, a partition of every scored time's pixels by the truth alone, range_classes): the
+truth against the range of x the input frames can record, [lo, hi] in frame 0's x units (akf.evaluate.frames_range:
+CRF^-1(0) and CRF^-1(1) times the smallest and the largest exposure gain T_0 / T_k): "below_range" where the truth
+is below lo (darker than any frame's floor), "in_range" inside [lo, hi], "above_range" above hi (brighter than any
+frame can record: only the events can tell it).
 Time classes (every pixel of a scored time): "at_frames" when t lies inside an input frame's exposure window
 [t_start, t_end], "between" otherwise (a frames-only method has not seen the scene then).
 Class scores pool every pixel of the class over the scored times (akf.metrics.score_map, SSIM maps
@@ -34,12 +39,13 @@ if TYPE_CHECKING:
 
     from crf_models import CRF
 
-__all__ = ["PIXEL_CLASSES", "TIME_CLASSES", "CLASSES", "CLIP_MARGIN_DN", "FLAT_STD", "nearest_frames",
-           "pixel_classes", "time_classes", "valid_region"]
+__all__ = ["PIXEL_CLASSES", "RANGE_CLASSES", "TIME_CLASSES", "CLASSES", "CLIP_MARGIN_DN", "FLAT_STD",
+           "nearest_frames", "pixel_classes", "range_classes", "time_classes", "valid_region"]
 
 PIXEL_CLASSES = ("well", "high", "low", "flat", "textured")  # well/high/low partition; flat/textured too
+RANGE_CLASSES = ("below_range", "in_range", "above_range")  # the truth below / inside / above the frames' range
 TIME_CLASSES = ("at_frames", "between")  # scored times inside / outside an input frame's exposure
-CLASSES = PIXEL_CLASSES + TIME_CLASSES  # every class a score is split by
+CLASSES = PIXEL_CLASSES + RANGE_CLASSES + TIME_CLASSES  # every class a score is split by
 CLIP_MARGIN_DN = 2  # a response this close to an end of the CRF's range counts as clipped (noise, quantisation)
 FLAT_STD = 0.02  # local standard deviation of the [0, 1] truth below which it is flat
 
@@ -68,6 +74,27 @@ def pixel_classes(before: npt.ArrayLike, after: npt.ArrayLike, crf: CRF, bit_dep
     var = np.maximum(uniform_filter(u * u, SSIM_WINDOW, mode="reflect") - mean**2, 0.0)
     flat = var < FLAT_STD**2
     return {"well": ~high & ~low, "high": high, "low": low, "flat": flat, "textured": ~flat}
+
+
+def range_classes(truth: npt.ArrayLike, lo: float, hi: float) -> dict[str, npt.NDArray[np.bool_]]:
+    """The truth against the range the input frames can record.
+
+    Parameters
+    ----------
+    truth : array_like
+        (H, W) reference of one scored time, linear intensity (x units of frame 0's exposure).
+    lo, hi : float
+        The range of x the input frames can record (x units; akf.evaluate.frames_range).
+
+    Returns
+    -------
+    dict
+        {class: (H, W) bool mask} of RANGE_CLASSES, a partition: "below_range" truth < lo, "in_range"
+        lo <= truth <= hi, "above_range" truth > hi.
+    """
+    truth = np.asarray(truth, np.float64)
+    below, above = truth < lo, truth > hi
+    return {"below_range": below, "in_range": ~below & ~above, "above_range": above}
 
 
 def time_classes(t_us: int, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> str:

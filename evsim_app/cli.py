@@ -351,7 +351,7 @@ def _cmd_evaluate(args) -> int:
         return evaluate_realism(args)
     matched = not args.point_scoring
     scores = evaluate_dataset(args.dataset, protocol=args.protocol, methods=_names(args.methods),
-                              metrics=_names(args.metrics), method_options=_akf_options(args), tune=args.tune,
+                              metrics=_metrics(args), method_options=_akf_options(args), tune=args.tune,
                               tune_fraction=args.tune_fraction, tune_metric=args.tune_metric,
                               progress=False if args.no_progress else None, strict=False, exposure_matched=matched,
                               sensor=args.sensor,
@@ -379,7 +379,7 @@ def _evaluate_denoise(args) -> int:
     filters = None if args.filters is None else _names(args.filters)
     result, notes = evaluate_denoise_dataset(args.dataset, filters=filters, reconstruct=not args.no_reconstruct,
                                              protocol=args.protocol, methods=_names(args.methods),
-                                             metrics=_names(args.metrics), method_options=_akf_options(args),
+                                             metrics=_metrics(args), method_options=_akf_options(args),
                                              progress=not args.no_progress)
     print(format_denoise_table(result, notes))
     if args.json is not None:
@@ -411,6 +411,11 @@ def _cmd_reconstruct(args) -> int:
 def _akf_options(args) -> dict:
     """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
     return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in ("akf", "aks")}
+
+
+def _metrics(args) -> tuple[str, ...]:
+    """--metrics, or the --protocol's default metrics (evsim_eval.choices.DEFAULT_METRICS) when not given."""
+    return DEFAULT_METRICS[args.protocol] if args.metrics is None else _names(args.metrics)
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -649,9 +654,12 @@ def build_parser() -> argparse.ArgumentParser:
                                                "files")
     ev.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                     help=f"comma-separated methods (akf.METHODS; default {','.join(DEFAULT_METHODS)})")
-    ev.add_argument("--metrics", default=",".join(DEFAULT_METRICS),
-                    help=f"comma-separated metrics (akf.METRICS; default {','.join(DEFAULT_METRICS)}: the paper's "
-                         "[0, 1] protocol, raw MSE, log-domain MSE, PU21 SSIM; each table states its normalisation)")
+    ev.add_argument("--metrics",
+                    help="comma-separated metrics (akf.METRICS; each table states its normalisation); default, "
+                         f"--protocol reference: {','.join(DEFAULT_METRICS['reference'])} (full-range log RMSE and "
+                         "PU21 over the whole HDR reference first, then the paper's [0, 1] metrics, clipped at the "
+                         "white); --protocol interleave: "
+                         f"{','.join(DEFAULT_METRICS['interleave'])}"),
     ev.add_argument("--protocol", choices=PROTOCOLS, default=PROTOCOLS[0],
                     help="reference: against the HDR reference frames; interleave: feed every second frame and "
                          "score on the frames in between (real data; paper supplementary Table 2)")
@@ -668,8 +676,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "all methods are then scored on the rest")
     ev.add_argument("--tune-fraction", type=float, default=TUNE_FRACTION,
                     help=f"fraction of each sequence's scored frames that tunes (default {TUNE_FRACTION:.3g})")
-    ev.add_argument("--tune-metric", default=TUNE_METRIC,
-                    help=f"metric the tuning minimises (maximises for SSIM/PSNR; default {TUNE_METRIC})")
+    ev.add_argument("--tune-metric",
+                    help="metric the tuning minimises (maximises for SSIM/PSNR; default "
+                         f"{TUNE_METRIC['reference']} with --protocol reference, {TUNE_METRIC['interleave']} with "
+                         "--protocol interleave)")
     ev.add_argument("--no-progress", action="store_true", help="no progress messages (tuning, denoising; on stderr)")
     ev.add_argument("--sensor", help="sensor file (from evsim calibrate on this camera) or preset whose thresholds a "
                                      "recording without recorded ones gets (default: estimated from the data)")

@@ -7,8 +7,14 @@ __all__ = ["PROTOCOLS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "
 PROTOCOLS = ("reference", "interleave")
 #: the methods `evsim evaluate` scores unless told otherwise (akf.METHODS names)
 DEFAULT_METHODS = ("akf", "aks", "cf", "frames")
-#: the paper's [0, 1] protocol, raw MSE, log-domain MSE and PU21 SSIM (each table states its normalisation)
-DEFAULT_METRICS = ("mse01", "ssim01", "mse", "log_mse", "pu21_ssim")
+#: protocol -> the metrics `evsim evaluate` scores unless told otherwise (each table states its normalisation).
+#: reference (an HDR truth): the full-range scores first, log_rmse and PU21 PSNR/SSIM over the whole reference, then
+#: the paper's [0, 1] metrics (clipped at the white, for parity with its numbers), raw MSE and log-domain MSE;
+#: interleave (the truth a held-out LDR frame, clipped already): the paper's [0, 1] metrics first, then raw MSE,
+#: log-domain MSE, PU21 SSIM and log_rmse
+DEFAULT_METRICS = {"reference": ("log_rmse", "pu21_psnr", "pu21_ssim", "mse01", "ssim01", "mse", "log_mse"),
+                   "interleave": ("mse01", "ssim01", "mse", "log_mse", "pu21_ssim", "log_rmse")}
 TUNE_FRACTION = 1 / 3  # the tuning split: the first third of every sequence's scored frames
-#: the metric the tuning minimises unless told otherwise
-TUNE_METRIC = "mse01"
+#: protocol -> the metric the tuning minimises unless told otherwise: the full-range log_rmse against an HDR
+#: reference, the paper's mse01 against held-out frames
+TUNE_METRIC = {"reference": "log_rmse", "interleave": "mse01"}

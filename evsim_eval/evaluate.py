@@ -8,9 +8,13 @@ method gets and what it is scored against is the protocol's (evsim_eval.protocol
 exposure-matched against held-out frames unless exposure_matched=False, and per pixel/time class
 (akf.pixel_classes) as "metric@class" beside every per-pixel metric.
 
+Metrics default to the protocol's (evsim_eval.choices.DEFAULT_METRICS: full-range log_rmse and PU21 first against
+an HDR reference, the paper's clipped [0, 1] metrics first against held-out frames).
+
 Tuning (tune=True, `evsim evaluate --tune`): the tuning split is the first tune_fraction of every sequence's scored
-times; akf.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean of
-tune_metric), and every method (tuned or without parameters) is then scored on the rest only.
+times; akf.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean over
+the sequences of tune_metric, by default the protocol's TUNE_METRIC: log_rmse against an HDR reference, mse01
+against held-out frames), and every method (tuned or without parameters) is then scored on the rest only.
 """
 
 from __future__ import annotations
@@ -45,12 +49,21 @@ class DatasetScores(NamedTuple):
     failures: list
 
 
-def check_request(protocol: str, methods: Iterable[str], metrics: Iterable[str], tune_metric: str = TUNE_METRIC,
-                  tune_fraction: float = TUNE_FRACTION) -> None:
-    """EvsimInputError naming an unknown protocol, method, metric or tuning metric, or a tuning fraction outside
-    (0, 1)."""
+def request_defaults(protocol: str, metrics: Iterable[str] | None = None, tune_metric: str | None = None
+                     ) -> tuple[tuple[str, ...], str]:
+    """(metrics, tuning metric) of a request: the protocol's DEFAULT_METRICS and TUNE_METRIC
+    (evsim_eval.choices) where None; EvsimInputError naming an unknown protocol."""
     if protocol not in PROTOCOLS:
         raise EvsimInputError(f"unknown protocol {protocol!r}; one of {', '.join(PROTOCOLS)}")
+    return (DEFAULT_METRICS[protocol] if metrics is None else tuple(metrics),
+            TUNE_METRIC[protocol] if tune_metric is None else tune_metric)
+
+
+def check_request(protocol: str, methods: Iterable[str], metrics: Iterable[str] | None = None,
+                  tune_metric: str | None = None, tune_fraction: float = TUNE_FRACTION) -> None:
+    """EvsimInputError naming an unknown protocol, method, metric or tuning metric (None: the protocol's defaults),
+    or a tuning fraction outside (0, 1)."""
+    metrics, tune_metric = request_defaults(protocol, metrics, tune_metric)
     akf.evaluate.check_names(methods, metrics)
     if tune_metric not in akf.METRICS:
         raise EvsimInputError(f"unknown tuning metric {tune_metric!r}; one of {', '.join(akf.METRICS)}")
@@ -69,17 +82,19 @@ def split_times(n: int, tune_fraction: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: Sequence[str] = DEFAULT_METHODS,
-                       metrics: Sequence[str] = DEFAULT_METRICS,
+                       metrics: Sequence[str] | None = None,
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
                        tune_fraction: float = TUNE_FRACTION, exposure_matched: bool = True,
                        by_class: bool = False, sensor: str | None = None) -> tuple[dict, str]:
     """Score methods on one recording: ({method: {metric: value}}, notes joined by "; "). sensor: a sensor file or
     preset whose thresholds a recording without recorded ones gets (protocols.recording_contrast_or_estimate).
+    metrics: None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS).
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
     on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
     scores "metric@class" and shares "share@class" (akf.evaluate.Case.scores).
     """
+    metrics = request_defaults(protocol, metrics)[0]
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
     case, notes = recording_case(rec, protocol, method_options, exposure_matched, sensor)
     sel = np.arange(case.times.size) if tuning is None else split_times(case.times.size, tune_fraction)[1]
@@ -94,14 +109,22 @@ def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]
 
 def add_means(result: dict) -> dict:
     """Add {"mean": {key: mean over the sequences}} to every method of {method: {sequence: {key: value}}} that
-    scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result."""
+    scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result.
+    A root-mean metric (akf.metrics.ROOT_MEAN: log_rmse, and its per-class keys "log_rmse@class") has the root
+    mean square over the sequences as its mean, the RMSE of sequences of one size pooled, as its per-sequence
+    values pool their frames."""
     for rows in result.values():
         if rows:
             keys = list(next(iter(rows.values())))
             means = {}
             for k in keys:
-                values = [r[k] for r in rows.values() if k in r and not math.isnan(r[k])]
-                means[k] = float(np.mean(values)) if values else math.nan
+                values = np.array([r[k] for r in rows.values() if k in r and not math.isnan(r[k])])
+                if not values.size:
+                    means[k] = math.nan
+                elif k.split("@")[0] in akf.metrics.ROOT_MEAN:
+                    means[k] = float(np.sqrt(np.mean(values**2)))
+                else:
+                    means[k] = float(np.mean(values))
             rows["mean"] = means
     return result
 
@@ -111,7 +134,8 @@ def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, 
                  progress: Callable[..., object] | None = None, exposure_matched: bool = True,
                  sensor: str | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
-    ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched)."""
+    ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched); the objective is the
+    mean of tune_metric over the sequences (akf.tuning.tune_cases)."""
     cases = [recording_case(load(file), protocol, method_options, exposure_matched, sensor)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}
@@ -126,14 +150,15 @@ def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, 
 
 
 def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: Iterable[str] = DEFAULT_METHODS,
-                     metrics: Iterable[str] = DEFAULT_METRICS, method_options: dict[str, dict[str, Any]] | None = None,
-                     tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str = TUNE_METRIC,
+                     metrics: Iterable[str] | None = None, method_options: dict[str, dict[str, Any]] | None = None,
+                     tune: bool = False, tune_fraction: float = TUNE_FRACTION, tune_metric: str | None = None,
                      workers: int | None = None, scheduler: str | None = None, progress: bool | None = None,
                      strict: bool = True, exposure_matched: bool = True, by_class: bool = True,
                      sensor: str | None = None) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
     files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
     cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
+    metrics and tune_metric: None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS, TUNE_METRIC).
 
     progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
     the messages and, on a terminal only, the bar. exposure_matched: with protocol "interleave", reconstructions
@@ -142,7 +167,8 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
     one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
     DatasetScores.failures and the table holds the others. sensor: see evaluate_recording.
     """
-    methods, metrics = tuple(methods), tuple(metrics)
+    methods = tuple(methods)
+    metrics, tune_metric = request_defaults(protocol, metrics, tune_metric)
     check_request(protocol, methods, metrics, tune_metric, tune_fraction)
     sequences = dataset_sequences(path)
     tuning, notes = {}, []

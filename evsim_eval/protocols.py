@@ -16,11 +16,14 @@ their max_intensity, default 1: what the camera can represent). Scores are compu
   assumed linear (x = response). The held-out frame integrated the scene over its exposure window, so by default
   (exposure_matched) each reconstruction is averaged over that window before the clip (akf.exposure, Case.windows);
   exposure_matched=False scores the reconstruction at mid-exposure (point-in-time).
-Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence; "mean" averages the sequences.
-The [0, 1] metrics (mse01, ssim01: the paper's protocol) map to 1 (reference protocol) a white the methods can
-reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the recorded
-reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a held-out
-frame's white).
+Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence (log_rmse: the root of the
+mean square, all the frames' pixels pooled); "mean" averages the sequences (log_rmse: root mean square).
+The [0, 1] metrics (mse01, ssim01: the paper's protocol, clipped at the white) map to 1 (reference protocol) a white
+the methods can reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the
+recorded reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a
+held-out frame's white). The full-range log_rmse floors both images at 1e-3 of the frames' top, the largest x the
+fed frames can record, CRF^-1(1) T_0 / T_k of the shortest exposure (akf.evaluate.frames_range; a note gives
+each sequence's range and floor), in both protocols; the range classes set the truth against that range.
 Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), those of
 a given sensor file (the camera calibrated by `evsim calibrate`), else the thresholds estimated from its events
 and the fed frames by calibrate's own model and first stage (evsim_eval.calibrate.estimate_thresholds: the log
@@ -63,6 +66,8 @@ DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and 
 WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the methods' output bound): "
                       "see the notes)",
          "interleave": " (white = CRF^-1(1), the held-out frame's white)"}
+#: the frames' top that sets log_rmse's floor, as its table block and the JSON's "scoring" entry state it
+FRAMES_TOP = " (the frames' top = CRF^-1(1) T_0 / T_k of the shortest fed exposure: see the notes)"
 UNITS = {"reference": "x = CRF scaled irradiance of frame 0's exposure (reference radiance * reference_to_crf_x)",
          "interleave": "x = CRF^-1(held-out frame) of frame 0's exposure; reconstructions clipped to the CRF range"}
 
@@ -216,6 +221,9 @@ def recording_case(rec: Recording, protocol: str = "reference",
     case = Case(rec.events, rec.frames[fed], rec.frame_t_start_us[fed], rec.frame_t_end_us[fed],
                 rec.frame_bit_depth, crf, contrast, np.asarray(times, np.int64), truth, white, clip, options,
                 windows=windows, exposure_matched=exposure_matched)
+    lo, top = case.frames_range
+    notes.append(f"frames' range {lo:.4g}..{top:.4g} x (CRF^-1(0), CRF^-1(1) over the fed exposures), log_rmse "
+                 f"floor {akf.metrics.LOG_FLOOR_FRACTION * top:.3g} x")
     return case, notes
 
 

@@ -13,7 +13,7 @@ from akf.exposure import MAX_SAMPLES, MIN_SAMPLES, SAMPLES_PER_EVENT
 from akf.pixel_classes import CLIP_MARGIN_DN, FLAT_STD
 from generators.formats.atomic import write_text_atomic
 
-from .protocols import UNITS, WHITE
+from .protocols import FRAMES_TOP, UNITS, WHITE
 
 #: what each pixel or time class holds (akf.pixel_classes), printed with the per-class blocks
 CLASS_MEANING = {
@@ -22,9 +22,15 @@ CLASS_MEANING = {
     "low": f"clipped low in a nearest input frame (within {CLIP_MARGIN_DN} DN of the CRF's bottom), not high",
     "flat": f"truth locally flat (7x7 std of clip(I / white, 0, 1) < {FLAT_STD})",
     "textured": "truth not flat",
+    "below_range": "truth below the frames' range (under CRF^-1(0) of the longest exposure: black in every frame)",
+    "in_range": "truth inside the range the frames can record",
+    "above_range": "truth above the frames' top (over CRF^-1(1) of the shortest exposure: clipped in every frame)",
     "at_frames": "scored times inside an input frame's exposure",
     "between": "scored times between input frames' exposures",
 }
+#: the per-pixel metrics whose class blocks the table prints, when scored (the JSON has every per-pixel metric's):
+#: the full-range log_rmse and the paper's clipped [0, 1] metrics
+CLASS_BLOCKS = ("log_rmse", "mse01", "ssim01")
 
 
 def scoring_mode(protocol: str, exposure_matched: bool = True) -> str:
@@ -50,22 +56,25 @@ def _split(keys: Iterable[str]) -> tuple[list[str], list[str], list[str]]:
 
 def format_table(result: dict, protocol: str = "reference", notes: Iterable[str] = (),
                  exposure_matched: bool = True) -> str:
-    """The paper's Table 1 layout: one block per metric, a row per sequence and the mean, a column per method;
-    then, when the scores have them, one block per per-pixel metric with a row per sequence and pixel/time class
-    (the class's share of the scored pixels in brackets)."""
+    """The paper's Table 1 layout: one block per metric, a row per sequence and the mean, a column per method (the
+    header of a metric clipped at the [0, 1] protocol's white says "(clipped)"); then, when the scores have them,
+    one block per CLASS_BLOCKS metric scored (else per per-pixel metric) with a row per sequence and
+    pixel/range/time class (the class's share of the scored pixels in brackets)."""
     methods = list(result)
     sequences = list(result[methods[0]])
     metrics, by_class, classes = _split(result[methods[0]][sequences[0]])
-    width = max(12, *(len(s) + 2 for s in sequences))
+    labels = {m: f"{m} (clipped)" if m in akf.metrics.NEEDS_WHITE else m for m in metrics}
+    width = max(12, *(len(s) + 2 for s in sequences), *(len(label) + 2 for label in labels.values()))
     lines = [f"units: {UNITS[protocol]}", f"scoring: {scoring_mode(protocol, exposure_matched)}",
              *(f"note: {n}" for n in notes)]
     for metric in metrics:
-        white = WHITE[protocol] if metric in akf.metrics.NEEDS_WHITE else ""
-        lines += ["", f"{metric}: {akf.NORMALISATION[metric]}{white}",
-                  f"{metric:<{width}}" + "".join(f"{m:>14}" for m in methods)]
+        rule = (WHITE[protocol] if metric in akf.metrics.NEEDS_WHITE
+                else FRAMES_TOP if metric in akf.metrics.NEEDS_TOP else "")
+        lines += ["", f"{metric}: {akf.NORMALISATION[metric]}{rule}",
+                  f"{labels[metric]:<{width}}" + "".join(f"{m:>14}" for m in methods)]
         for seq in sequences:
             lines.append(f"{seq:<{width}}" + "".join(f"{_fmt(result[m][seq][metric]):>14}" for m in methods))
-    shown = [m for m in by_class if m in akf.metrics.NEEDS_WHITE] or by_class
+    shown = [m for m in by_class if m in CLASS_BLOCKS] or by_class
     classes = [c for c in classes if any(result[methods[0]][s][f"share@{c}"] > 0 for s in sequences)]
     rows = [s for s in sequences if s != "mean" or len(sequences) > 2]  # one sequence: its mean is itself
     if shown and classes:
@@ -74,7 +83,8 @@ def format_table(result: dict, protocol: str = "reference", notes: Iterable[str]
                   *(f"  {c}: {CLASS_MEANING.get(c, c)}" for c in classes)]
         cw = max(len(f"{s} {c} (100%)") for s in rows for c in classes) + 2
         for metric in shown:
-            lines += ["", f"{metric} by class", f"{metric:<{cw}}" + "".join(f"{m:>14}" for m in methods)]
+            label = f"{metric} (clipped)" if metric in akf.metrics.NEEDS_WHITE else metric
+            lines += ["", f"{label} by class", f"{metric:<{cw}}" + "".join(f"{m:>14}" for m in methods)]
             for seq in rows:
                 for c in classes:
                     label = f"{seq} {c} ({_percent(result[methods[0]][seq][f'share@{c}'])})"
@@ -121,7 +131,9 @@ def write_json(result: dict, path: str | Path, tuning: dict | None = None, scori
 
 def scoring_record(protocol: str, exposure_matched: bool = True, notes: Iterable[str] = ()) -> dict:
     """The JSON's "scoring" entry: protocol, scoring mode (scoring_mode), units, the [0, 1] metrics' white rule,
-    what each class holds, and the notes (each sequence's white among them)."""
+    the frames' top rule (log_rmse's floor), what each class holds, and the notes (each sequence's white and
+    frames' range among them)."""
     return {"protocol": protocol, "mode": scoring_mode(protocol, exposure_matched),
             "exposure_matched": bool(exposure_matched and protocol == "interleave"), "units": UNITS[protocol],
-            "white": WHITE[protocol].strip(" ()"), "classes": CLASS_MEANING, "notes": list(notes)}
+            "white": WHITE[protocol].strip(" ()"), "frames_top": FRAMES_TOP.strip(" ()"), "classes": CLASS_MEANING,
+            "notes": list(notes)}

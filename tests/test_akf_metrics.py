@@ -69,3 +69,51 @@ def test_log_mse_counts_ratios():
     assert metrics.log_mse(1.1 * big, big) == pytest.approx(metrics.log_mse(1.1 * ref, ref), rel=0.02)
     with pytest.raises(EvsimInputError, match="the image has -0.1 at row 0"):  # radiance is never negative
         metrics.log_mse(-ref, ref)
+
+
+def test_log_rmse_of_a_known_log_offset_is_that_offset():
+    rng = np.random.default_rng(2)
+    ref = rng.uniform(0.05, 500.0, (16, 16))  # far above the frames' top 1: nothing clipped at the top
+    for offset in (0.1, -0.7, 2.0):
+        assert metrics.log_rmse(ref * np.exp(offset), ref, top=1.0) == pytest.approx(abs(offset), rel=1e-12)
+    assert metrics.log_rmse(ref, ref, top=1.0) == 0.0
+    # a known error on a quarter of the pixels: sqrt of the mean square, not the mean of the errors
+    x = ref.copy()
+    x[:4] *= np.exp(0.4)
+    assert metrics.log_rmse(x, ref, top=1.0) == pytest.approx(0.4 / 2, rel=1e-12)
+    assert metrics.score("log_rmse", x, ref, top=1.0) == metrics.log_rmse(x, ref, top=1.0)
+    with pytest.raises(EvsimInputError, match="frames' top"):
+        metrics.score("log_rmse", x, ref)
+
+
+def test_log_rmse_floors_both_images_at_1e_3_of_the_frames_top():
+    top = 2.0
+    floor = metrics.LOG_FLOOR_FRACTION * top
+    assert floor == pytest.approx(2e-3)
+    ref = np.full((8, 8), 0.2)
+    ref[0, :] = 0.0  # black truth...
+    x = ref.copy()
+    x[0, :] = 1e-6  # ...and a reconstruction far below the floor: both count as the floor, no error
+    assert metrics.log_rmse(x, ref, top=top) == 0.0
+    x[0, :] = 4 * floor  # above the floor by a factor 4, against a black truth: ln 4 on one row of eight
+    assert metrics.log_rmse(x, ref, top=top) == pytest.approx(np.log(4.0) / np.sqrt(8), rel=1e-12)
+    # the floor moves with the frames' top: with a 10 times higher top that pixel sits below the floor
+    assert metrics.log_rmse(x, ref, top=10 * top) == 0.0
+    np.testing.assert_allclose(metrics.score_map("log_rmse", x, ref, top=top)[0], np.log(4.0) ** 2, rtol=1e-12)
+
+
+def test_pu21_scores_the_whole_reference_above_100x():
+    ref = np.full((32, 32), 0.5)
+    ref[8:24, 8:24] = np.linspace(250.0, 1000.0, 256).reshape(16, 16)  # a highlight up to 1000 x
+    wrong = ref.copy()
+    wrong[ref > 100] *= 0.5  # 125..500 x: differs only above 100 x, where Y = 100 I would clamp both at 10000 cd/m^2
+    assert metrics.pu21_luminance_scale(ref) == pytest.approx(10.0)  # the reference's max -> 10000 cd/m^2
+    assert metrics.pu21_luminance_scale(np.full((4, 4), 100.0)) == 100.0  # up to 100 x: 100 cd/m^2 per x
+    assert metrics.pu21_psnr(ref, ref) == np.inf and metrics.pu21_ssim(ref, ref) == pytest.approx(1.0)
+    assert metrics.pu21_psnr(wrong, ref) < 30 and metrics.pu21_ssim(wrong, ref) < 0.999
+    # the old fixed scale saw no difference at all
+    assert metrics.pu21_psnr(wrong, ref, luminance_scale=100.0) == np.inf
+    assert metrics.pu21_ssim(wrong, ref, luminance_scale=100.0) == pytest.approx(1.0)
+    # the per-pixel map uses the same scale
+    smap = metrics.score_map("pu21_ssim", wrong, ref)
+    assert smap[3:-3, 3:-3].mean() == pytest.approx(metrics.pu21_ssim(wrong, ref))

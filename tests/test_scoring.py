@@ -1,6 +1,7 @@
 """What the evaluation compares, checked against ground truth: exposure-matched scoring of a blurred held-out frame
 (the truth integrated over the exposure scores about 0, the truth at mid-exposure does not), the white point a
-method can reach, the pixel/time classes on a hand-made case, and scores between frames."""
+method can reach, the pixel/time classes on a hand-made case, the truth against the frames' range and log_rmse
+pooled over a class, the default headline and the figures of its JSON, and scores between frames."""
 
 import json
 from pathlib import Path
@@ -15,8 +16,10 @@ import sim
 from akf.evaluate import Case, output_bound, reachable_white
 from akf.exposure import MAX_SAMPLES, MIN_SAMPLES, exposure_average, sample_count, sample_times
 from akf.metrics import mse01, score_map, ssim01
+from akf.pixel_classes import CLASSES, RANGE_CLASSES
 from evsim_app.cli import main
-from evsim_eval.evaluate import evaluate_dataset, evaluate_recording
+from evsim_eval.choices import DEFAULT_METRICS
+from evsim_eval.evaluate import add_means, evaluate_dataset, evaluate_recording, request_defaults
 from evsim_eval.protocols import recording_case
 from generators import load
 from generators.ahdr import AHDRConfig, generate_ahdr
@@ -208,6 +211,96 @@ def test_pixel_classes_split_a_hand_made_case():
     assert "psnr@high" not in scores  # not a mean over pixels: no class split
 
 
+# ----- the truth against the frames' range, and log_rmse pooled -------------------------------------------------
+
+WINDOW_CRF = {"base": "gamma", "base_params": {"gamma": 2.2}, "low": 100.0, "high": 160.0, "levels": 255.0}
+
+
+def _range_case(truth):
+    """Two 8-bit frames behind the AKF paper's window CRF (x from 0.128 to 0.359 per unit exposure), exposed 1000
+    and 500 us (gains T_0 / T_k of 1 and 2), scored at len(truth) times between them."""
+    crf = crf_models.get("window", **WINDOW_CRF)
+    frames = np.full((2, *truth.shape[1:]), 128, np.uint8)
+    times = np.linspace(2000, 9000, truth.shape[0]).astype(np.int64)
+    return Case(np.zeros(0, EVENT_DTYPE), frames, np.array([0, 10_000]), np.array([1000, 10_500]), 8, crf, 0.2,
+                times, truth, 1.0), crf
+
+
+def test_range_classes_split_the_truth_at_the_frames_floor_and_top_and_cover_every_pixel_once():
+    crf = crf_models.get("window", **WINDOW_CRF)
+    lo, hi = float(crf.inverse(0.0)), 2 * float(crf.inverse(1.0))  # the 500 us frame records up to twice as bright
+    rng = np.random.default_rng(3)
+    truth = np.exp(rng.uniform(np.log(lo / 20), np.log(hi * 20), (3, 12, 18)))
+    truth[0, 0, :3] = (lo, hi, 0.0)  # the ends of the range are inside it; black is below
+    case, _ = _range_case(truth)
+    assert case.frames_range == pytest.approx((lo, hi), rel=1e-12)
+    for k in range(truth.shape[0]):
+        masks = case.classes(k)
+        stacked = np.stack([masks[c] for c in RANGE_CLASSES])
+        np.testing.assert_array_equal(stacked.sum(axis=0), 1)  # a partition: every pixel in exactly one class
+        np.testing.assert_array_equal(masks["below_range"], truth[k] < lo)
+        np.testing.assert_array_equal(masks["above_range"], truth[k] > hi)
+        assert all(masks[c].any() for c in RANGE_CLASSES)
+    assert case.classes(0)["in_range"][0, :2].all() and case.classes(0)["below_range"][0, 2]
+
+
+def test_log_rmse_of_a_class_is_the_root_of_its_pooled_mean_square():
+    crf = crf_models.get("window", **WINDOW_CRF)
+    hi = 2 * float(crf.inverse(1.0))
+    truth = np.full((2, 12, 18), 0.2)  # inside the range
+    truth[:, :, 12:] = 3 * hi  # above it, on a third of the pixels
+    case, _ = _range_case(truth)
+    out = truth.copy()
+    out[0][:, 12:] *= np.exp(0.2)  # a log error of 0.2 above the range in the first frame, 0.6 in the second
+    out[1][:, 12:] *= np.exp(-0.6)
+    scores = case.scores(out, slice(None), ("log_rmse",), by_class=True)
+    assert scores["share@above_range"] == pytest.approx(1 / 3) and scores["share@below_range"] == 0
+    assert scores["log_rmse@above_range"] == pytest.approx(np.sqrt((0.2**2 + 0.6**2) / 2), rel=1e-9)  # not 0.4
+    assert scores["log_rmse@in_range"] == 0.0 and np.isnan(scores["log_rmse@below_range"])
+    # the sequence's log_rmse pools the frames too: sqrt((0.04 + 0.36) / 6), not the mean of the frames' RMSEs
+    assert scores["log_rmse"] == pytest.approx(np.sqrt((0.2**2 + 0.6**2) / 6), rel=1e-9)
+    assert scores["log_rmse"] == pytest.approx(np.sqrt(np.mean(score_map("log_rmse", out[0], truth[0], top=hi))
+                                                       / 2 + np.mean(score_map("log_rmse", out[1], truth[1], top=hi))
+                                                       / 2), rel=1e-12)
+
+
+def test_the_mean_over_sequences_of_log_rmse_is_the_root_mean_square():
+    nan = float("nan")
+    table = add_means({"akf": {"a": {"log_rmse": 0.3, "log_rmse@high": 0.1, "mse": 1.0},
+                               "b": {"log_rmse": 0.4, "log_rmse@high": nan, "mse": 3.0}}})
+    mean = table["akf"]["mean"]
+    assert mean["log_rmse"] == pytest.approx(np.sqrt((0.09 + 0.16) / 2), rel=1e-12)
+    assert mean["log_rmse@high"] == pytest.approx(0.1) and mean["mse"] == 2.0
+
+
+def test_default_metrics_lead_with_full_range_scores_against_an_hdr_reference():
+    assert request_defaults("reference") == (DEFAULT_METRICS["reference"], "log_rmse")
+    assert DEFAULT_METRICS["reference"][:3] == ("log_rmse", "pu21_psnr", "pu21_ssim")
+    assert request_defaults("interleave") == (DEFAULT_METRICS["interleave"], "mse01")
+    assert DEFAULT_METRICS["interleave"][:2] == ("mse01", "ssim01")  # the held-out truth is clipped already
+    assert request_defaults("interleave", ("mse",), "ssim01") == (("mse",), "ssim01")
+    with pytest.raises(sim.EvsimInputError, match="unknown protocol 'hdr'"):
+        request_defaults("hdr")
+
+
+def test_the_default_table_and_json_hold_every_figure(tiny_dataset, tmp_path, capsys):
+    js = tmp_path / "s.json"
+    assert main(["evaluate", str(tiny_dataset), "--methods", "frames,akf", "--json", str(js)]) == 0
+    text = capsys.readouterr().out
+    blocks = [line.split(":")[0] for line in text.splitlines() if line.split(":")[0] in akf.METRICS]
+    assert blocks == list(DEFAULT_METRICS["reference"])  # one block per metric, in the headline order
+    assert "mse01 (clipped)" in text and "log_rmse by class" in text and "truth above the frames' top" in text
+    data = json.loads(js.read_text())
+    per_pixel = [m for m in DEFAULT_METRICS["reference"] if m in akf.metrics.PER_PIXEL]
+    expected = {*DEFAULT_METRICS["reference"], *(f"{m}@{c}" for m in per_pixel for c in CLASSES),
+                *(f"share@{c}" for c in CLASSES)}
+    for method in ("frames", "akf"):
+        assert set(data[method]["a"]) == set(data[method]["mean"]) == expected
+    assert data["frames"]["a"]["log_rmse"] > data["akf"]["a"]["log_rmse"] > 0
+    assert "frames' top" in data["scoring"]["frames_top"]
+    assert any("log_rmse floor" in n for n in data["scoring"]["notes"])
+
+
 # ----- scores between frames ---------------------------------------------------------------------------------------
 
 def test_reference_frames_between_frames_are_scored_and_frames_only_is_worse_there(blurred):
@@ -226,7 +319,7 @@ def test_evaluate_dataset_reports_classes_and_json_writes_null_for_empty_ones(ti
     js = tmp_path / "s.json"
     assert main(["evaluate", str(tiny_dataset), "--methods", "frames", "--metrics", "mse01", "--json", str(js)]) == 0
     text = capsys.readouterr().out
-    assert "mse01 by class" in text and "well-exposed in both nearest input frames" in text
+    assert "mse01 (clipped) by class" in text and "well-exposed in both nearest input frames" in text
     data = json.loads(js.read_text())
     assert data["scoring"]["protocol"] == "reference" and "white" in data["scoring"]
     assert data["frames"]["a"]["mse01@well"] == pytest.approx(result["frames"]["a"]["mse01@well"], rel=1e-12)
