@@ -122,6 +122,15 @@ def test_pixel_figure_data_against_ground_truth(prep, tmp_path):
         # the LDR samples are the CRF inverse of the frames, drawn over their exposure windows
         np.testing.assert_allclose(s.frame_log, np.log(prep.crf.inverse(rec.frames[:, y, x] / 255.0) + i0))
         np.testing.assert_array_equal(s.frame_t_end_us - s.frame_t_start_us, 10_000)
+        # the frames' recorded range (equal exposures: [CRF^-1(0), CRF^-1(1)] = [0, 1] x for the gamma CRF), and a
+        # y span that holds the truth wherever it is, above the frames' top included
+        np.testing.assert_allclose(s.frame_range_log, np.log(np.array([[0.0, 1.0]] * s.frame_log.size) + i0))
+        lo, hi = s.log_span()
+        assert lo < min(s.true_log.min(), s.akf.min(), np.log(i0)) and hi > max(s.true_log.max(), s.akf.max())
+    # the reference's brightest pixel stays 1.4..32 x, above the frames' top throughout: still inside the span
+    s = pixel_series(prep, 48, 3, n_times=50)
+    lo, hi = s.log_span()
+    assert s.true_log.min() > np.log(1.4) and lo < np.log(i0) and hi > s.true_log.max() > np.log(30)
     assert inside / total > 0.5  # "most samples" (about 0.67 with the AKF defaults of this version)
 
 
