@@ -43,6 +43,7 @@ from generators.config import build_scene, parse_config, to_ahdr_config  # noqa:
 from generators.sweep import generate_sweep  # noqa: E402
 from sim import EvsimInputError, make_events  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
 H, W = 48, 64
 PIXELS = [(32, 24), (10, 10), (20, 40)]  # pixels of the fixture with 15+ events each
 
@@ -298,6 +299,23 @@ def test_hdr_figure_methods_by_name_unbounded_outputs(prep, tmp_path, monkeypatc
     assert above.sum() > 50 and np.all(res["shown"]["frames"][above] < res["shown"]["reference"][above])
     with pytest.raises(EvsimInputError, match="no methods"):
         plot_hdr_recovery(prep, tmp_path / "none.png", methods=[])
+
+
+def test_make_hdr_figure_script(seq, tmp_path, monkeypatch, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_hdr_figure", ROOT / "docs" / "make_hdr_figure.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.default_methods() == ["frames", "akf"] + (["aks"] if "aks" in akf.METHODS else [])
+    monkeypatch.setitem(akf.METHODS, "aks", akf.METHODS["frames"])
+    assert script.default_methods() == ["frames", "akf", "aks"]
+    assert script.main([str(seq), str(tmp_path / "fig.png"), "--methods", "frames", "cf", "--at-ms", "100"]) == 0
+    assert_not_blank(tmp_path / "fig.png")
+    assert "t = 100 ms" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        script.main([str(tmp_path / "none.h5"), str(tmp_path / "x.png")])
+    assert e.value.code == 2 and "dataset not found" in capsys.readouterr().err
 
 
 def test_missing_matplotlib_gives_the_install_hint(monkeypatch):
