@@ -162,15 +162,15 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
 
 
 def _x_axis(ax, i0: float) -> None:
-    """A right-hand axis giving the left axis's log(x + I0) in x, ticks at 1, 2 and 5 times powers of ten (only
-    the powers of ten when that gives more than 12)."""
+    """A right-hand axis giving the left axis's log(x + I0) in x: ticks at the powers of ten in range, else at 1, 2
+    and 5 times them, else at every 1..9 times them, whichever first gives 4 or more."""
     sec = ax.secondary_yaxis("right", functions=(lambda v: np.exp(v) - i0,
                                                  lambda x: np.log(np.maximum(np.asarray(x) + i0, 1e-300))))
     lo, hi = (np.exp(v) - i0 for v in ax.get_ylim())
-    ticks = [m * 10.0**e for e in range(-6, 7) for m in (1, 2, 5)]
-    ticks = [t for t in ticks if lo <= t <= hi]
-    if len(ticks) > 12:
-        ticks = [t for t in ticks if np.log10(t) == round(np.log10(t))]
+    for mantissas in ((1,), (1, 2, 5), range(1, 10)):
+        ticks = [m * 10.0**e for e in range(-6, 7) for m in mantissas if lo <= m * 10.0**e <= hi]
+        if len(ticks) >= 4:
+            break
     sec.set_yticks(ticks, [f"{t:g}" for t in ticks])
     sec.set_ylabel("x (scaled irradiance; 1 = full well)")
 
