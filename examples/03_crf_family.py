@@ -35,7 +35,7 @@ print(f"wrote {out / '03_crf_family.png'}")
 # --------------------------------
 # The built-in HDR astronaut, exposed so that its median radiance lands at x = 0.18, through five curves; the
 # titles give the fraction of pixels at 0 or 1 (clipped). The first panel is the HDR radiance itself,
-# tone-mapped (global Reinhard) for display.
+# tone-mapped (a global log map, evsim_app.plots.ToneMap) for display.
 
 SHOWN = ("linear", "gamma", "srgb", "filmic", "window")
 hdr = builtin_hdr_image("astronaut")[::4, ::4].astype(np.float64)

@@ -63,7 +63,8 @@ for name, (y, x) in picks.items():
 # 3. The whole image
 # ------------------
 # At the reference time nearest the middle of the sequence: the LDR input, each method and the HDR reference
-# (tone-mapped alike), then the AKF's Kalman gain and each method's absolute log error.
+# (one log tone map for all, its range in x on the colour bar), then the AKF's Kalman gain and each method's signed
+# log error.
 
 res = plot_compare(prep, out / "04_compare.png")
 print(f"at {res['t_us'] / 1e3:g} ms, PU21-PSNR: " + ", ".join(f"{m} {v:.2f} dB" for m, v in res["pu21_psnr"].items()))

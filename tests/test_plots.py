@@ -30,6 +30,7 @@ from evsim_app.plots import (  # noqa: E402
     plot_compare,
     plot_crfs,
     plot_events,
+    plot_hdr_recovery,
     plot_pixel,
     plot_sweep,
     prepare,
@@ -42,6 +43,7 @@ from generators.config import build_scene, parse_config, to_ahdr_config  # noqa:
 from generators.sweep import generate_sweep  # noqa: E402
 from sim import EvsimInputError, make_events  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
 H, W = 48, 64
 PIXELS = [(32, 24), (10, 10), (20, 40)]  # pixels of the fixture with 15+ events each
 
@@ -121,6 +123,15 @@ def test_pixel_figure_data_against_ground_truth(prep, tmp_path):
         # the LDR samples are the CRF inverse of the frames, drawn over their exposure windows
         np.testing.assert_allclose(s.frame_log, np.log(prep.crf.inverse(rec.frames[:, y, x] / 255.0) + i0))
         np.testing.assert_array_equal(s.frame_t_end_us - s.frame_t_start_us, 10_000)
+        # the frames' recorded range (equal exposures: [CRF^-1(0), CRF^-1(1)] = [0, 1] x for the gamma CRF), and a
+        # y span that holds the truth wherever it is, above the frames' top included
+        np.testing.assert_allclose(s.frame_range_log, np.log(np.array([[0.0, 1.0]] * s.frame_log.size) + i0))
+        lo, hi = s.log_span()
+        assert lo < min(s.true_log.min(), s.akf.min(), np.log(i0)) and hi > max(s.true_log.max(), s.akf.max())
+    # the reference's brightest pixel stays 1.4..32 x, above the frames' top throughout: still inside the span
+    s = pixel_series(prep, 48, 3, n_times=50)
+    lo, hi = s.log_span()
+    assert s.true_log.min() > np.log(1.4) and lo < np.log(i0) and hi > s.true_log.max() > np.log(30)
     assert inside / total > 0.5  # "most samples" (about 0.67 with the AKF defaults of this version)
 
 
@@ -181,10 +192,18 @@ def test_plot_compare_images_and_scores(prep, tmp_path):
     # frames-only at a frame's mid-exposure time is that frame through the inverse CRF
     np.testing.assert_allclose(res["images"]["frames"], prep.crf.inverse(rec.frames[4] / 255.0), rtol=1e-6)
     assert np.all(res["gain"] > 0) and set(res["pu21_psnr"]) == {"akf", "cf", "frames"}
+    # one tone map for every panel, from the reference and the frames' top (CRF^-1(1) = 1 x for the gamma CRF)
     tone = res["tone_map"]
-    # Reinhard: the key value maps to 1/2 before the display gamma
-    assert tone(np.array([0.0]))[0] == 0
-    assert tone(np.array([tone.log_average / 0.18]))[0] == pytest.approx(0.5 ** (1 / 2.2))
+    assert tone == ToneMap.from_reference(res["reference"], frames_top=1.0)
+    assert res["frames_range"] == (0.0, 1.0)
+    np.testing.assert_array_equal(res["shown"]["reference"], tone(res["reference"]))
+    for m, image in res["images"].items():
+        np.testing.assert_array_equal(res["shown"][m], tone(image))
+        np.testing.assert_allclose(res["log_error"][m], np.log(np.maximum(image, tone.floor))
+                                   - np.log(np.maximum(res["reference"], tone.floor)))
+    # the reference reaches 32 x, far above the frames' top: its highlights keep their grey steps
+    bright = res["reference"] > 2.0
+    assert bright.sum() > 50 and np.ptp(res["shown"]["reference"][bright]) > 0.2
 
 
 def test_plot_sweep_scores_every_point_once(tmp_path):
@@ -222,11 +241,81 @@ def test_plot_crfs_curves(tmp_path):
     assert "tabulated" not in data  # needs a table
 
 
-def test_tone_map_is_monotone_and_bounded():
-    tone = ToneMap.from_reference(np.full((4, 4), 2.0))
-    assert tone.log_average == pytest.approx(2.0, rel=1e-5)
-    v = tone(np.array([0.0, 0.1, 1.0, 10.0, 1e6]))
-    assert np.all(np.diff(v) > 0) and v[0] == 0 and v[-1] < 1
+def test_tone_map_shows_detail_above_the_frames_top():
+    # frames record 0.13..0.36 x (the AHDR window CRF); the left half of the reference lies inside that range, the
+    # right half holds all its detail above it: stripes of 10 x and 100 x and a ramp from 3 x to 300 x
+    frames_top = 0.36
+    ref = np.empty((40, 80))
+    ref[:, :40] = np.linspace(0.13, 0.36, 40)
+    ref[:20, 40:] = np.where(np.arange(40) % 4 < 2, 10.0, 100.0)
+    ref[20:, 40:] = np.geomspace(3.0, 300.0, 40)
+    tone = ToneMap.from_reference(ref, frames_top=frames_top)
+    assert tone.floor == pytest.approx(np.percentile(ref, 1)) and tone.top == pytest.approx(np.percentile(ref, 99.9))
+    shown = tone(ref)
+    stripes, ramp = shown[:20, 40:], shown[20:, 40:]
+    assert stripes.max() - stripes.min() > 0.25  # 10 x and 100 x: a quarter of the grey range apart
+    assert np.all(np.diff(ramp[0]) > 0)  # every step of the ramp is a distinct grey
+    assert np.all(shown[:, :40] < stripes.min())  # the frames' range below every highlight
+    # equal ratios, equal grey steps; nothing assumes images <= 1 x; below the floor is black, above the top white
+    v = tone(np.array([0.0, tone.floor, 2.0, 4.0, 8.0, tone.top, 1e7]))
+    assert v[0] == v[1] == 0 and v[-1] == v[-2] == 1
+    assert v[3] - v[2] == pytest.approx(v[4] - v[3])
+    # the log error: a factor 2 too bright reads log 2 wherever both images are above the floor
+    np.testing.assert_allclose(tone.log_error(2 * ref, ref), np.log(2))
+    # a reference with black pixels: the floor is 1e-3 of the frames' top, not 0
+    dark = np.zeros((10, 10))
+    dark[0, :5] = 50.0
+    assert ToneMap.from_reference(dark, frames_top=frames_top).floor == pytest.approx(1e-3 * frames_top)
+    with pytest.raises(EvsimInputError, match="no positive value"):
+        ToneMap.from_reference(dark * 0)
+    with pytest.raises(EvsimInputError, match="0 < floor < top"):
+        ToneMap(1.0, 1.0)
+
+
+def _oracle(prep, factor):
+    """A method for akf.METHODS returning factor times the reference nearest each output time (x units)."""
+    def method(events, frames, t_start, t_end, crf, times, *, contrast, bit_depth):
+        idx = [int(np.argmin(np.abs(prep.rec.reference_t_us - t))) for t in times]
+        return factor * prep.reference_x[idx]  # float64, so that factor 1 is the reference exactly
+    return method
+
+
+def test_hdr_figure_methods_by_name_unbounded_outputs(prep, tmp_path, monkeypatch):
+    # methods are called through akf.METHODS by name; outputs far above 1 x are drawn through the same tone map
+    monkeypatch.setitem(akf.METHODS, "exact", _oracle(prep, 1.0))
+    monkeypatch.setitem(akf.METHODS, "bright", _oracle(prep, 1000.0))
+    res = plot_hdr_recovery(prep, tmp_path / "hdr.png", methods=["frames", "exact", "bright"], label="pan")
+    assert_not_blank(tmp_path / "hdr.png")
+    assert res["gain"] is None and list(res["images"]) == ["frames", "exact", "bright"]
+    assert res["images"]["bright"].max() > 1e4
+    np.testing.assert_array_equal(res["shown"]["exact"], res["shown"]["reference"])  # same mapping on both
+    assert np.all(res["log_error"]["exact"] == 0)
+    tone = res["tone_map"]
+    lit = res["reference"] > tone.floor
+    np.testing.assert_allclose(res["log_error"]["bright"][lit], np.log(1000.0), rtol=1e-5)
+    # frames only never exceeds the frames' top, so it is below the reference wherever the reference is brighter
+    hi = res["frames_range"][1]
+    above = res["reference"] > 2 * hi
+    assert above.sum() > 50 and np.all(res["shown"]["frames"][above] < res["shown"]["reference"][above])
+    with pytest.raises(EvsimInputError, match="no methods"):
+        plot_hdr_recovery(prep, tmp_path / "none.png", methods=[])
+
+
+def test_make_hdr_figure_script(seq, tmp_path, monkeypatch, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_hdr_figure", ROOT / "docs" / "make_hdr_figure.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.default_methods() == ["frames", "akf"] + (["aks"] if "aks" in akf.METHODS else [])
+    monkeypatch.setitem(akf.METHODS, "aks", akf.METHODS["frames"])
+    assert script.default_methods() == ["frames", "akf", "aks"]
+    assert script.main([str(seq), str(tmp_path / "fig.png"), "--methods", "frames", "cf", "--at-ms", "100"]) == 0
+    assert_not_blank(tmp_path / "fig.png")
+    assert "t = 100 ms" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        script.main([str(tmp_path / "none.h5"), str(tmp_path / "x.png")])
+    assert e.value.code == 2 and "dataset not found" in capsys.readouterr().err
 
 
 def test_missing_matplotlib_gives_the_install_hint(monkeypatch):

@@ -2,7 +2,8 @@
 
 Each animation frame at time t shows the event frame over [t - dt, t) (dt the spacing of the animation frames) next
 to the AKF reconstruction at t and, when the file has one, the HDR reference nearest t; images are tone-mapped with
-common.ToneMap (scale from the middle reference frame, else from the middle reconstruction). GIF is written with
+common.ToneMap (the global log map, its range from the middle reference frame, else from the middle reconstruction,
+its floor at least 1e-3 of the frames' top). GIF is written with
 matplotlib's PillowWriter (pillow ships with matplotlib); MP4 needs ffmpeg on the PATH (PlotDependencyError
 otherwise). The file is written to a temporary sibling and renamed into place.
 """
@@ -62,7 +63,8 @@ def animate(prep: Prepared, out: str | Path, *, n_frames: int = 40, fps: float =
     recon = akf.reconstruct(*prep.reconstruct_args(), times, contrast=prep.contrast, bit_depth=rec.frame_bit_depth,
                             leak_rate_hz=prep.leak_rate_hz, params=params or akf.AKFParams())
     ref = prep.reference_x
-    tone = ToneMap.from_reference(ref[ref.shape[0] // 2] if ref is not None else recon[n_frames // 2])
+    tone = ToneMap.from_reference(ref[ref.shape[0] // 2] if ref is not None else recon[n_frames // 2],
+                                  frames_top=float(prep.frames_range()[1][0]))
     plt = pyplot()
     from matplotlib import animation
 

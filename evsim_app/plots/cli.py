@@ -132,8 +132,9 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
     psub = plot.add_subparsers(dest="plot_kind", required=True)
 
     p = psub.add_parser("pixel", epilog=PLOT_EPILOG,
-                        help="one pixel over time: truth, DVS reference level and events, LDR samples, augmented "
-                             "frame, AKF +-2 sqrt(P) and complementary filter")
+                        help="one pixel over time in log intensity (right axis in x): truth, DVS reference level and "
+                             "events, LDR samples over the frames' recorded range, augmented frame, AKF +-2 sqrt(P) "
+                             "and complementary filter")
     p.add_argument("dataset", type=Path, help="a dataset with events, frames and a CRF (native HDF5 from evsim)")
     p.add_argument("--x", type=int, required=True, help="pixel column (0 .. width-1)")
     p.add_argument("--y", type=int, required=True, help="pixel row (0 .. height-1)")
@@ -168,7 +169,8 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
     e.set_defaults(func=_cmd_events)
 
     c = psub.add_parser("compare", epilog=PLOT_EPILOG,
-                        help="LDR input, each method's reconstruction and the HDR reference, error and gain maps")
+                        help="LDR input, each method's reconstruction and the HDR reference through one log tone "
+                             "map (colour bar in x, the frames' range marked), signed log-error and gain maps")
     c.add_argument("dataset", type=Path, help="a dataset with events, frames, a CRF and HDR reference frames")
     c.add_argument("--at-ms", type=float, help="time in ms; the nearest reference frame is used (default: the one "
                                                "nearest the middle)")

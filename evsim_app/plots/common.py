@@ -1,13 +1,24 @@
 """Shared plotting machinery: the lazy matplotlib import, the one tone-mapping operator, atomic figure saving,
 and a recording prepared for reconstruction (CRF object, contrast thresholds, reference in the CRF's units).
 
-Tone mapping (the only operator used in every figure): global Reinhard on luminance,
-    Ls = KEY * I / Iw,   D = (Ls / (1 + Ls)) ** (1 / 2.2),
-with KEY = 0.18 and Iw the log-average (geometric mean) of the HDR reference image, and the same Iw applied to
-every panel of a figure, so equal radiance gives equal grey across panels.
+Tone mapping (the only operator used for every HDR image in every figure): a global logarithmic map,
+    D = clip(log(max(I, f) / f) / log(T / f), 0, 1),
+from a floor f to a top T (both in x, the CRF's scaled irradiance, x = 1 the full well), shared by every panel of a
+figure and drawn as grey levels, so equal radiance gives equal grey across panels and equal ratios give equal grey
+steps anywhere in the range. T is the HDR reference's 99.9th percentile (a few hot pixels do not compress the rest);
+f is the reference's 1st percentile, but not below 1e-3 of the frames' top CRF^-1(1) (nor of T when the frames'
+top is not given), which keeps a black or zero-padded reference from spending the grey range on noise. The range
+holds reconstructions far above the frames' clip (hundreds of x on real HDR photos, where the frames stop at about
+0.36 x with the AHDR window CRF) as well as shadows below the frames' floor. It is the plain form of Drago et al.'s
+adaptive logarithmic mapping, without its bias curve: a reconstruction error of a given ratio then looks the same
+in highlights and in shadows, which is what the figures compare. Global Reinhard (Reinhard et al. 2002), used
+before, maps everything above about 10 x the reference's log-average into the top few grey levels, so the highlight
+detail the events recover was invisible.
 
 References (full citations also in docs/models/references.md):
 
+- Drago F, Myszkowski K, Annen T, Chiba N (2003). Adaptive logarithmic mapping for displaying high contrast
+  scenes. Computer Graphics Forum 22(3):419-426 (Eurographics 2003).
 - Reinhard E, Stark M, Shirley P, Ferwerda J (2002). Photographic tone reproduction for digital images. ACM
   Transactions on Graphics 21(3):267-276 (SIGGRAPH 2002).
 """
@@ -34,8 +45,10 @@ if TYPE_CHECKING:
     from crf_models import CRF
 
 MATPLOTLIB_HINT = "matplotlib is not installed: pip install 'evsim[plot]'"
-REINHARD_KEY = 0.18
-DISPLAY_GAMMA = 2.2
+TONE_LOW_PERCENTILE = 1.0  # the tone map's floor: this percentile of the reference (see ToneMap.from_reference)
+TONE_HIGH_PERCENTILE = 99.9  # the tone map's top: this percentile of the reference
+TONE_FLOOR_RATIO = 1e-3  # the floor is at least this fraction of the frames' top CRF^-1(1)
+TONE_MIN_RANGE = 10.0  # the top is at least this factor above the floor
 ON_COLOUR, OFF_COLOUR = (0.84, 0.15, 0.16), (0.12, 0.47, 0.71)  # RGB: red ON, blue OFF in every figure
 
 
@@ -83,24 +96,76 @@ def save_figure(fig: Figure, path: str | Path) -> Path:
 
 @dataclass(frozen=True)
 class ToneMap:
-    """Global Reinhard on luminance (see the module docstring): D = (s I / (1 + s I)) ** (1 / 2.2), s = KEY / Iw."""
+    """Global logarithmic tone map from `floor` to `top` (x units, 0 < floor < top; see the module docstring).
 
-    log_average: float
+    Parameters
+    ----------
+    floor : float
+        Radiance (x) shown black; anything darker is shown black too.
+    top : float
+        Radiance (x) shown white; anything brighter is shown white too (no bound on the images given).
+
+    References
+    ----------
+    Drago F, Myszkowski K, Annen T, Chiba N (2003). Adaptive logarithmic mapping for displaying high contrast
+    scenes. Computer Graphics Forum 22(3):419-426 (its mapping without the bias curve).
+    """
+
+    floor: float
+    top: float
+
+    def __post_init__(self):
+        if not (np.isfinite(self.floor) and np.isfinite(self.top) and 0 < self.floor < self.top):
+            raise EvsimInputError(f"tone map: need 0 < floor < top (x units), got floor {self.floor!r}, "
+                                  f"top {self.top!r}")
 
     @classmethod
-    def from_reference(cls, image: ArrayLike, eps: float = 1e-6) -> ToneMap:
-        """Iw = exp(mean(log(eps + I))) of the HDR reference image (linear, >= 0)."""
-        img = np.asarray(image, np.float64)
-        return cls(float(np.exp(np.mean(np.log(eps + np.clip(img, 0, None))))))
+    def from_reference(cls, reference: ArrayLike, frames_top: float | None = None) -> ToneMap:
+        """The tone map of one figure, from its HDR reference image (linear x, any range).
 
-    def __call__(self, image) -> np.ndarray:
-        """Display values in [0, 1] of a linear image (negative values count as 0)."""
-        ls = REINHARD_KEY / self.log_average * np.clip(np.asarray(image, np.float64), 0, None)
-        return (ls / (1 + ls)) ** (1 / DISPLAY_GAMMA)
+        Parameters
+        ----------
+        reference : array_like
+            The HDR reference image (x units); values <= 0 count as black.
+        frames_top : float, optional
+            The frames' top CRF^-1(1) (x units); the floor is at least TONE_FLOOR_RATIO of it (default: of the top).
+
+        Returns
+        -------
+        ToneMap
+            top = the reference's TONE_HIGH_PERCENTILE-th percentile, floor = its TONE_LOW_PERCENTILE-th percentile
+            but at least TONE_FLOOR_RATIO * frames_top; top is raised to TONE_MIN_RANGE * floor when the reference
+            is flatter than that (a uniform image).
+
+        Raises
+        ------
+        EvsimInputError
+            When the reference has no positive value and no frames_top is given (nothing sets the scale).
+        """
+        img = np.asarray(reference, np.float64)
+        lo, hi = np.percentile(img, [TONE_LOW_PERCENTILE, TONE_HIGH_PERCENTILE])
+        floor = max(float(lo), TONE_FLOOR_RATIO * float(hi if frames_top is None else frames_top))
+        if not floor > 0:
+            raise EvsimInputError("tone map: the reference image has no positive value to scale the display to")
+        return cls(floor, max(float(hi), TONE_MIN_RANGE * floor))
+
+    def __call__(self, image: ArrayLike) -> np.ndarray:
+        """Display values in [0, 1] (0 black at or below floor, 1 white at or above top) of a linear image (x)."""
+        return np.clip(self.log(image) / np.log(self.top / self.floor), 0.0, 1.0)
+
+    def log(self, image: ArrayLike) -> np.ndarray:
+        """log(max(I, floor) / floor) of a linear image (x): natural log units above the floor."""
+        return np.log(np.maximum(np.asarray(image, np.float64), self.floor) / self.floor)
+
+    def log_error(self, image: ArrayLike, reference: ArrayLike) -> np.ndarray:
+        """log(max(I, floor)) - log(max(R, floor)), natural log units: > 0 where the image is brighter than the
+        reference (0.69 is a factor 2), 0 where both are at or below the floor."""
+        return self.log(image) - self.log(reference)
 
     def describe(self) -> str:
-        return (f"global Reinhard on luminance, key {REINHARD_KEY} over the reference's log-average "
-                f"{self.log_average:.3g}, gamma 1/{DISPLAY_GAMMA}")
+        """One line for figure titles and command output: the operator and its range in x."""
+        return (f"global log map from {self.floor:.3g} x (black) to {self.top:.3g} x (white), "
+                f"{np.log10(self.top / self.floor):.1f} decades")
 
 
 @dataclass
@@ -128,6 +193,14 @@ class Prepared:
         if self.to_x is None:
             return None
         return self.rec.reference.astype(np.float64) * self.to_x
+
+    def frames_range(self) -> tuple[np.ndarray, np.ndarray]:
+        """(F,) float64 lowest and highest radiance (x) each frame records: CRF^-1(0) and CRF^-1(1) times T_0 / T_k,
+        frame 0's exposure time over frame k's (x is in frame 0's units); outside it the frame is clipped."""
+        from akf.evaluate import exposure_gains
+
+        gain = exposure_gains(self.rec.frame_t_start_us, self.rec.frame_t_end_us)
+        return float(self.crf.inverse(0.0)) * gain, float(self.crf.inverse(1.0)) * gain
 
     def reconstruct_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, CRF]:
         """The positional arguments (events, frames, t_start, t_end, crf) shared by akf methods."""

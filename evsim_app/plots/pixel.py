@@ -6,10 +6,14 @@ Every curve is in the filter's log space L = log(x + I0), x the CRF's scaled irr
 - DVS reference level: rebuilt from the pixel's events, anchor + sum of p * C_p (C_p from the threshold map),
   anchored to the truth at the first reference time (exact for an ideal sensor: no leak, refractory or noise);
 - LDR samples: log(CRF^-1(y) + I0) of each frame, drawn over its exposure window (hollow where the frame is clipped,
-  i.e. its variance saturated);
+  i.e. its variance saturated), over an orange band: the range the frames record, [CRF^-1(0), CRF^-1(1)] (times
+  T_0 / T_k for frame k's exposure), held from each exposure's start to the next;
 - augmented frame L^A(t) (section 4.1, eq. 13): the interval curves from the AKF's own augmentation (EDI deblurring,
   contrast calibration), blended across each exposure;
 - AKF estimate with a +-2 sqrt(P) band, and the complementary-filter estimate, at dense times.
+The y axis spans every curve, wherever it lies against the frames' range (a reference hundreds of x above the
+frames' top, a reconstruction not bounded by 1 x); the right axis labels it in x. The +-2 sqrt(P) band is cut at
+that span.
 The reconstructions run on the 3x3 neighbourhood of the pixel only: that is exact for the centre pixel (each pixel's
 filter depends on its own events and frames and on its 8 neighbours' event times) and makes dense sampling cheap.
 The AKF curve is the filter's own estimate, without the output smoothing of the published images (akf.smoothing:
@@ -43,6 +47,8 @@ class PixelSeries:
     event_t_us, event_p: the pixel's events; dvs_level_t_us, dvs_level: the rebuilt DVS reference level (a step
     function: the level holds from each time to the next).
     frame_t_start_us, frame_t_end_us, frame_log, frame_clipped: the LDR samples and their exposure windows.
+    frame_range_log: (F, 2) the range each frame records, log(CRF^-1(0) T_0 / T_k + I0) and log(CRF^-1(1) T_0 / T_k
+    + I0). i0: the I0 of every log value.
     deblurred: (F, 2) EDI-deblurred log at each exposure's start and end.
     t_us: the dense sample times of augmented, akf, akf_std (sqrt P, log units) and cf.
     """
@@ -59,12 +65,25 @@ class PixelSeries:
     frame_t_end_us: np.ndarray
     frame_log: np.ndarray
     frame_clipped: np.ndarray
+    frame_range_log: np.ndarray
+    i0: float
     deblurred: np.ndarray
     t_us: np.ndarray
     augmented: np.ndarray
     akf: np.ndarray
     akf_std: np.ndarray
     cf: np.ndarray
+
+    def log_span(self, margin: float = 0.05) -> tuple[float, float]:
+        """The y range of the figure (log(x + I0)): every curve and the frames' range, widened by `margin` of the
+        span (at least of 1 log unit) each side; not the +-2 sqrt(P) band, wide where the filter knows little."""
+        parts = [self.dvs_level, self.frame_log, self.frame_range_log, self.deblurred, self.augmented, self.akf,
+                 self.cf] + ([] if self.true_log is None else [self.true_log])
+        values = np.concatenate([np.ravel(v) for v in parts])
+        values = values[np.isfinite(values)]
+        lo, hi = float(values.min()), float(values.max())
+        pad = margin * max(hi - lo, 1.0)
+        return lo - pad, hi + pad
 
 
 def check_pixel(rec: Recording, x: int, y: int) -> None:
@@ -134,10 +153,26 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
         x=x, y=y, reference_t_us=ref_t, true_log=true_log, event_t_us=ev_t, event_p=mine["p"].astype(np.int8),
         dvs_level_t_us=np.concatenate([[anchor_t], ev_t]), dvs_level=anchor + np.concatenate([[0.0], np.cumsum(steps)]),
         frame_t_start_us=rec.frame_t_start_us.astype(np.int64), frame_t_end_us=rec.frame_t_end_us.astype(np.int64),
-        frame_log=np.log(frame_x + i0), frame_clipped=clipped, deblurred=deblurred, t_us=t_us, augmented=augmented,
+        frame_log=np.log(frame_x + i0), frame_clipped=clipped,
+        frame_range_log=np.log(np.stack(prep.frames_range(), axis=1) + i0), i0=i0, deblurred=deblurred, t_us=t_us,
+        augmented=augmented,
         akf=np.log(est[:, ly, lx].astype(np.float64) + i0), akf_std=np.sqrt(var[:, ly, lx].astype(np.float64)),
         cf=np.log(cf[:, ly, lx].astype(np.float64) + i0),
     )
+
+
+def _x_axis(ax, i0: float) -> None:
+    """A right-hand axis giving the left axis's log(x + I0) in x: ticks at the powers of ten in range, else at 1, 2
+    and 5 times them, else at every 1..9 times them, whichever first gives 4 or more."""
+    sec = ax.secondary_yaxis("right", functions=(lambda v: np.exp(v) - i0,
+                                                 lambda x: np.log(np.maximum(np.asarray(x) + i0, 1e-300))))
+    lo, hi = (np.exp(v) - i0 for v in ax.get_ylim())
+    for mantissas in ((1,), (1, 2, 5), range(1, 10)):
+        ticks = [m * 10.0**e for e in range(-6, 7) for m in mantissas if lo <= m * 10.0**e <= hi]
+        if len(ticks) >= 4:
+            break
+    sec.set_yticks(ticks, [f"{t:g}" for t in ticks])
+    sec.set_ylabel("x (scaled irradiance; 1 = full well)")
 
 
 def plot_pixel(prep: Prepared, x: int, y: int, out: str | Path, *, n_times: int = 1500,
@@ -151,6 +186,10 @@ def plot_pixel(prep: Prepared, x: int, y: int, out: str | Path, *, n_times: int 
         ax.plot(s.reference_t_us * ms, s.true_log, "k-", lw=1.6, marker=".", ms=4,
                 label="true log intensity (reference)")
     t_last = s.t_us[-1]
+    edges = np.append(s.frame_t_start_us, max(t_last, s.frame_t_start_us[-1])) * ms
+    band = np.vstack([s.frame_range_log, s.frame_range_log[-1:]])
+    ax.fill_between(edges, band[:, 0], band[:, 1], step="post", color="tab:orange", alpha=0.12, lw=0,
+                    label="range the frames record: [CRF^-1(0), CRF^-1(1)]")
     ax.step(np.append(s.dvs_level_t_us, t_last) * ms, np.append(s.dvs_level, s.dvs_level[-1]), where="post",
             color="0.55", lw=1.0, label="DVS reference level (events x threshold)")
     for k in range(s.frame_log.size):
@@ -166,6 +205,8 @@ def plot_pixel(prep: Prepared, x: int, y: int, out: str | Path, *, n_times: int 
     ax.plot(s.t_us * ms, s.akf, color="tab:purple", lw=1.4, label="AKF estimate")
     ax.plot(s.t_us * ms, s.cf, ":", color="tab:brown", lw=1.4, label="complementary filter")
     ax.set_ylabel("log(x + I0)")
+    ax.set_ylim(*s.log_span())
+    _x_axis(ax, s.i0)
     ax.set_title(f"pixel (x={s.x}, y={s.y}): {s.event_t_us.size} events, {s.frame_log.size} frames")
     ax.legend(fontsize=7, loc="best", ncol=2)
     ax.grid(alpha=0.3)
