@@ -21,7 +21,7 @@ def test_demo_generates_and_reports(tmp_path, capsys):
     assert f"{rec.events.size} (ON" in text and str(out / "demo.h5") in text
     table = (out / "metrics.txt").read_text()
     assert table.splitlines()[0].split() == ["method", *DEFAULT_METRICS["reference"]]
-    assert {line.split()[0] for line in table.splitlines()[1:]} == {"akf", "cf", "frames"}
+    assert {line.split()[0] for line in table.splitlines()[1:]} == {"akf", "aks", "cf", "frames"}
     assert table in text
 
 
