@@ -23,10 +23,11 @@ def test_table_of_a_static_scene():
     ref_t = np.array([10_000, 50_000])
     reference = np.repeat(frames[:1] / 255.0, 2, axis=0)
     table = akf.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, reference, ref_t,
-                                  methods=("frames", "akf"), metrics=("mse", "psnr", "ssim"))
-    assert set(table) == {"frames", "akf"} and set(table["akf"]) == {"mse", "psnr", "ssim"}
+                                  methods=("frames", "akf"), metrics=("mse", "psnr", "ssim", "log_rmse"))
+    assert set(table) == {"frames", "akf"} and set(table["akf"]) == {"mse", "psnr", "ssim", "log_rmse"}
     assert table["frames"]["mse"] == pytest.approx(0.0, abs=1e-12)  # float32 output of exact DN / 255
     assert table["frames"]["ssim"] == pytest.approx(1.0)
+    assert table["frames"]["log_rmse"] < 1e-6  # the frames' top, CRF^-1(1) = 1, sets the floor: no parameter needed
     # without events the AKF holds the bias-corrected frame: relative error about R / 2 = sigma_im2 / (2 I^2)
     assert table["akf"]["mse"] < 1e-8
     assert table["akf"]["psnr"] > 60

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 DEFAULT_METHODS = ("akf", "cf", "frames")
 ERROR_PERCENTILE = 99.5  # the log-error colour range: this percentile of |error| over every method's map
 MIN_ERROR_RANGE = 0.5  # ... but at least this (log units: a factor 1.65), so a near-exact method is not all colour
+ERROR_LABEL = "log(max(I, f)) - log(max(R, f))\n(ln units; red: too bright)"  # the error colour bar's label
 FRAMES_COLOUR = "tab:orange"  # the frames' recorded range on the colour bar (and in the pixel figure)
 
 
@@ -131,9 +132,10 @@ def _tone_colorbar(fig: Figure, ax: Axes | Sequence[Axes], tone: ToneMap, frames
 
 
 def _error_range(log_error: dict[str, np.ndarray]) -> float:
-    """The symmetric colour range (log units) of the log-error maps: ERROR_PERCENTILE of |error| over every
-    method's map, at least MIN_ERROR_RANGE."""
-    return max([MIN_ERROR_RANGE] + [float(np.percentile(np.abs(e), ERROR_PERCENTILE)) for e in log_error.values()])
+    """The symmetric colour range (log units) of the log-error maps: ERROR_PERCENTILE of the finite |error| over
+    every method's map (an overflowed output gives inf), at least MIN_ERROR_RANGE."""
+    finite = [np.abs(e[np.isfinite(e)]) for e in log_error.values()]
+    return max([MIN_ERROR_RANGE] + [float(np.percentile(a, ERROR_PERCENTILE)) for a in finite if a.size])
 
 
 def _draw_log_error(ax: Axes, error: np.ndarray, emax: float, title: str):
@@ -142,9 +144,6 @@ def _draw_log_error(ax: Axes, error: np.ndarray, emax: float, title: str):
     im = ax.imshow(error, cmap="RdBu_r", vmin=-emax, vmax=emax, interpolation="nearest")
     ax.set_title(title, fontsize=8)
     return im
-
-
-ERROR_LABEL = "log(max(I, f)) - log(max(R, f))\n(ln units; red: too bright)"
 
 
 def plot_compare(prep: Prepared, out: str | Path, *, t_us: int | None = None, methods: Sequence[str] = DEFAULT_METHODS,
