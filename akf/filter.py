@@ -34,6 +34,8 @@ from .params import AKFParams
 from .smoothing import EDGE_RANGE, smooth_uncertain
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import numpy.typing as npt
 
     from crf_models import CRF
@@ -201,7 +203,7 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
-    inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth, params)
     crf = as_crf(crf)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
@@ -347,8 +349,9 @@ def check_filter_options(params: AKFParams, leak_rate_hz: float, max_intensity: 
     check_max_intensity(max_intensity)
 
 
-def prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth: int,
-                    params: AKFParams) -> Inputs:
+def prepared_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
+                    frame_t_end_us: npt.ArrayLike, output_times_us: npt.ArrayLike, contrast: npt.ArrayLike,
+                    bit_depth: int, params: AKFParams) -> Inputs:
     """The validated inputs (akf.inputs.validate_inputs), with the thresholds flat-fielded from the event counts
     (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
@@ -371,7 +374,7 @@ class Masks(NamedTuple):
     when: np.ndarray
 
 
-def finish_image(params: AKFParams, shape: tuple[int, int]):
+def finish_image(params: AKFParams, shape: tuple[int, int]) -> Callable[[int, np.ndarray, np.ndarray, Masks], None]:
     """The causal filter's last steps on each published image, in place: the clip prior, then the output smoothing
     (see reconstruct). Returns post(j, intensity, variance, masks) for run_filter."""
     prior = params.clip_prior and params.frame_update
@@ -397,7 +400,9 @@ def smooth_published(oi: np.ndarray, op: np.ndarray, masks: Masks, params: AKFPa
                              masks.low.reshape(shape), masks.high.reshape(shape))
 
 
-def run_filter(inp: Inputs, crf, params: AKFParams, leak_rate_hz: float, out_i, out_p, out_k, post) -> None:
+def run_filter(inp: Inputs, crf: CRF, params: AKFParams, leak_rate_hz: float, out_i: np.ndarray,
+               out_p: np.ndarray | None, out_k: np.ndarray | None,
+               post: Callable[[int, np.ndarray, np.ndarray, Masks], None]) -> None:
     """The filter over inp, writing exp(L) - I0 (and P, K when out_p / out_k are arrays) at inp.out_t into out_i
     (T, H, W), each image then given to post(j, intensity, variance, masks) (flat views; variance a scratch array
     when out_p is None) before the next."""

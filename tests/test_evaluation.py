@@ -29,7 +29,7 @@ def dataset(tiny_dataset):
     return tiny_dataset
 
 
-def _direct(path, methods=("akf", "cf", "frames"), leak_rate_hz=None):
+def _direct(path, methods=("akf", "aks", "cf", "frames"), leak_rate_hz=None):
     """The reference protocol spelled out with akf.evaluate_sequence and the camera's closed-form exposure; the AKF
     gets the recorded DVS leak rate unless leak_rate_hz is given."""
     rec = load(path)
@@ -42,8 +42,8 @@ def _direct(path, methods=("akf", "cf", "frames"), leak_rate_hz=None):
     return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
                                  rec.reference[inside] * to_x, rec.reference_t_us[inside], methods=methods,
                                  metrics=METRICS, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]),
-                                 method_options={"akf": {"leak_rate_hz": dvs["leak_hz"] if leak_rate_hz is None
-                                                         else leak_rate_hz}})
+                                 method_options={m: {"leak_rate_hz": dvs["leak_hz"] if leak_rate_hz is None
+                                                     else leak_rate_hz} for m in ("akf", "aks")})
 
 
 def test_recorded_unit_factor_is_the_cameras_closed_form_and_the_fallback_agrees(dataset):
@@ -68,7 +68,7 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
     assert main(["evaluate", str(dataset), "--metrics", "mse,ssim", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     result = json.loads(out.read_text())
-    assert set(result) == {"akf", "cf", "frames", "scoring"}
+    assert set(result) == {"akf", "aks", "cf", "frames", "scoring"}
     assert result.pop("scoring")["mode"].startswith("point-in-time")
     direct = {name: _direct(dataset / f"{name}.h5") for name in ("a", "b")}
     for method in result:
@@ -82,8 +82,8 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
     assert "units: x = CRF scaled irradiance" in text
     mse_block = text.split("\n\nmse: ")[1].split("\n\n")[0].splitlines()
     assert mse_block[0] == akf.NORMALISATION["mse"]  # every table states its normalisation
-    assert mse_block[1].split() == ["mse", "akf", "cf", "frames"]
-    row = dict(zip(("akf", "cf", "frames"), map(float, mse_block[2].split()[1:])))
+    assert mse_block[1].split() == ["mse", "akf", "aks", "cf", "frames"]
+    row = dict(zip(("akf", "aks", "cf", "frames"), map(float, mse_block[2].split()[1:])))
     assert mse_block[2].split()[0] == "a"
     for method, value in row.items():
         assert value == pytest.approx(result[method]["a"]["mse"], rel=1e-3)  # printed with 4 significant digits
@@ -202,7 +202,7 @@ def test_interleave_without_a_crf_assumes_linear_and_says_so(tmp_path, capsys):
     (["reconstruct", "{a}"], "--out"),
     (["evaluate", "{a}", "--leak-hz", "-1"], "--leak-hz"),
     (["reconstruct", "{a}", "--out", "{out}", "--leak-hz", "nan"], "--leak-hz"),
-    (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf method only"),
+    (["reconstruct", "{a}", "--out", "{out}", "--method", "cf", "--leak-hz", "0.1"], "akf and aks methods only"),
     (["reconstruct", "{ijrr_noframes}", "--out", "{out}", "--times", "fps:10"],
      "at least 1 LDR frame, the recording has 0"),
     (["evaluate", "{ijrr_noframes}", "--protocol", "interleave"], "at least 3 LDR frames, the recording has 0"),

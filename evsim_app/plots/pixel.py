@@ -93,9 +93,10 @@ def check_pixel(rec: Recording, x: int, y: int) -> None:
                               f"(x in 0..{rec.width - 1}, y in 0..{rec.height - 1})")
 
 
-def _neighbourhood(prep: Prepared, x: int, y: int):
-    """Events and frames of the 3x3 (or border-clipped) block around (x, y), in block coordinates, and the
-    pixel's position in the block."""
+def _neighbourhood(prep: Prepared, x: int, y: int, params: AKFParams):
+    """Events and frames of the 3x3 (or border-clipped) block around (x, y), in block coordinates, the AKF's
+    contrast there (the whole sensor's flat-fielded thresholds, as the full-frame filter reads them from every
+    pixel's event count: akf.flat_field) and the pixel's position in the block."""
     rec = prep.rec
     x0, x1 = max(x - 1, 0), min(x + 2, rec.width)
     y0, y1 = max(y - 1, 0), min(y + 2, rec.height)
@@ -104,7 +105,16 @@ def _neighbourhood(prep: Prepared, x: int, y: int):
     ev = ev[keep]
     local = make_events(ev["t"], ev["x"] - x0, ev["y"] - y0, ev["p"])
     frames = np.ascontiguousarray(rec.frames[:, y0:y1, x0:x1])
-    return local, frames, (x - x0, y - y0)
+    contrast = prep.contrast
+    if params.flat_field and np.ndim(contrast) < 2:
+        from akf.flat_field import count_scales
+        from akf.inputs import contrast_maps
+
+        shape = (rec.height, rec.width)
+        scales = count_scales(rec.events, shape, params.calib_scale_range)
+        maps = [(c * s).reshape(shape)[y0:y1, x0:x1] for c, s in zip(contrast_maps(contrast, shape), scales)]
+        contrast = np.stack(maps)
+    return local, frames, contrast, (x - x0, y - y0)
 
 
 def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
@@ -120,7 +130,7 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
     if params.read_noise_dn is None:  # the whole frames' read noise: the neighbourhood is too small to measure it
         params = dataclasses.replace(params, read_noise_dn=frame_read_noise(rec.frames, rec.frame_bit_depth))
     i0 = params.i0
-    events, frames, (lx, ly) = _neighbourhood(prep, x, y)
+    events, frames, contrast, (lx, ly) = _neighbourhood(prep, x, y, params)
     bw = frames.shape[2]
     i = ly * bw + lx
     mine = events[(events["x"] == lx) & (events["y"] == ly)]
@@ -132,9 +142,9 @@ def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
         t_end.append(int(rec.reference_t_us[-1]))
     t_us = np.unique(np.linspace(int(rec.frame_t_start_us[0]), max(t_end), n_times).astype(np.int64))
     args = (events, frames, rec.frame_t_start_us, rec.frame_t_end_us, prep.crf, t_us)
-    opts = {"contrast": prep.contrast, "bit_depth": rec.frame_bit_depth}
+    opts = {"contrast": contrast, "bit_depth": rec.frame_bit_depth}
     est, var = akf.reconstruct(*args, params=params, leak_rate_hz=prep.leak_rate_hz, return_variance=True, **opts)
-    cf = akf.complementary_filter(*args, i0=i0, **opts)
+    cf = akf.complementary_filter(*args, i0=i0, contrast=prep.contrast, bit_depth=rec.frame_bit_depth)
 
     aug = akf.augmented_measurement(*args, [i], params=params, leak_rate_hz=prep.leak_rate_hz,
                                     **opts)  # what the filter tracks at the pixel
