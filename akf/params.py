@@ -83,6 +83,11 @@ class AKFParams:
             counts more. The filter's event noise (eq. 2) leaves out the photoreceptor's lag and threshold mismatch,
             which make events under- or over-report a change: on the AHDR pan of Desk with the davis346 sensor, a
             pixel's log error one frame interval after its last measuring frame is about 0.3, after 0.5 s about 1.
+        clip_prior_variance: the variance (log^2) of the clip prior's level (akf.clip_prior) where the smoother
+            fuses it with the other pass's: a pass in which no frame has measured a pixel yet holds that level,
+            weighed against the other pass's carried level. 16 (of 1, 4, 16 and none) gave the lowest log_rmse on
+            the AHDR pans of the three shared HDR photos with the davis346 sensor (Desk 1.29, Grace Cathedral 0.58,
+            MtTamWest 1.12; without it 1.29, 0.62, 1.25), and the demo's 0.65 (0.66 without).
     Threshold flat field (not in the paper; akf.flat_field):
         flat_field: where the contrast is given as a scalar or an (ON, OFF) pair, each pixel's thresholds are
             scaled by its ON (OFF) event count relative to its 5 x 5 neighbourhood's over the whole input (threshold
@@ -126,6 +131,7 @@ class AKFParams:
     clip_prior: bool = True
     flat_field: bool = True
     smoother_drift2: float = 1.0
+    clip_prior_variance: float = 16.0
     deblur: bool = True
     calibrate: bool = True
     calib_min_events: int = 2
@@ -144,7 +150,7 @@ class AKFParams:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
         if self.read_noise_dn is not None:
             check_number("AKFParams.read_noise_dn", self.read_noise_dn, positive=False)
-        for name in ("bias_max_variance", "calib_prior", "smooth_range", "smoother_drift2"):
+        for name in ("bias_max_variance", "calib_prior", "smooth_range", "smoother_drift2", "clip_prior_variance"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range
         if not (isinstance(pair, (tuple, list)) and len(pair) == 2):

@@ -6,12 +6,15 @@ level only in the future. The two-filter smoother (Fraser and Potter 1969) runs 
 time-reversed inputs (frames and exposures in reverse order, every event's time mirrored and its polarity flipped,
 so the ON and OFF thresholds swap), and fuses the two estimates of each pixel at each published time:
 
-- a frame measured the pixel on both sides (the forward filter's data up to t, the backward filter's from t on):
-  the information-weighted mean L = (L_f / P_f + L_b / P_b) / (1 / P_f + 1 / P_b), P = 1 / (1 / P_f + 1 / P_b);
-- on one side only: that side's estimate; the other side holds only a clip bound and events, no level;
-- on neither side (no frame ever measures the pixel): its level comes from its neighbours (akf.anchoring: the
-  harmonic extension of the measured pixels' levels over the time-mean differences of the event curves), else the
-  clip prior (akf.clip_prior).
+- each pass's estimate has a variance: where a frame measured the pixel (before t for the forward pass, after
+  t for the backward one), the filter's P plus AKFParams.smoother_drift2 times the time since (until) that frame,
+  since a level carried by events drifts; where none did yet, the pass holds only a clip bound and events, and
+  gets the clip prior's level (akf.clip_prior: the median of the levels beyond the bound that measured pixels
+  reached) with the variance AKFParams.clip_prior_variance, or nothing where the prior has no level;
+- the two are fused by information weight, L = (L_f / V_f + L_b / V_b) / (1 / V_f + 1 / V_b);
+- where no frame ever measures the pixel, its level comes from its neighbours (akf.anchoring: the harmonic
+  extension of the measured pixels' levels over the time-mean differences of the event curves, with the clip
+  prior's level as a weak prior), within its clip bound.
 
 Then the output smoothing of the filter (akf.smoothing) on the fused estimate. With no frame after t the backward
 filter knows nothing, so after the last frame's mid-exposure the smoother equals the filter. The backward pass uses
@@ -140,20 +143,35 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     return (out, variance.reshape(nt, h, w)) if return_variance else out
 
 
+def _with_clip_prior(intensity: np.ndarray, side: np.ndarray, measured: np.ndarray, i0: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(log, filled) of one pass at each time: its estimate with the clip prior's level (akf.clip_prior) where a
+    frame has not measured the pixel yet, and where that prior gave a level."""
+    filled = intensity.copy()
+    for j in range(filled.shape[0]):
+        fill_unmeasured(filled[j], i0, side[j].astype(np.float64), measured[j])
+    return np.log(filled.astype(np.float64) + i0), (filled != intensity) & ~measured
+
+
 def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params: AKFParams, log_gain: float) -> None:
     """In place at the forward time indices sel: the fused estimate, variance and masks (see the module)."""
     i0 = params.i0
     mf, mb = fwd.measured[sel], rev["measured"]
-    lf = np.log(fwd.intensity[sel].astype(np.float64) + i0)
-    lb = np.log(rev["intensity"].astype(np.float64) + i0)
+    lf, prior_f = _with_clip_prior(fwd.intensity[sel], fwd.side[sel], mf, i0)
+    lb, prior_b = _with_clip_prior(rev["intensity"], rev["side"], mb, i0)
+    lb += log_gain
     # each side's variance grows with the time since its last measuring frame (smoother_drift2: events carry a level
-    # with an error that grows with time, from the photoreceptor's lag and threshold mismatch the filter's P omits)
-    pf = fwd.variance[sel] + params.smoother_drift2 * np.where(mf, fwd.age[sel], 0.0)
-    pb = rev["variance"] + params.smoother_drift2 * np.where(mb, rev["age"], 0.0)
-    both = mf & mb
+    # with an error that grows with time, from the photoreceptor's lag and threshold mismatch the filter's P omits);
+    # a side no frame has measured yet holds the clip prior's level with its variance, or only a bound (infinite)
+    pf = np.where(mf, fwd.variance[sel] + params.smoother_drift2 * np.where(mf, fwd.age[sel], 0.0),
+                  np.where(prior_f, params.clip_prior_variance, np.inf))
+    pb = np.where(mb, rev["variance"] + params.smoother_drift2 * np.where(mb, rev["age"], 0.0),
+                  np.where(prior_b, params.clip_prior_variance, np.inf))
+    known = np.isfinite(pf) | np.isfinite(pb)
     with np.errstate(divide="ignore", invalid="ignore"):
-        fused_l = np.where(both, (lf * pb + lb * pf) / (pf + pb), np.where(mb, lb, lf))
-        fused_p = np.where(both, pf * pb / (pf + pb), np.where(mb, pb, pf))
+        wf, wb = np.where(known, 1.0 / pf, 1.0), np.where(known, 1.0 / pb, 0.0)  # a bound on both sides: forward's
+        fused_l = (lf * wf + lb * wb) / (wf + wb)
+        fused_p = np.where(known, 1.0 / (wf + wb), fwd.variance[sel])
     intensity[sel] = (np.exp(fused_l) - i0).astype(np.float32)
     variance[sel] = fused_p.astype(np.float32)
     masks.measured[sel] = mf | mb

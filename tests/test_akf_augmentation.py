@@ -109,7 +109,7 @@ def test_augmented_measurement_follows_calibrated_events_and_blends_across_expos
     import crf_models
     from akf.noise import frame_measurement
 
-    params = akf.AKFParams(deblur=False)
+    params = akf.AKFParams(deblur=False, flat_field=False)  # a 1x2 sensor: the given thresholds
     linear = crf_models.get("linear")
     y = 0.2 * np.exp(np.array([[[0.0, 0.0]], [[0.0, 0.75]], [[0.0, 0.25]]]))
     frames = np.round(y * 255).astype(np.uint8)
