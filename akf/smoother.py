@@ -31,8 +31,10 @@ References (full citations also in docs/models/references.md):
 from __future__ import annotations
 
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
+import numba
 import numpy as np
 
 from .anchoring import anchor_offsets
@@ -84,6 +86,26 @@ def _run_pass(inp: Inputs, crf, params: AKFParams, leak_rate_hz: float) -> _Pass
     return rec
 
 
+def _both_passes(inp: Inputs, reverse: Inputs | None, crf, params: AKFParams, leak_rate_hz: float
+                 ) -> tuple[_Pass, _Pass | None]:
+    """The forward pass over inp and the backward one over `reverse` (None: no backward pass). With more than one
+    numba thread the two run at once, one thread each: their serial parts (frame work, publishing) overlap, where
+    one pass on two threads leaves a core idle during them."""
+    threads = numba.get_num_threads()
+    if reverse is None or threads < 2:
+        return (_run_pass(inp, crf, params, leak_rate_hz),
+                None if reverse is None else _run_pass(reverse, crf, params, 0.0))
+
+    def one_thread(pass_inp, leak):
+        numba.set_num_threads(1)  # per calling thread
+        return _run_pass(pass_inp, crf, params, leak)
+
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="aks-pass") as pool:
+        backward = pool.submit(one_thread, reverse, 0.0)
+        forward = pool.submit(one_thread, inp, leak_rate_hz)
+        return forward.result(), backward.result()
+
+
 def _reversed(inp: Inputs, times: np.ndarray) -> Inputs:
     """inp mirrored in time about (first exposure start + last exposure end) / 2, output at `times` mirrored plus
     1 us (so the backward image at t holds the events at t and later, the forward one those before t)."""
@@ -118,14 +140,13 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
         params = dataclasses.replace(params, read_noise_dn=frame_read_noise(inp.frames,
                                                                             int(inp.full_scale).bit_length()))
     nt, (h, w) = inp.out_t.shape[0], inp.shape
-    fwd = _run_pass(inp, crf, params, leak_rate_hz)
     # the backward filter knows something only before the last exposure ends
     before_end = inp.out_t <= inp.t_end[-1]
     times_b = inp.out_t[before_end]
-    intensity, variance = fwd.intensity.copy(), fwd.variance.copy()
-    masks = dataclasses.replace(fwd)
-    if times_b.size:
-        bwd = _run_pass(_reversed(inp, times_b), crf, params, 0.0)
+    fwd, bwd = _both_passes(inp, _reversed(inp, times_b) if times_b.size else None, crf, params, leak_rate_hz)
+    intensity, variance = fwd.intensity, fwd.variance
+    masks = fwd  # fused in place
+    if bwd is not None:
         order = np.arange(times_b.size)[::-1]  # backward output k is the forward time index order[k]
         rev = {f.name: getattr(bwd, f.name)[order] for f in dataclasses.fields(bwd)}
         gain = (inp.t_end[0] - inp.t_start[0]) / max(inp.t_end[-1] - inp.t_start[-1], 1) \
@@ -159,7 +180,6 @@ def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params:
     mf, mb = fwd.measured[sel], rev["measured"]
     lf, prior_f = _with_clip_prior(fwd.intensity[sel], fwd.side[sel], mf, i0)
     lb, prior_b = _with_clip_prior(rev["intensity"], rev["side"], mb, i0)
-    lb += log_gain
     # each side's variance grows with the time since its last measuring frame (smoother_drift2: events carry a level
     # with an error that grows with time, from the photoreceptor's lag and threshold mismatch the filter's P omits);
     # a side no frame has measured yet holds the clip prior's level with its variance, or only a bound (infinite)
