@@ -113,6 +113,25 @@ def test_leak_rate_option_overrides_the_recorded_one(dataset, tmp_path):
     np.testing.assert_array_equal(read_exr_sequence(out)[0], expected)
 
 
+def test_reconstruct_smoother_writes_unbounded_images_and_their_variance(dataset, tmp_path):
+    """--method aks --variance: the smoother's images, bit for bit, and its variance P in a `variance` folder;
+    --variance of a method without one is refused."""
+    out = tmp_path / "aks"
+    assert main(["reconstruct", str(dataset / "a.h5"), "--out", str(out), "--method", "aks", "--times", "frames",
+                 "--variance"]) == 0
+    rec = load(dataset / "a.h5")
+    crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
+    dvs = rec.metadata["config"]["dvs"]
+    images, p = akf.reconstruct_smoothed(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
+                                         rec.frame_t_mid_us, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]),
+                                         leak_rate_hz=dvs["leak_hz"], return_variance=True)
+    np.testing.assert_array_equal(read_exr_sequence(out)[0], images)
+    np.testing.assert_array_equal(read_exr_sequence(out / "variance")[0], p)
+    assert np.all(p > 0)
+    assert main(["reconstruct", str(dataset / "a.h5"), "--out", str(tmp_path / "cf"), "--method", "cf",
+                 "--variance"]) == 2
+
+
 def test_dataset_index_folder_is_read_in_index_order(tmp_path):
     from generators.dataset import write_index
 
