@@ -19,6 +19,8 @@ Parameters (all multiplicative or in the method's units):
 - smooth_range: the AKF's output smoothing range sigma (log units; 0: off; see akf.smoothing).
 - smoother_drift2: the smoother's growth (log^2 / s) of a carried level's error with the time since its frame
   (AKFParams.smoother_drift2; the smoother only).
+- clip_prior_variance: the variance (log^2) the smoother gives the clip prior's level (AKFParams.clip_prior_variance;
+  the smoother only).
 - max_intensity: the output bound (x units; None: unbounded) of every event-based method that has one: None by
   default for the AKF and the smoother (events tell what lies above the full well), 1 (the full well) for both
   complementary filters; the same grid is searched for each method, last.
@@ -65,12 +67,14 @@ _NOISE = (1 / 4096, 1 / 256, 1 / 64, 1 / 16, 0.25, 1.0, 4.0, 16.0, 64.0, 256.0, 
 _BOUND = (0.5, 1.0, 4.0, 16.0, 64.0, None)
 _SMOOTH = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 _DRIFT = (0.01, 0.1, 1.0, 10.0, 100.0)
+_PRIOR_VARIANCE = (1.0, 4.0, 16.0, 64.0, 256.0)
 #: method -> {parameter: the grid the tuning searches} (the parameters are listed in the module docstring)
 SEARCH_SPACES = {
     "akf": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,
             "smooth_range": _SMOOTH, "max_intensity": _BOUND},
     "aks": {"contrast_scale": _CONTRAST, "event_noise_scale": _NOISE, "frame_noise_scale": _NOISE,
-            "smooth_range": _SMOOTH, "smoother_drift2": _DRIFT, "max_intensity": _BOUND},
+            "smooth_range": _SMOOTH, "smoother_drift2": _DRIFT, "clip_prior_variance": _PRIOR_VARIANCE,
+            "max_intensity": _BOUND},
     "cf": {"alpha": _ALPHA, "contrast_scale": _CONTRAST, "max_intensity": _BOUND},
     "cf_adaptive": {"alpha": _ALPHA, "contrast_scale": _CONTRAST, "max_intensity": _BOUND},
     "direct": {"contrast_scale": _CONTRAST},
@@ -80,6 +84,7 @@ SEARCH_SPACES = {
 #: the untuned value of every search parameter, where the search starts
 DEFAULTS = {"contrast_scale": 1.0, "alpha": 2 * math.pi * 0.5, "event_noise_scale": 1.0, "frame_noise_scale": 1.0,
             "smooth_range": AKFParams.smooth_range, "smoother_drift2": AKFParams.smoother_drift2,
+            "clip_prior_variance": AKFParams.clip_prior_variance,
             "max_intensity": 1.0}
 #: method -> {parameter: its untuned value} where it differs from DEFAULTS
 METHOD_DEFAULTS = {"akf": {"max_intensity": None}, "aks": {"max_intensity": None}}
@@ -106,7 +111,7 @@ def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, opti
     if "max_intensity" in setting:
         options["max_intensity"] = setting["max_intensity"]
     if method in ("akf", "aks") and {"event_noise_scale", "frame_noise_scale", "smooth_range",
-                                     "smoother_drift2"} & set(setting):
+                                     "smoother_drift2", "clip_prior_variance"} & set(setting):
         p = options.get("params", AKFParams())
         e, f = setting.get("event_noise_scale", 1.0), setting.get("frame_noise_scale", 1.0)
         options["params"] = dataclasses.replace(p, sigma_proc2=p.sigma_proc2 * e, sigma_iso2=p.sigma_iso2 * e,
@@ -114,7 +119,9 @@ def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, opti
                                                 max_variance=max(p.max_variance, p.sigma_im2 * f),
                                                 smooth_range=float(setting.get("smooth_range", p.smooth_range)),
                                                 smoother_drift2=float(setting.get("smoother_drift2",
-                                                                                  p.smoother_drift2)))
+                                                                                  p.smoother_drift2)),
+                                                clip_prior_variance=float(setting.get("clip_prior_variance",
+                                                                                      p.clip_prior_variance)))
     return (float(c) if c.ndim == 0 else tuple(c.tolist()) if c.ndim == 1 else c), options
 
 
@@ -175,5 +182,6 @@ def describe_setting(setting: Setting) -> str:
                      f"contrast x{v:.3g}" if k == "contrast_scale" else
                      f"smoothing {v:.3g} log" if k == "smooth_range" else
                      f"smoother drift {v:.3g} log^2/s" if k == "smoother_drift2" else
+                     f"clip prior variance {v:.3g} log^2" if k == "clip_prior_variance" else
                      f"{k[:-len('_scale')].replace('_', ' ')} x{v:.3g}")
     return ", ".join(parts) if parts else "no parameters"

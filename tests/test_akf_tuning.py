@@ -51,6 +51,11 @@ def test_settings_become_method_options():
     huge = setting_options("akf", {"frame_noise_scale": 1e5}, 0.2)[1]["params"]
     assert huge.sigma_im2 == huge.max_variance == pytest.approx(1e5 * base.sigma_im2)  # max_variance >= sigma_im2
     assert describe_setting({"alpha": 50.0, "contrast_scale": 1.25}) == "alpha=50 rad/s, contrast x1.25"
+    # the smoother's own parameters reach its AKFParams; its and the AKF's untuned bound is none, the CF's 1 x
+    p = setting_options("aks", {"smoother_drift2": 10.0, "clip_prior_variance": 4.0}, 0.2)[1]["params"]
+    assert (p.smoother_drift2, p.clip_prior_variance) == (10.0, 4.0)
+    assert default_setting("aks")["max_intensity"] is None and default_setting("akf")["max_intensity"] is None
+    assert default_setting("cf")["max_intensity"] == 1.0
 
 
 def test_tuning_picks_a_high_cf_gain_when_the_events_lie():
