@@ -26,7 +26,7 @@ from sim.parallel import in_parallel
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .clip_prior import fill_unmeasured
-from .flat_field import count_scales
+from .flat_field import flat_field_scales
 from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
@@ -203,8 +203,9 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
-    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth, params)
     crf = as_crf(crf)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth, params,
+                          crf)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
     if np.any((pixels < 0) | (pixels >= h * w)):
@@ -328,9 +329,9 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     without storing the result, so the image at t is the same, bit for bit, whatever other times are requested.
     """
     check_filter_options(params, leak_rate_hz, max_intensity)
-    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
-                          params)
     crf = as_crf(crf)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
+                          params, crf)
     nt, (h, w) = inp.out_t.shape[0], inp.shape
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
@@ -351,12 +352,12 @@ def check_filter_options(params: AKFParams, leak_rate_hz: float, max_intensity: 
 
 def prepared_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                     frame_t_end_us: npt.ArrayLike, output_times_us: npt.ArrayLike, contrast: npt.ArrayLike,
-                    bit_depth: int, params: AKFParams) -> Inputs:
+                    bit_depth: int, params: AKFParams, crf: CRF) -> Inputs:
     """The validated inputs (akf.inputs.validate_inputs), with the thresholds flat-fielded from the event counts
     (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     if params.flat_field and np.ndim(contrast) < 2:
-        on, off = count_scales(inp.events, inp.shape, params.calib_scale_range)
+        on, off = flat_field_scales(inp.events, inp.frames, inp.full_scale, crf, params.calib_scale_range)
         inp = dataclasses.replace(inp, c_on=inp.c_on * on, c_off=inp.c_off * off)
     return inp
 

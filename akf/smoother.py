@@ -133,9 +133,9 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     estimates, variances and masks (about 22 bytes per pixel and time each) until they are fused.
     """
     check_filter_options(params, leak_rate_hz, max_intensity)
-    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
-                          params)
     crf = as_crf(crf)
+    inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
+                          params, crf)
     if params.read_noise_dn is None and params.frame_update:  # estimated once for both passes
         params = dataclasses.replace(params, read_noise_dn=frame_read_noise(inp.frames,
                                                                             int(inp.full_scale).bit_length()))

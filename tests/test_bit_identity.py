@@ -38,7 +38,7 @@ def _digest(*arrays: np.ndarray) -> str:
 
 
 DVS_HASHES = {"ideal": "ec5c723727f83e01", "davis346": "33fdeec7b284de54", "noisy": "7799904bbd8615a9"}
-AKF_HASHES = {"akf": "948a171aa214488c", "cf": "64e1a6cef77558de", "akf_leak": "94932ce41ee3074a"}
+AKF_HASHES = {"akf": "99eb95d8da4ab4d3", "cf": "64e1a6cef77558de", "akf_leak": "6811bb3d1287e039"}
 
 
 @pytest.mark.parametrize("preset", sorted(DVS_HASHES))

@@ -107,11 +107,12 @@ def _neighbourhood(prep: Prepared, x: int, y: int, params: AKFParams):
     frames = np.ascontiguousarray(rec.frames[:, y0:y1, x0:x1])
     contrast = prep.contrast
     if params.flat_field and np.ndim(contrast) < 2:
-        from akf.flat_field import count_scales
+        from akf.flat_field import flat_field_scales
         from akf.inputs import contrast_maps
 
         shape = (rec.height, rec.width)
-        scales = count_scales(rec.events, shape, params.calib_scale_range)
+        scales = flat_field_scales(rec.events, rec.frames, (1 << rec.frame_bit_depth) - 1, prep.crf,
+                                   params.calib_scale_range)
         maps = [(c * s).reshape(shape)[y0:y1, x0:x1] for c, s in zip(contrast_maps(contrast, shape), scales)]
         contrast = np.stack(maps)
     return local, frames, contrast, (x - x0, y - y0)
