@@ -38,8 +38,8 @@ if TYPE_CHECKING:
     #: the reconstruction scores of evaluate_sequence: {method: {metric: mean value}}
     ScoreTable = dict[str, dict[str, float]]
 
-__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "output_bound", "reachable_white", "exposure_gains",
-           "frames_range", "DEFAULT_OUTPUT_BOUND"]
+__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "white_cap", "reachable_white", "exposure_gains",
+           "frames_range", "FULL_WELL"]
 
 #: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
 #: bit_depth, **method options) -> float32 (T, H, W) linear intensity
@@ -54,9 +54,9 @@ def check_names(methods: Iterable[str] = (), metrics: Iterable[str] = ()) -> Non
                                     f"metrics: {sorted(METRICS)}")
 
 
-#: the output bound (x units) of the event-based methods at their defaults: akf.reconstruct's and the complementary
-#: filter's max_intensity, the full well
-DEFAULT_OUTPUT_BOUND = 1.0
+#: the full well (x units): the complementary filters' default output bound, and the cap of the [0, 1] metrics'
+#: white (the paper's protocol scores an SDR range; the AKF and the smoother are unbounded)
+FULL_WELL = 1.0
 
 
 def exposure_gains(frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -89,20 +89,21 @@ def frames_range(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us
     return float(crf.inverse(0.0)) * float(np.min(gains)), float(crf.inverse(1.0)) * float(np.max(gains))
 
 
-def output_bound(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> float:
-    """The largest value (x units) a method outputs at its defaults: DEFAULT_OUTPUT_BOUND (the AKF, the
-    complementary filters), or frames-only's largest, the frames' top CRF^-1(1) T_0 / T_k of the shortest exposure
-    (frames_range), if larger."""
-    return max(DEFAULT_OUTPUT_BOUND, frames_range(crf, frame_t_start_us, frame_t_end_us)[1])
+def white_cap(crf: CRF | str, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> float:
+    """The largest white (x units) of the [0, 1] metrics: FULL_WELL, or frames-only's largest value, the frames'
+    top CRF^-1(1) T_0 / T_k of the shortest exposure (frames_range), if larger."""
+    return max(FULL_WELL, frames_range(crf, frame_t_start_us, frame_t_end_us)[1])
 
 
 def reachable_white(scene_white: float, crf: CRF | str, frame_t_start_us: npt.ArrayLike,
                     frame_t_end_us: npt.ArrayLike) -> tuple[float, str]:
-    """(white, description): the [0, 1] metrics' white, min(the scene's white, output_bound): a white no method
-    can reach would map every output below it to a small range where all methods tie."""
-    bound = output_bound(crf, frame_t_start_us, frame_t_end_us)
-    white = min(float(scene_white), bound)
-    return white, f"white {white:.4g} x = min(scene white {scene_white:.4g} x, methods' output bound {bound:.4g} x)"
+    """(white, description): the [0, 1] metrics' white, min(the scene's white, white_cap): the paper's protocol
+    scores an SDR range; a white far above the frames' range (an HDR photo's 98th percentile can be 100 times the
+    full well) would map every output below it to a small range where all methods tie. The full-range scores
+    (log_rmse, PU21) look above it."""
+    cap = white_cap(crf, frame_t_start_us, frame_t_end_us)
+    white = min(float(scene_white), cap)
+    return white, f"white {white:.4g} x = min(scene white {scene_white:.4g} x, full well or frames' top {cap:.4g} x)"
 
 
 @dataclass

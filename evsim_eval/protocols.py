@@ -19,7 +19,7 @@ their max_intensity, default 1: what the camera can represent). Scores are compu
 Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence (log_rmse: the root of the
 mean square, all the frames' pixels pooled); "mean" averages the sequences (log_rmse: root mean square).
 The [0, 1] metrics (mse01, ssim01: the paper's protocol, clipped at the white) map to 1 (reference protocol) a white
-the methods can reach, min(scene white, output bound) (akf.evaluate.reachable_white; the scene white is the
+the methods can reach, min(scene white, the full well) (akf.evaluate.reachable_white; the scene white is the
 recorded reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a
 held-out frame's white). The full-range log_rmse floors both images at 1e-3 of the frames' top, the largest x the
 fed frames can record, CRF^-1(1) T_0 / T_k of the shortest exposure (akf.evaluate.frames_range; a note gives
@@ -63,7 +63,7 @@ from .choices import PROTOCOLS
 #: the methods that take the AKF's options (leak rate, AKFParams): the filter and the smoother
 KALMAN_METHODS = ("akf", "aks")
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
-WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the methods' output bound): "
+WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the full well): "
                       "see the notes)",
          "interleave": " (white = CRF^-1(1), the held-out frame's white)"}
 #: the frames' top that sets log_rmse's floor, as its table block and the JSON's "scoring" entry state it

@@ -13,7 +13,7 @@ import akf
 import akf.exposure
 import crf_models
 import sim
-from akf.evaluate import Case, output_bound, reachable_white
+from akf.evaluate import Case, reachable_white, white_cap
 from akf.exposure import MAX_SAMPLES, MIN_SAMPLES, exposure_average, sample_count, sample_times
 from akf.metrics import mse01, score_map, ssim01
 from akf.pixel_classes import CLASSES, RANGE_CLASSES
@@ -154,7 +154,7 @@ def test_white_point_is_what_a_method_can_reach_so_scores_no_longer_tie():
     assert mse01(bad, truth, white) > 0.01 > 1000 * mse01(good, truth, white)
     assert ssim01(good, truth, white) - ssim01(bad, truth, white) > 0.2
     # frames of a shorter exposure represent more (frames-only outputs CRF^-1(1) T_0 / T_k): the bound rises
-    assert output_bound(crf, [0, 100_000], [10_000, 102_500]) == pytest.approx(4.0)
+    assert white_cap(crf, [0, 100_000], [10_000, 102_500]) == pytest.approx(4.0)
     assert reachable_white(0.5, crf, [0], [10_000])[0] == 0.5  # a dim scene keeps its own white
 
 
