@@ -13,6 +13,7 @@ Exports:
 - errors: EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError.
 """
 
+from . import numba_cache  # noqa: F401  (first: sets numba's cache folder before any kernel imports numba)
 from .dvs_params import PRESETS as DVS_PRESETS
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError
