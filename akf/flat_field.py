@@ -30,6 +30,8 @@ from scipy.ndimage import uniform_filter
 if TYPE_CHECKING:
     import numpy.typing as npt
 
+    from crf_models import CRF
+
 __all__ = ["SIZE", "PRIOR_COUNT", "MOSTLY_CLIPPED", "count_scales", "flat_field_scales"]
 
 SIZE = 5  # pixels: the neighbourhood whose mean count stands for what the pixel saw
@@ -54,7 +56,7 @@ def count_scales(events: np.ndarray, shape: tuple[int, int], scale_range: tuple[
     return scales[0], scales[1]
 
 
-def flat_field_scales(events: np.ndarray, frames: npt.ArrayLike, full_scale: int, crf,
+def flat_field_scales(events: np.ndarray, frames: npt.ArrayLike, full_scale: int, crf: CRF,
                       scale_range: tuple[float, float]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(ON, OFF) threshold scale of every pixel (flat): count_scales where the pixel is clipped (its response at or
     beyond an end of the CRF's invertible range [crf.y_lo, crf.y_hi], within one DN) in at least MOSTLY_CLIPPED of
