@@ -90,7 +90,7 @@ def read_aedat4(path: str | Path) -> Recording:
     ev = np.concatenate(chunks) if chunks else None
     if ev is not None:
         pol = ev["on"] if "on" in ev.dtype.fields else ev["p"]
-        events = events_from_columns(path, ev["t"].astype(np.int64), ev["x"], ev["y"], polarity_pm1(pol))
+        events = events_from_columns(path, ev["t"].astype(np.int64), ev["x"], ev["y"], polarity_pm1(path, pol))
     else:
         events = events_from_columns(path, [], [], [], [])
     t = np.array(times, dtype=np.int64).reshape(-1, 2)

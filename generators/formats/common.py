@@ -359,13 +359,19 @@ def events_from_columns(path: str | Path, t: ArrayLike, x: ArrayLike, y: ArrayLi
         raise fail(path, str(e)) from e
 
 
-def polarity_pm1(p: ArrayLike) -> np.ndarray:
-    """Polarity as int8 -1/+1 from any of the field's encodings (bool, 0/1, -1/+1); NaN is an error."""
+def polarity_pm1(path: str | Path, p: ArrayLike) -> np.ndarray:
+    """Polarity as int8 -1/+1 from the field's encodings: bool, 0/1 or -1/+1 (0 and -1 are OFF, 1 is ON), whatever
+    the number type (1.0 is 1). Any other value (2, 0.5, NaN) is refused with DatasetFormatError naming `path` and
+    the values found: a reader never guesses what 4 or 0.5 means."""
     p = np.asarray(p)
-    if p.dtype.kind == "f" and not np.isfinite(p).all():
-        raise EvsimInputError("event polarity holds NaN or infinite values")
     if p.dtype.kind not in "biuf":
-        raise EvsimInputError(f"event polarity must be numeric or boolean, got {p.dtype}")
+        raise fail(path, f"event polarity must be numeric or boolean, got {p.dtype}")
+    if p.dtype.kind == "b" or p.size == 0:
+        return np.where(p, 1, -1).astype(np.int8)
+    if not ((p == 0) | (p == 1) | (p == -1)).all():
+        found = np.unique(p)
+        listed = ", ".join(f"{v:g}" for v in found[:6]) + (f" and {found.size - 6} more" if found.size > 6 else "")
+        raise fail(path, f"event polarity must be 0/1 or -1/+1 (0 and -1 are OFF), found values {listed}")
     return np.where(p > 0, 1, -1).astype(np.int8)
 
 

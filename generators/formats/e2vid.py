@@ -128,7 +128,7 @@ def read_e2vid(path: str | Path) -> Recording:
         require(f, path, ["events/xs", "events/ys", "events/ts", "events/ps"])
         ev = f["events"]
         t = np.rint(ev["ts"][()] * 1e6).astype(np.int64)
-        events = events_from_columns(path, t, ev["xs"][()], ev["ys"][()], polarity_pm1(ev["ps"][()]))
+        events = events_from_columns(path, t, ev["xs"][()], ev["ys"][()], polarity_pm1(path, ev["ps"][()]))
         names = sorted(f["images"].keys()) if "images" in f else []
         frames = np.stack([f["images"][k][()] for k in names]) if names else None
         if "sensor_resolution" in f.attrs:
