@@ -48,3 +48,58 @@ def test_akf_mat_polarity_outside_its_encodings_is_refused_and_zero_one_read(tmp
     m["events"][:, 3] = (rec.events["p"] > 0).astype(np.float64)  # the 0/1 encoding: read
     scipy.io.savemat(path, m)
     np.testing.assert_array_equal(load(path).events["p"], rec.events["p"])
+
+
+# ----- the streaming reader checks what load() checks ------------------------------------------------------------
+
+def _evt2_with_event_at(path, x: int) -> None:
+    """An EVT 2.0 file whose header says 64x48 and whose events hold one at column x (written as a 1024-wide
+    sensor, then the header's width rewritten in place)."""
+    rec = make_recording()
+    rec.events["x"][100] = x
+    rec.height, rec.width = 48, 1024
+    for name in ("frames", "frame_t_start_us", "frame_t_mid_us", "frame_t_end_us", "reference", "reference_t_us",
+                 "threshold_maps"):
+        setattr(rec, name, None)
+    _export(rec, path, "evt2")
+    data = path.read_bytes()
+    assert data.count(b"width=1024") == 1 and data.count(b"geometry 1024x48") == 1
+    path.write_bytes(data.replace(b"width=1024", b"width=0064").replace(b"geometry 1024x48", b"geometry 0064x48"))
+
+
+@pytest.mark.parametrize("x", [1000, 70])
+def test_plot_video_refuses_an_event_outside_the_sensor(tmp_path, capsys, x):
+    from evsim_app.cli import main
+
+    src = tmp_path / "e.raw"
+    _evt2_with_event_at(src, x)
+    code = main(["plot", "events", str(src), "--video", str(tmp_path / "v.mp4")])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith(f"evsim: error: {src}: ") and f"outside the 64x48 sensor (max x {x}" in lines[-1]
+    assert not (tmp_path / "v.mp4").exists()
+
+
+def test_every_stream_refuses_what_load_refuses(tmp_path):
+    from generators.formats.streaming import open_event_stream
+
+    src = tmp_path / "e.raw"
+    _evt2_with_event_at(src, 70)
+    with pytest.raises(DatasetFormatError, match="outside the 64x48 sensor"):
+        load(src)
+    stream = open_event_stream(src, size=64)
+    for read in (lambda: list(stream.chunks()), lambda: stream.window(0, 2**40), lambda: stream.count):
+        with pytest.raises(DatasetFormatError, match=r"e\.raw: .*outside the 64x48 sensor \(max x 70"):
+            read()
+
+
+def test_native_column_stream_refuses_coordinates_outside_the_sensor(tmp_path):
+    from generators.formats.native import iter_native_columns
+
+    path = tmp_path / "n.h5"
+    _export(make_recording(), path, "native")
+    with h5py.File(path, "a") as f:
+        f["events/x"][7] = 8  # the sensor is 8 wide
+    with pytest.raises(DatasetFormatError, match=r"n\.h5: event coordinates outside the 8x6 sensor \(max x 8"):
+        list(iter_native_columns(path, ("t", "x")))

@@ -271,6 +271,29 @@ def validated(path: str | Path, rec: Recording) -> Recording:
         return validate_recording(rec)
 
 
+def check_event_chunk(path: str | Path, chunk: np.ndarray, height: int, width: int, t_last: int | None,
+                      labels: np.ndarray | None = None) -> int | None:
+    """Check one chunk of a streamed reader as load() checks a whole recording (validate_recording: polarity,
+    time order, coordinates inside the height x width sensor, labels), and that it does not start before the
+    previous chunk's last time `t_last`; DatasetFormatError naming `path`. Returns the new last time."""
+    if not chunk.size:
+        return t_last
+    if t_last is not None and chunk["t"][0] < t_last:
+        raise fail(path, f"events are not sorted by time across chunks: {int(chunk['t'][0])} us after {t_last} us")
+    validated(path, Recording(events=chunk, height=height, width=width, event_labels=labels))
+    return int(chunk["t"][-1])
+
+
+def checked_event_chunks(path: str | Path, chunks: Iterator[np.ndarray], height: int,
+                         width: int) -> Iterator[np.ndarray]:
+    """The chunks of a streamed reader, each passed through check_event_chunk: a stream holds what load() of the
+    same file would accept, or raises its error."""
+    t_last = None
+    for chunk in chunks:
+        t_last = check_event_chunk(path, chunk, height, width, t_last)
+        yield chunk
+
+
 def require(f: h5py.File, path: str | Path, names: list[str]) -> None:
     """Raise DatasetFormatError listing the datasets of `names` that `f` lacks."""
     missing = [n for n in names if n not in f]

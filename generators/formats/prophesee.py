@@ -414,8 +414,6 @@ def read_prophesee(path: str | Path) -> Recording:
         if not events.size:
             raise fail(path, "sensor size unknown: no geometry in the header and no events")
         h, w = int(events["y"].max()) + 1, int(events["x"].max()) + 1
-    if events.size and (events["x"].max() >= w or events["y"].max() >= h):
-        raise fail(path, f"event coordinates exceed the header's sensor size {w}x{h}")
     rec = Recording(events=events, height=h, width=w,
                     metadata={"source": {"format": prophesee_kind(path), "path": str(path),
                                          "header": keys}})
