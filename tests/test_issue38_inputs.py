@@ -103,3 +103,21 @@ def test_native_column_stream_refuses_coordinates_outside_the_sensor(tmp_path):
         f["events/x"][7] = 8  # the sensor is 8 wide
     with pytest.raises(DatasetFormatError, match=r"n\.h5: event coordinates outside the 8x6 sensor \(max x 8"):
         list(iter_native_columns(path, ("t", "x")))
+
+
+# ----- folders where files go ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("entry, flags", [("index.json", ["--overwrite"]), ("moving_edge.h5", ["--overwrite"]),
+                                          ("moving_edge.manifest.json", ["--resume"]),
+                                          ("moving_edge_e2vid.h5", ["--overwrite", "--format", "e2vid"])])
+def test_a_folder_where_generate_writes_a_file_is_refused_before_work(tmp_path, capsys, entry, flags):
+    from evsim_app.cli import main
+
+    out = tmp_path / "o"
+    (out / entry).mkdir(parents=True)
+    code = main(["generate", "ahdr", "--scene", "moving_edge", "--duration-s", "0.1", "--height", "16", "--width",
+                 "20", "--out", str(out), "--no-progress", *flags])
+    err = capsys.readouterr().err
+    assert code == 2 and err.strip() == (f"evsim: error: {out / entry} is a folder where this run writes a file: "
+                                         "remove it or choose another output folder")
+    assert sorted(p.name for p in out.iterdir()) == [entry]  # nothing written
