@@ -121,3 +121,34 @@ def test_a_folder_where_generate_writes_a_file_is_refused_before_work(tmp_path, 
     assert code == 2 and err.strip() == (f"evsim: error: {out / entry} is a folder where this run writes a file: "
                                          "remove it or choose another output folder")
     assert sorted(p.name for p in out.iterdir()) == [entry]  # nothing written
+
+
+# ----- numbers that break the maths ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("bad, good, match", [
+    ({"zoom_per_s": 1e6}, {"zoom_per_s": 499.0}, r"zoom_per_s 1e\+06 over 0.1 s magnifies by e\^1e\+05: .* must be "
+                                                 r"in -36.89..500 per second"),
+    ({"zoom_per_s": -200.0}, {"zoom_per_s": -36.0}, r"by e\^-20: .*up to e\^-3.69 \(beyond, the whole image"),
+    ({"pan_px_per_s": (1e12, 0.0)}, {"pan_px_per_s": (1e8, 0.0)}, r"travels 1e\+11 output pixels.*most 1e\+07"),
+    ({"shake_px": 1e12}, {"shake_px": 1e7}, r"with a shake of 1e\+12 pixels"),
+])
+def test_image_motion_outside_what_renders_is_refused_with_the_range(bad, good, match):
+    import sim
+    from generators.scenes import ImageMotionScene, Trajectory
+
+    image = np.random.default_rng(0).uniform(0.1, 1, (64, 80)).astype(np.float32)
+    with pytest.raises(sim.OptionError, match=match):
+        ImageMotionScene(image, 100_000, Trajectory(**bad), height=16, width=20)
+    scene = ImageMotionScene(image, 100_000, Trajectory(**good), height=16, width=20)  # inside the range: renders
+    assert np.isfinite(scene.radiance(100_000)).all()
+
+
+def test_generate_zoom_that_breaks_the_maths_is_a_usage_error(tmp_path, capsys):
+    from evsim_app.cli import main
+
+    np.save(tmp_path / "P.npy", np.random.default_rng(0).uniform(0.1, 1, (64, 80)).astype(np.float32))
+    code = main(["generate", "ahdr", "--image", str(tmp_path / "P.npy"), "--zoom", "1e6", "--duration-s", "0.1",
+                 "--height", "16", "--width", "20", "--out", str(tmp_path / "o"), "--no-progress"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("evsim: error: --zoom 1e+06 (trajectory.zoom_per_s) over 0.1 s") \
+        and err.endswith("so it must be in -36.89..500 per second") and "\n" not in err
