@@ -4,6 +4,7 @@ break the maths, foreign text on stderr, API parameters, and the arguable cases 
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -152,3 +153,24 @@ def test_generate_zoom_that_breaks_the_maths_is_a_usage_error(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("evsim: error: --zoom 1e+06 (trajectory.zoom_per_s) over 0.1 s") \
         and err.endswith("so it must be in -36.89..500 per second") and "\n" not in err
+
+
+# ----- foreign text on stderr ------------------------------------------------------------------------------------
+
+AEDAT4 = Path(__file__).resolve().parents[2] / "shared" / "data" / "events" / "tonic_sample_dvxplorer.aedat4"
+
+
+@pytest.mark.skipif(not AEDAT4.is_file(), reason="needs the shared AEDAT4 sample")
+def test_a_decoder_panic_prints_only_evsims_line(tmp_path, capfd, monkeypatch):
+    pytest.importorskip("aedat")
+    from evsim_app.cli import main
+
+    data = bytearray(AEDAT4.read_bytes())
+    data[249] = 0x94  # inside the XML header: not UTF-8, where the decoder's XML parser panics
+    bad = tmp_path / "bad.aedat4"
+    bad.write_bytes(bytes(data))
+    monkeypatch.setenv("RUST_BACKTRACE", "1")
+    assert main(["info", str(bad)]) == 2
+    err = capfd.readouterr().err
+    assert err.startswith(f"evsim: error: {bad}: unreadable AEDAT4 file (corrupt?): the aedat decoder failed: ") \
+        and err.count("\n") == 1, err

@@ -7,6 +7,7 @@ import json
 import os
 import select
 import signal
+import sys
 import time
 import warnings
 import zlib
@@ -263,6 +264,24 @@ def reading(path: str | Path) -> Iterator[None]:
         raise fail(path, "content too large to load (corrupt sizes?)") from e
     except LIBRARY_ERRORS as e:
         raise fail(path, f"malformed content ({type(e).__name__}: {e})") from e
+
+
+@contextmanager
+def quiet_fd2() -> Iterator[None]:
+    """Send what is written to file descriptor 2 while the block runs to /dev/null: native libraries write there
+    directly, past sys.stderr (a Rust panic's message, and a backtrace when RUST_BACKTRACE is set), where evsim's
+    own one-line error already says what failed (the panic's message travels in the exception). Wrap only the
+    library's calls: Python's own stderr writes in the block go too."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 2)
+        os.close(null)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def validated(path: str | Path, rec: Recording) -> Recording:
