@@ -174,3 +174,49 @@ def test_a_decoder_panic_prints_only_evsims_line(tmp_path, capfd, monkeypatch):
     err = capfd.readouterr().err
     assert err.startswith(f"evsim: error: {bad}: unreadable AEDAT4 file (corrupt?): the aedat decoder failed: ") \
         and err.count("\n") == 1, err
+
+
+# ----- API parameters ----------------------------------------------------------------------------------------------
+
+def test_preset_overrides_that_are_not_fields_are_named_with_a_suggestion():
+    import sim
+
+    with pytest.raises(sim.InvalidParameterError, match=r"DVSParams.preset: unknown DVSParams field 'bogus'; allowed: "
+                                                        r"pos_threshold, "):
+        sim.DVSParams.preset("davis346", bogus=1)
+    with pytest.raises(sim.InvalidParameterError, match=r"unknown DVSParams field 'pos_treshold' \(did you mean "
+                                                        r"'pos_threshold'\?\)"):
+        sim.DVSParams.preset("davis346", pos_treshold=0.2)
+    with pytest.raises(sim.InvalidParameterError, match=r"CameraParams.preset: unknown CameraParams field 'exposure' "
+                                                        r"\(did you mean 'exposure_us'\?\)"):
+        sim.CameraParams.preset("ideal", exposure=3)
+
+
+def test_capture_of_complex_radiance_is_refused():
+    import crf_models
+    from sim import CameraParams, EvsimInputError, LDRCamera
+
+    class Complex:
+        height, width, duration_us = 4, 5, 100_000
+
+        def radiance(self, t_us):
+            return np.full((4, 5), 0.5 + 0.5j)
+
+        def max_speed_px_per_s(self):
+            return 0.0
+
+    camera = LDRCamera(4, 5, CameraParams(), crf_models.get("linear"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # not a numpy ComplexWarning: evsim's error
+        with pytest.raises(EvsimInputError, match=r"source.radiance\(\d+\) must hold real numbers .* complex128"):
+            next(camera.capture(Complex()))
+
+
+@pytest.mark.parametrize("time", ["--5", "²"])
+def test_exr_timestamps_line_that_int_cannot_read_names_the_file_and_line(tmp_path, time):
+    from generators.formats.exr import read_exr_sequence, write_exr
+
+    write_exr(tmp_path / "frame.exr", np.ones((3, 4), np.float32))
+    (tmp_path / "timestamps.txt").write_text(f"# t_us file\n{time} frame.exr\n")
+    with pytest.raises(DatasetFormatError, match=r"timestamps.txt: line 2: expected 't_us file_name'"):
+        read_exr_sequence(tmp_path)

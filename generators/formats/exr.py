@@ -8,6 +8,7 @@ Half floats keep about 3 significant digits (relative error <= 2**-11) and satur
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -95,7 +96,7 @@ def read_exr_sequence(directory: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if not line.strip() or line.startswith("#"):
             continue
         parts = line.split()
-        if len(parts) != 2 or not parts[0].lstrip("-").isdigit():
+        if len(parts) != 2 or not re.fullmatch(r"-?[0-9]+", parts[0]):  # (not isdigit: "--5", "²" pass it)
             raise fail(times, f"line {n}: expected 't_us file_name', got {line!r}")
         ti = int(parts[0])
         if abs(ti) > MAX_TIME_US:
