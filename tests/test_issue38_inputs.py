@@ -220,3 +220,63 @@ def test_exr_timestamps_line_that_int_cannot_read_names_the_file_and_line(tmp_pa
     (tmp_path / "timestamps.txt").write_text(f"# t_us file\n{time} frame.exr\n")
     with pytest.raises(DatasetFormatError, match=r"timestamps.txt: line 2: expected 't_us file_name'"):
         read_exr_sequence(tmp_path)
+
+
+# ----- the arguable cases (docs/guide/bad-input.md, "Arguable input") -----------------------------------------------
+
+def test_e2vid_integer_times_are_refused_not_read_as_seconds(tmp_path):
+    path = tmp_path / "e.h5"
+    rec = make_recording()
+    _export(rec, path, "e2vid")
+    with h5py.File(path, "a") as f:
+        del f["events/ts"]
+        f["events/ts"] = rec.events["t"] - rec.events["t"][0]  # int64 microseconds: 2.5e6 would be 29 days
+    with pytest.raises(DatasetFormatError, match=r"e\.h5: events/ts holds integers \(int64\), where the E2VID layout "
+                                                 r"stores float seconds: the unit is not guessed"):
+        load(path)
+
+
+@pytest.mark.parametrize("fmt", ["evt3", "evt2"])
+def test_a_long_silence_in_an_evt_stream_is_read_with_a_note(tmp_path, fmt):
+    from generators.formats import ReaderNoteWarning
+    from generators.formats.streaming import open_event_stream
+
+    rec = make_recording()
+    rec.events["t"][-1] += 40_000_000  # the last event 40 s after the others: a TIME_HIGH jump on disk
+    path = tmp_path / "e.raw"
+    _export(rec, path, fmt)
+    with pytest.warns(ReaderNoteWarning, match=r"e\.raw: no events for 40 s before the one at "
+                                                rf"{rec.events['t'][-1]} us: read as a pause"):
+        np.testing.assert_array_equal(load(path).events["t"], rec.events["t"])
+    with pytest.warns(ReaderNoteWarning, match="read as a pause"):
+        assert open_event_stream(path, size=256).t_range == (rec.events["t"][0], rec.events["t"][-1])
+
+
+@pytest.mark.parametrize("fmt, suffix, line, value", [
+    ("evt3", "raw", b"% evsim_time_base us", b"% evsim_time_base ns"),
+    ("dat", "dat", b"% evsim_polarity 1=ON 0=OFF", b"% evsim_polarity 0=ON 1=OFF"),
+    ("aedat2", "aedat2", b"# evsim_time_base us", b"# evsim_time_base ms"),
+])
+def test_evsims_own_header_keys_are_read_back(tmp_path, fmt, suffix, line, value):
+    path = tmp_path / f"e.{suffix}"
+    _export(make_recording(), path, fmt)
+    data = path.read_bytes()
+    assert data.count(line) == 1
+    path.write_bytes(data.replace(line, value))
+    key = line.split()[1].decode()
+    with pytest.raises(DatasetFormatError, match=rf"header key {key}: '{value.split(maxsplit=2)[2].decode()}', where "
+                                                 "evsim writes and reads only"):
+        load(path)
+
+
+def test_aedat2_chip_line_of_another_layout_is_refused_beside_evsims_geometry(tmp_path):
+    path = tmp_path / "e.aedat2"
+    _export(make_recording(), path, "aedat2")
+    head, sep, rest = path.read_bytes().partition(b"\r\n")
+    path.write_bytes(head + sep + b"# AEChip: ch.unizh.ini.jaer.chip.retina.DVS128\r\n" + rest)
+    with pytest.raises(DatasetFormatError, match=r"AEChip ch.unizh.ini.jaer.chip.retina.DVS128: only the DAVIS"):
+        load(path)
+    path.write_bytes(head + sep + b"# AEChip: eu.seebetter.ini.chips.davis.Davis346B\r\n" + rest)
+    with pytest.raises(DatasetFormatError, match=r"header keys disagree: AEChip .*Davis346B is 346x260, "
+                                                 r"evsim_geometry says 8x6"):
+        load(path)

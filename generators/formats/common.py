@@ -35,6 +35,13 @@ class DatasetFormatError(EvsimInputError):
     """A dataset file or folder cannot be read: missing, truncated, malformed or of an unknown layout."""
 
 
+class ReaderNoteWarning(UserWarning):
+    """A file is read, but something in it deserves a look (a long silence that a corrupt time word would also
+    give). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
+
+    evsim_note = True
+
+
 def fail(path: str | Path, problem: str) -> DatasetFormatError:
     """The error to raise for `path`, naming the file and the problem."""
     return DatasetFormatError(f"{path}: {problem}")

@@ -26,6 +26,7 @@ Layouts (little-endian):
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -33,7 +34,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .common import EVENT_CHUNK, events_from_columns, fail
+from .common import EVENT_CHUNK, ReaderNoteWarning, events_from_columns, fail
 from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
 from .recording import MAX_TIME_US, Recording, validate_recording
@@ -86,7 +87,7 @@ class PropheseeWriter(EventFileWriter):
     def _header(self) -> str:
         h, w = self.height, self.width
         evsim = [f"% evsim_layout_version {LAYOUT_VERSION}", f"% evsim_t_offset_us {self._offset}",
-                 "% evsim_time_base us", "% evsim_polarity 1=ON 0=OFF",
+                 *(f"% {k} {v}" for k, v in EVSIM_KEYS.items()),
                  "% evsim_holds events, sensor size (no frames, reference, labels, thresholds, CRF, metadata)"]
         if self.fmt == "dat":
             # a fixed Date (not the time of writing): the same file for the same recording, checkable by SHA-256
@@ -211,6 +212,10 @@ def _raw_kind(keys: dict) -> str | None:
     return None
 
 
+#: the header keys evsim writes whose value it reads back as written (checked by the readers)
+EVSIM_KEYS = {"evsim_time_base": "us", "evsim_polarity": "1=ON 0=OFF"}
+
+
 def _header_int(path: Path, keys: dict, key: str, lo: int, hi: int, value: str | None = None) -> int:
     """The integer header value of `key` (or `value`, taken from it), checked to be in lo..hi."""
     text = keys[key] if value is None else value
@@ -240,9 +245,13 @@ def _geometry(path: Path, keys: dict) -> tuple[int | None, int | None]:
 
 
 def _header_offset(path: Path, keys: dict) -> int:
-    """The evsim header keys the readers rely on: the time offset (0 when absent) and a known layout version."""
+    """The evsim header keys the readers rely on: the time offset (0 when absent), a known layout version and the
+    EVSIM_KEYS as evsim writes them."""
     if "evsim_layout_version" in keys:
         _header_int(path, keys, "evsim_layout_version", 1, LAYOUT_VERSION)
+    for key, value in EVSIM_KEYS.items():  # what evsim writes is read back: another unit or encoding is refused
+        if keys.get(key, value) != value:
+            raise fail(path, f"header key {key}: {keys[key]!r}, where evsim writes and reads only {value!r}")
     if "evsim_t_offset_us" not in keys:
         return 0
     return _header_int(path, keys, "evsim_t_offset_us", -MAX_TIME_US, MAX_TIME_US)
@@ -273,10 +282,34 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
             if head[1] != 8:
                 raise fail(path, f".dat events of {head[1]} bytes: only 8-byte CD events are read")
             yield from _dat_chunks(path, f, offset, size)
-        elif kind == "evt2":
-            yield from _evt2_chunks(path, f, offset, size)
         else:
-            yield from _evt3_chunks(path, f, offset, size)
+            yield from _noting_silence(path, (_evt2_chunks if kind == "evt2" else _evt3_chunks)(path, f, offset, size))
+
+
+#: a silence between two events longer than this (us) in an EVT 2.0 / 3.0 stream is read with a note
+SILENCE_NOTE_US = 10_000_000
+
+
+def _noting_silence(path: Path, chunks: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+    """The chunks, with a ReaderNoteWarning (once per file) at the first silence between two events longer than
+    SILENCE_NOTE_US: in EVT 2.0 / 3.0 one TIME_HIGH word sets the time of every later event, so a corrupt one
+    moves the rest of the stream ahead, exactly as a real pause in the recording would; the file is read as it
+    says, and the user told where to look."""
+    last = None
+    for chunk in chunks:
+        t = chunk["t"] if last is None else np.concatenate(([last], chunk["t"]))
+        if t.size >= 2:
+            gaps = np.diff(t)
+            i = int(np.argmax(gaps))
+            if gaps[i] > SILENCE_NOTE_US:
+                warnings.warn(f"{path}: no events for {gaps[i] / 1e6:.4g} s before the one at {int(t[i + 1])} us: "
+                              "read as a pause in the recording (a corrupt TIME_HIGH word would give the same; "
+                              "`evsim info` shows the span)", ReaderNoteWarning, stacklevel=2)
+                yield chunk
+                yield from chunks
+                return
+        last = int(t[-1]) if t.size else last
+        yield chunk
 
 
 def _words(path, f, dtype, count):
