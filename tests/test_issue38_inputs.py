@@ -280,3 +280,42 @@ def test_aedat2_chip_line_of_another_layout_is_refused_beside_evsims_geometry(tm
     with pytest.raises(DatasetFormatError, match=r"header keys disagree: AEChip .*Davis346B is 346x260, "
                                                  r"evsim_geometry says 8x6"):
         load(path)
+
+
+def test_dat_polarity_field_other_than_zero_or_one_is_refused(tmp_path):
+    path = tmp_path / "e.dat"
+    _export(make_recording(), path, "dat")
+    data = bytearray(path.read_bytes())
+    start = len(data) - 3000 * 8  # the events: 8 bytes each, at the end
+    data[start + 8 * 10 + 7] = (data[start + 8 * 10 + 7] & 0x0F) | (3 << 4)  # event 10's p (bits 31..28) = 3
+    path.write_bytes(bytes(data))
+    with pytest.raises(DatasetFormatError, match=r"e\.dat: event polarity must be 0/1 or -1/\+1 .*values 0, 1, 3"):
+        load(path)
+
+
+def test_evt2_word_of_an_undefined_type_is_refused(tmp_path):
+    path = tmp_path / "e.raw"
+    _export(make_recording(), path, "evt2")
+    data = bytearray(path.read_bytes())
+    w = np.frombuffer(bytes(data[-4 * 100:]), "<u4").copy()
+    i = int(np.flatnonzero((w >> 28) <= 1)[0])  # a CD word: its type nibble (the polarity) becomes 0x3
+    w[i] = (int(w[i]) & 0x0FFF_FFFF) | (0x3 << 28)
+    data[-4 * 100:] = w.tobytes()
+    path.write_bytes(bytes(data))
+    with pytest.raises(DatasetFormatError, match=r"e\.raw: EVT 2\.0 word of undefined type 0x3 at byte \d+"):
+        load(path)
+
+
+def test_a_corrupt_ijrr_image_prints_only_evsims_line(tmp_path, capfd):
+    from evsim_app.cli import main
+
+    folder = tmp_path / "ijrr"
+    _export(make_recording(), folder, "ijrr")
+    png = sorted((folder / "images").glob("*.png"))[1]
+    data = bytearray(png.read_bytes())
+    at = data.index(b"IDAT") + 8
+    data[at : at + 8] = b"\xff" * 8  # inside the compressed pixels: libpng's "incorrect data check" and the like
+    png.write_bytes(bytes(data))
+    assert main(["info", str(folder)]) == 2
+    err = capfd.readouterr().err
+    assert err.startswith(f"evsim: error: {png}: missing or unreadable image") and err.count("\n") == 1, err

@@ -15,10 +15,11 @@ Layouts (little-endian):
           every wrap visible, so streams of any length are exact.
     EVT 2.0: 32-bit words, type in bits 31..28: 0x0 CD_OFF / 0x1 CD_ON with bits 27..22 time bits 5..0,
           21..11 x, 10..0 y; 0x8 TIME_HIGH with bits 27..0 = time bits 33..6 (2**34 us, about 4.8 h, per file).
-          Other types (0xA trigger, 0xE, 0xF) are skipped.
+          Types 0xA (trigger), 0xE and 0xF are skipped; the undefined types (0x2..0x7, 0x9, 0xB..0xD) are refused.
     .dat: as Prophesee's DAT spec (docs.prophesee.ai, "DAT File Format"): "% " header lines "% Data file
           containing CD events", Date, Version 2, Width, Height (then evsim's keys), then two bytes, event type 0x0C
-          (EventCD) and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28).
+          (EventCD) and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28: 0 or 1,
+          anything else refused).
           32-bit times (2**32 us, about 71 min, per file). The Date is fixed (1970-01-01 00:00:00), so one recording
           always gives the same bytes. The reader also takes event type 0 (Event2d: the same 8-byte layout) and
           any first header line.
@@ -34,7 +35,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .common import EVENT_CHUNK, ReaderNoteWarning, events_from_columns, fail
+from .common import EVENT_CHUNK, ReaderNoteWarning, events_from_columns, fail, polarity_pm1
 from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
 from .recording import MAX_TIME_US, Recording, validate_recording
@@ -370,8 +371,11 @@ def _dat_chunks(path, f, offset, size):
         t += (ovf + wraps) << 32
         ovf += n_wraps
         xyp = d["xyp"]
-        yield events_from_columns(path, t + offset, xyp & 0x3FFF, (xyp >> 14) & 0x3FFF,
-                                  np.where((xyp >> 28) & 1, 1, -1).astype(np.int8))
+        yield events_from_columns(path, t + offset, xyp & 0x3FFF, (xyp >> 14) & 0x3FFF, polarity_pm1(path, xyp >> 28))
+
+
+#: the EVT 2.0 word types: CD_OFF, CD_ON, TIME_HIGH, EXT_TRIGGER, OTHERS, CONTINUED (any other is a corrupt word)
+_EVT2_TYPES = np.array([0x0, 0x1, 0x8, 0xA, 0xE, 0xF])
 
 
 def _evt2_chunks(path, f, offset, size):
@@ -382,6 +386,11 @@ def _evt2_chunks(path, f, offset, size):
         if w.size == 0:
             return
         typ = w >> 28
+        odd = np.flatnonzero(~np.isin(typ, _EVT2_TYPES))
+        if odd.size:
+            i = int(odd[0])
+            raise fail(path, f"EVT 2.0 word of undefined type {int(typ[i]):#x} at byte {pos + 4 * i} (CD events are "
+                             "type 0 OFF or 1 ON): a corrupt file")
         is_th = typ == 0x8
         th_at = np.flatnonzero(is_th)
         th_full = np.zeros(w.size, np.int64)
