@@ -319,3 +319,19 @@ def test_a_corrupt_ijrr_image_prints_only_evsims_line(tmp_path, capfd):
     assert main(["info", str(folder)]) == 2
     err = capfd.readouterr().err
     assert err.startswith(f"evsim: error: {png}: missing or unreadable image") and err.count("\n") == 1, err
+
+
+def test_a_corrupt_exr_frame_prints_only_evsims_line(tmp_path, capfd):
+    from evsim_app.cli import main
+    from generators.formats.exr import write_exr_sequence
+
+    folder = tmp_path / "exr"
+    write_exr_sequence(folder, np.ones((2, 6, 8), np.float32), np.array([0, 1000]))
+    frame = sorted(folder.glob("*.exr"))[1]
+    data = bytearray(frame.read_bytes())
+    data[-7] ^= 0xFF  # inside the compressed pixels: OpenEXR prints "Warning: ... Unable to run decoder" on stdout
+    frame.write_bytes(bytes(data))
+    assert main(["info", str(folder)]) == 2
+    out, err = capfd.readouterr()
+    assert out == "" and err.startswith(f"evsim: error: {frame}: not a readable OpenEXR file") \
+        and err.count("\n") == 1, (out, err)

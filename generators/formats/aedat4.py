@@ -32,7 +32,7 @@ from .aedat4_tables import (
     stream_ids,
 )
 from .atomic import commit, discard, disk_full_error, is_disk_full, temp_sibling
-from .common import events_from_columns, fail, polarity_pm1, quiet_fd2
+from .common import events_from_columns, fail, polarity_pm1, quiet_native_output
 from .native import recording_event_chunks
 from .recording import Recording, validate_recording
 
@@ -67,7 +67,7 @@ def read_aedat4(path: str | Path) -> Recording:
         raise fail(path, "reading AEDAT4 needs the optional 'aedat' package (pip install aedat)") from e
     chunks, frames, times = [], [], []
     try:
-        with quiet_fd2():  # the decoder's panic text (and RUST_BACKTRACE's backtrace) never reaches the terminal
+        with quiet_native_output():  # the decoder's panic text (and RUST_BACKTRACE's backtrace) stays off the terminal
             decoder = aedat.Decoder(path)
             streams = decoder.id_to_stream()
             ev_ids = sorted(i for i, s in streams.items() if s["type"] == "events")

@@ -274,21 +274,32 @@ def reading(path: str | Path) -> Iterator[None]:
 
 
 @contextmanager
-def quiet_fd2() -> Iterator[None]:
-    """Send what is written to file descriptor 2 while the block runs to /dev/null: native libraries write there
-    directly, past sys.stderr (a Rust panic's message, and a backtrace when RUST_BACKTRACE is set), where evsim's
-    own one-line error already says what failed (the panic's message travels in the exception). Wrap only the
-    library's calls: Python's own stderr writes in the block go too."""
-    sys.stderr.flush()
-    saved = os.dup(2)
+def quiet_native_output() -> Iterator[None]:
+    """Send what is written to file descriptors 1 and 2, and to sys.stdout and sys.stderr, while the block runs to
+    /dev/null: native libraries write there directly or through Python's streams (a Rust panic's message and, with
+    RUST_BACKTRACE, a backtrace; libpng's and OpenCV's complaints; the OpenEXR binding's "Warning: ..." printed to
+    sys.stdout), where evsim's own one-line error already says what failed. C's stdio buffers are flushed before the
+    descriptors are restored, so nothing held back reaches them later. Wrap only the library's calls: Python's own
+    writes in the block go too."""
+    import ctypes
+
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = [os.dup(fd) for fd in (1, 2)]
+    streams = sys.stdout, sys.stderr
     try:
-        null = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(null, 2)
-        os.close(null)
-        yield
+        with open(os.devnull, "w") as null:
+            for fd in (1, 2):
+                os.dup2(null.fileno(), fd)
+            sys.stdout = sys.stderr = null
+            yield
+            null.flush()
     finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+        sys.stdout, sys.stderr = streams
+        ctypes.CDLL(None).fflush(None)
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
 
 
 def validated(path: str | Path, rec: Recording) -> Recording:

@@ -17,7 +17,7 @@ import numpy as np
 from sim import EVENT_DTYPE, EvsimInputError
 
 from .atomic import atomic_path
-from .common import fail, quiet_fd2
+from .common import fail, quiet_native_output
 from .recording import MAX_TIME_US, Recording
 
 TIMES_FILE = "timestamps.txt"
@@ -54,7 +54,7 @@ def read_exr(path: str | Path) -> np.ndarray:
     import OpenEXR
 
     try:
-        with quiet_fd2():  # the library's own messages on a corrupt file ("... query scanline information")
+        with quiet_native_output():  # OpenEXR's own "Warning: ..." (on stdout) on a corrupt file
             channels = OpenEXR.File(str(path), separate_channels=True).channels()
     except Exception as e:  # the binding raises plain RuntimeError/Exception for every decoding failure
         raise fail(path, f"not a readable OpenEXR file: {e}") from e

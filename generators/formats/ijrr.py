@@ -45,7 +45,14 @@ import numpy as np
 from sim import EvsimInputError
 
 from .atomic import atomic_path
-from .common import DatasetFormatError, events_from_columns, fail, polarity_pm1, quiet_fd2, to_json
+from .common import (
+    DatasetFormatError,
+    events_from_columns,
+    fail,
+    polarity_pm1,
+    quiet_native_output,
+    to_json,
+)
 from .exr import read_exr_sequence, write_exr_sequence
 from .native import recording_event_chunks
 from .recording import Recording, validate_recording
@@ -203,7 +210,7 @@ def _read_frames(d: Path):
     for _, name in rows:
         if not (d / name).is_file():  # said here: OpenCV would print its own warning first
             raise fail(d / name, f"missing or unreadable image: no such file (listed in {path.name})")
-        with quiet_fd2():  # libpng's and OpenCV's own messages on a corrupt image: evsim's error says it
+        with quiet_native_output():  # libpng's and OpenCV's messages on a corrupt image: evsim's error says it
             img = cv2.imread(str(d / name), cv2.IMREAD_UNCHANGED)
         if img is None:
             raise fail(d / name, "missing or unreadable image")
