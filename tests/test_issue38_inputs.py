@@ -124,6 +124,17 @@ def test_a_folder_where_generate_writes_a_file_is_refused_before_work(tmp_path, 
     assert sorted(p.name for p in out.iterdir()) == [entry]  # nothing written
 
 
+def test_a_folder_named_as_the_video_is_refused_before_work(tmp_path, capsys):
+    from evsim_app.cli import main
+
+    src = tmp_path / "e.h5"
+    _export(make_recording(), src, "native")
+    (tmp_path / "v.mp4").mkdir()
+    code = main(["plot", "events", str(src), "--video", str(tmp_path / "v.mp4")])
+    err = capsys.readouterr().err
+    assert code == 2 and err == f"evsim: error: --video {tmp_path / 'v.mp4'} is a folder, not a file\n"
+
+
 # ----- numbers that break the maths ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("bad, good, match", [
