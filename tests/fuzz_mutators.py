@@ -538,8 +538,11 @@ def mutate_fields(path: Path, rng: np.random.Generator, width: int = 8, height: 
     w = np.frombuffer(data[start:], "<u2" if evt3 else "<u4").copy()
     typ = w >> (12 if evt3 else 28)
     kind = rng.integers(3)
-    if evt3:  # polarity is one bit: coordinates only (x in ADDR_X / VECT_BASE_X words, y in ADDR_Y words)
-        if kind == 2:
+    if evt3:  # polarity is one bit: coordinates (x in ADDR_X words, y in ADDR_Y words) and undefined word types
+        if kind == 0 and rng.random() < 0.3:
+            i, v = int(rng.integers(w.size)), int(rng.choice([0x1, 0x9, 0xB, 0xC, 0xD]))
+            w[i], desc = (int(w[i]) & 0x0FFF) | (v << 12), f"word {i}: undefined type {v:#x}"
+        elif kind == 2:
             at = np.flatnonzero(typ == 0x0)
             i, v = int(at[rng.integers(at.size)]), int(rng.integers(height, 1 << 11))
             w[i], desc = v, f"ADDR_Y word {i}: y = {v}"

@@ -346,3 +346,13 @@ def test_a_corrupt_exr_frame_prints_only_evsims_line(tmp_path, capfd):
     out, err = capfd.readouterr()
     assert out == "" and err.startswith(f"evsim: error: {frame}: not a readable OpenEXR file") \
         and err.count("\n") == 1, (out, err)
+
+
+def test_evt3_word_of_an_undefined_type_is_refused(tmp_path):
+    path = tmp_path / "e.raw"
+    _export(make_recording(), path, "evt3")
+    data = bytearray(path.read_bytes())
+    data[-2 * 50 + 1] = (data[-2 * 50 + 1] & 0x0F) | 0x90  # a word near the end: type 0x9
+    path.write_bytes(bytes(data))
+    with pytest.raises(DatasetFormatError, match=r"e\.raw: EVT 3\.0 word of undefined type 0x9 at byte \d+"):
+        load(path)

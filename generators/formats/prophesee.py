@@ -12,7 +12,8 @@ Layouts (little-endian):
           "% format EVT3;height=H;width=W", "% geometry WxH", evsim's keys. The data starts with a TIME_HIGH 0
           word so that no decoder mistakes a first data byte 0x25 ('%') for more header.
     EVT 3.0: 16-bit words, see prophesee_kernels.py. The 24-bit time wraps every 16.8 s; TIME_HIGH words make
-          every wrap visible, so streams of any length are exact.
+          every wrap visible, so streams of any length are exact. Words of the undefined types (0x1, 0x9, 0xB..0xD)
+          are refused.
     EVT 2.0: 32-bit words, type in bits 31..28: 0x0 CD_OFF / 0x1 CD_ON with bits 27..22 time bits 5..0,
           21..11 x, 10..0 y; 0x8 TIME_HIGH with bits 27..0 = time bits 33..6 (2**34 us, about 4.8 h, per file).
           Types 0xA (trigger), 0xE and 0xF are skipped; the undefined types (0x2..0x7, 0x9, 0xB..0xD) are refused.
@@ -412,6 +413,11 @@ def _evt2_chunks(path, f, offset, size):
                                   np.where(typ[cd] == 1, 1, -1).astype(np.int8))
 
 
+#: the EVT 3.0 word types (prophesee_kernels): ADDR_Y, ADDR_X, VECT_BASE_X, VECT_12, VECT_8, TIME_LOW, CONTINUED_4,
+#: TIME_HIGH, EXT_TRIGGER, OTHERS, CONTINUED_12 (0x1, 0x9, 0xB..0xD are undefined: a corrupt word)
+_EVT3_TYPES = np.array([0x0, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x8, 0xA, 0xE, 0xF])
+
+
 def _evt3_chunks(path, f, offset, size):
     from .prophesee_kernels import STATE_SIZE, decode_evt3  # (numba: on first use)
 
@@ -424,6 +430,10 @@ def _evt3_chunks(path, f, offset, size):
         if w.size == 0:
             return
         typ = w >> 12
+        odd = np.flatnonzero(~np.isin(typ, _EVT3_TYPES))
+        if odd.size:
+            i = int(odd[0])
+            raise fail(path, f"EVT 3.0 word of undefined type {int(typ[i]):#x} at byte {pos + 2 * i}: a corrupt file")
         n_max = int(np.count_nonzero(typ == 0x2) + _POPCOUNT[w[typ == 0x4] & 0xFFF].sum() +
                     _POPCOUNT[w[typ == 0x5] & 0xFF].sum())
         t, x, y, p = np.empty(n_max, np.int64), np.empty(n_max, np.uint16), np.empty(n_max, np.uint16), \
