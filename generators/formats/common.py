@@ -293,10 +293,10 @@ def quiet_native_output() -> Iterator[None]:
                 os.dup2(null.fileno(), fd)
             sys.stdout = sys.stderr = null
             yield
-            null.flush()
     finally:
         sys.stdout, sys.stderr = streams
-        ctypes.CDLL(None).fflush(None)
+        if os.name == "posix":  # (the C library of the process itself: CDLL(None) is POSIX only)
+            ctypes.CDLL(None).fflush(None)
         for fd, copy in zip((1, 2), saved):
             os.dup2(copy, fd)
             os.close(copy)
