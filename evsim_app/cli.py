@@ -133,7 +133,7 @@ def _dataset_config(args):
 # ----- paths checked before any work ----------------------------------------------------------------------
 
 _FOLDER_OUTPUT_COMMANDS = ("demo", "generate", "convert", "reconstruct")  # their --out is a folder
-_FILE_OUTPUT_FLAGS = ("json", "out", "animate")  # of the other commands (evaluate, plot): files
+_FILE_OUTPUT_FLAGS = ("json", "out", "animate", "video")  # of the other commands (evaluate, plot): files
 #: suffixes of the files evsim reads and writes: a new --out folder ending in one is a mistaken file name
 _FILE_SUFFIXES = (".h5", ".hdf5", ".aedat4", ".aedat2", ".aedat", ".raw", ".dat", ".mat", ".zip", ".exr", ".txt",
                   ".json", ".mp4", ".avi", ".mov")

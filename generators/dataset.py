@@ -319,16 +319,32 @@ def _discard_stale_temporaries(out: Path, tasks: list[SequenceTask]) -> None:
             discard(p)
 
 
+def _sequence_files(task: SequenceTask) -> list[str]:
+    """The names of the files and folders sequence `task` writes in the output folder: <name>.h5, its manifest and
+    its export (a folder for ijrr, a file for the others)."""
+    name = check_sequence_name("sequence name", task.name)
+    exports = [f"{name}{EXPORT_SUFFIX[task.fmt]}"] if task.fmt != "native" else []
+    return [f"{name}.h5", f"{name}{MANIFEST_SUFFIX}", *exports]
+
+
 def _check_file_names(tasks: list[SequenceTask]) -> None:
     """EvsimInputError when two sequences would write the same file (the e2vid export of "a", a_e2vid.h5, is the
     native file of a sequence named "a_e2vid")."""
     owner: dict[str, str] = {}
     for t in tasks:
-        name = check_sequence_name("sequence name", t.name)
-        exports = [f"{name}{EXPORT_SUFFIX[t.fmt]}"] if t.fmt != "native" else []
-        for file in [f"{name}.h5", f"{name}{MANIFEST_SUFFIX}", *exports]:
-            if owner.setdefault(file, name) != name:
-                raise EvsimInputError(f"sequences {owner[file]!r} and {name!r} would both write {file}: rename one")
+        for file in _sequence_files(t):
+            if owner.setdefault(file, t.name) != t.name:
+                raise EvsimInputError(f"sequences {owner[file]!r} and {t.name!r} would both write {file}: rename one")
+
+
+def _check_targets(out: Path, tasks: list[SequenceTask]) -> None:
+    """Before any work: EvsimInputError naming the path when the output folder `out` holds a folder where the run
+    writes a file (index.json, a sequence's .h5, manifest or export file), which no overwrite replaces."""
+    folders = {f"{t.name}{EXPORT_SUFFIX['ijrr']}" for t in tasks if t.fmt == "ijrr"}  # exports that are folders
+    for name in [INDEX_FILE, *(f for t in tasks for f in _sequence_files(t))]:
+        if name not in folders and (out / name).is_dir():
+            raise EvsimInputError(f"{out / name} is a folder where this run writes a file: remove it or choose "
+                                  "another output folder")
 
 
 def _names(names: list[str], limit: int = 8) -> str:
@@ -349,6 +365,7 @@ def run_sequences(out_dir: str | Path, jobs: list[tuple[SequenceTask, Scene | Sc
                           + why.format("overwrite"), "--resume and --overwrite exclude each other: --resume "
                           + why.format("--overwrite"))
     _check_file_names([task for task, _ in jobs])
+    _check_targets(Path(out_dir), [task for task, _ in jobs])
     created = first_missing(Path(out_dir))
     out = prepare_output_dir(out_dir, overwrite or resume).resolve()
     try:

@@ -178,7 +178,11 @@ class LDRCamera:
             a, b = t_start + j * dt, t_start + (j + 1) * dt
             w = np.clip(np.minimum(b, row_start + exposure) - np.maximum(a, row_start), 0.0, None) / exposure
             t = int(round(t_start + (j + 0.5) * dt))
-            rad = np.asarray(source.radiance(t), dtype=np.float32)
+            rad = np.asarray(source.radiance(t))
+            if rad.dtype.kind not in "iuf":  # a cast would drop an imaginary part, or read True as 1
+                raise EvsimInputError(f"source.radiance({t}) must hold real numbers (integer or float), got dtype "
+                                      f"{rad.dtype}")
+            rad = rad.astype(np.float32, copy=False)
             if rad.shape != (self.height, self.width):
                 raise EvsimInputError(
                     f"source.radiance({t}) has shape {rad.shape}, expected {(self.height, self.width)}")

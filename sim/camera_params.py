@@ -13,7 +13,7 @@ import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from .errors import InvalidParameterError, TimeOrderError, check_int, check_number
+from .errors import InvalidParameterError, TimeOrderError, check_int, check_number, check_override_names
 
 if TYPE_CHECKING:
     import numpy as np
@@ -161,6 +161,7 @@ class CameraParams:
         """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
+        check_override_names("CameraParams.preset", cls, overrides)
         return dataclasses.replace(PRESETS[name], **overrides)
 
 

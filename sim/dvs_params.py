@@ -17,7 +17,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .errors import InvalidParameterError, check_int, check_number
+from .errors import InvalidParameterError, check_int, check_number, check_override_names
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,7 @@ class DVSParams:
             base = PRESETS[name]
         except KeyError:
             raise InvalidParameterError(f"unknown DVS preset {name!r}; known: {sorted(PRESETS)}") from None
+        check_override_names("DVSParams.preset", cls, overrides)
         return dataclasses.replace(base, **overrides)
 
     def observed_leak_hz(self, radiance: float = 1.0, leak_hz: float | None = None) -> float:

@@ -3,9 +3,12 @@ shared checks of parameters: one helper per kind (number, integer, real-valued a
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from typing import TYPE_CHECKING
+
+from .suggest import unknown_name
 
 if TYPE_CHECKING:
     import numpy as np
@@ -104,3 +107,12 @@ def check_real_array(name: str, value: object, *, error: type[EvsimInputError] =
         raise error(f"{name} must hold real numbers (integer or float), got dtype {a.dtype}"
                     + (f" ({_kind(value)})" if a.ndim == 0 else ""))
     return a.astype(np.float64, copy=False)
+
+
+def check_override_names(where: str, cls: type, overrides: dict) -> None:
+    """InvalidParameterError naming the first keyword of `overrides` that is not a field of the dataclass `cls`,
+    with the closest field and the list of them (a preset's overrides)."""
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    for key in overrides:
+        if key not in fields:
+            raise InvalidParameterError(f"{where}: {unknown_name(f'{cls.__name__} field', key, fields)}")

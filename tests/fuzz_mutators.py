@@ -490,3 +490,144 @@ def mutate_time_aedat4(path: Path, rng: np.random.Generator) -> str:
         data[at : at + 8] = int(t2[i]).to_bytes(8, "little", signed=True)
     path.write_bytes(bytes(data))
     return f"{path.name}: {desc}"
+
+
+# ----- polarity, coordinate and unit fields: mutants every reader must refuse ----------------------------------------
+
+BAD_POLARITY = [2, 4, 7, -2, 0.5, 1.5, -0.5]
+_EVT_HEADER_UNITS = [(b"evsim_time_base us", [b"evsim_time_base ns", b"evsim_time_base ms", b"evsim_time_base s ",
+                                              b"evsim_time_base 1u"]),
+                     (b"evsim_polarity 1=ON 0=OFF", [b"evsim_polarity 0=ON 1=OFF", b"evsim_polarity 1=ON -1=OFF"])]
+
+
+def mutate_fields(path: Path, rng: np.random.Generator, width: int = 8, height: int = 6) -> str:
+    """One field of one event made invalid, in place, in the layout's own terms: a polarity outside the format's
+    encodings, a coordinate outside the width x height sensor, or a unit the reader must not guess (an evsim header
+    key with another time base or polarity code; E2VID times stored as integer microseconds). Every mutant must be
+    refused."""
+    suffix = path.suffix
+    if suffix == ".h5":
+        return _fields_e2vid(path, rng, width, height)
+    if suffix == ".mat":
+        return _fields_mat(path, rng, width, height)
+    data = path.read_bytes()
+    units = [(old, new) for old, news in _EVT_HEADER_UNITS for new in news if old in data]
+    if units and rng.random() < 0.25:  # (none left when a first mutation changed them)
+        old, new = units[rng.integers(len(units))]
+        return f"{path.name}: header {old.decode()!r} -> {new.decode()!r} ({_replace(path, data, old, new)})"
+    if suffix == ".aedat2":
+        return _fields_aedat2(path, data, rng, width, height)
+    start = _header_end(data)
+    if suffix == ".dat":
+        d = np.frombuffer(data[start + 2 :], [("t", "<u4"), ("xyp", "<u4")]).copy()
+        i, kind = int(rng.integers(d.size)), rng.integers(3)
+        xyp = int(d["xyp"][i])
+        if kind == 0:
+            v = int(rng.integers(width, 1 << 14))
+            xyp, desc = (xyp & ~0x3FFF) | v, f"x = {v}"
+        elif kind == 1:
+            v = int(rng.integers(height, 1 << 14))
+            xyp, desc = (xyp & ~(0x3FFF << 14)) | (v << 14), f"y = {v}"
+        else:
+            v = int(rng.integers(2, 16))
+            xyp, desc = (xyp & 0x0FFF_FFFF) | (v << 28), f"polarity {v}"
+        d["xyp"][i] = xyp
+        path.write_bytes(data[: start + 2] + d.tobytes())
+        return f"{path.name}: event {i} {desc}"
+    evt3 = b"evt 3.0" in data[:start]
+    w = np.frombuffer(data[start:], "<u2" if evt3 else "<u4").copy()
+    typ = w >> (12 if evt3 else 28)
+    kind = rng.integers(3)
+    if evt3:  # polarity is one bit: coordinates (x in ADDR_X words, y in ADDR_Y words) and undefined word types
+        if kind == 0 and rng.random() < 0.3:
+            i, v = int(rng.integers(w.size)), int(rng.choice([0x1, 0x9, 0xB, 0xC, 0xD]))
+            w[i], desc = (int(w[i]) & 0x0FFF) | (v << 12), f"word {i}: undefined type {v:#x}"
+        elif kind == 2:
+            at = np.flatnonzero(typ == 0x0)
+            i, v = int(at[rng.integers(at.size)]), int(rng.integers(height, 1 << 11))
+            w[i], desc = v, f"ADDR_Y word {i}: y = {v}"
+        else:
+            at = np.flatnonzero(typ == 0x2)
+            i, v = int(at[rng.integers(at.size)]), int(rng.integers(width, 1 << 11))
+            w[i], desc = (int(w[i]) & 0xF800) | v, f"ADDR_X word {i}: x = {v}"
+    else:
+        at = np.flatnonzero(typ <= 1)
+        i = int(at[rng.integers(at.size)])
+        word = int(w[i])
+        if kind == 0:
+            v = int(rng.integers(width, 1 << 11))
+            w[i], desc = (word & ~(0x7FF << 11)) | (v << 11), f"CD word {i}: x = {v}"
+        elif kind == 1:
+            v = int(rng.integers(height, 1 << 11))
+            w[i], desc = (word & ~0x7FF) | v, f"CD word {i}: y = {v}"
+        else:
+            v = int(rng.choice([2, 3, 4, 5, 6, 7, 9, 11, 12, 13]))
+            w[i], desc = (word & 0x0FFF_FFFF) | (v << 28), f"CD word {i}: type (polarity) {v:#x}"
+    path.write_bytes(data[:start] + w.tobytes())
+    return f"{path.name}: {desc}"
+
+
+def _replace(path: Path, data: bytes, old: bytes, new: bytes) -> str:
+    path.write_bytes(data.replace(old, new, 1))
+    return "same length" if len(old) == len(new) else f"{len(new) - len(old):+d} bytes"
+
+
+def _fields_aedat2(path: Path, data: bytes, rng: np.random.Generator, width: int, height: int) -> str:
+    """AEDAT 2.0 (DAVIS layout): an x or y field beyond the sensor (polarity is one bit)."""
+    start = data.index(b"# End Of ASCII Header") + len(b"# End Of ASCII Header\r\n")
+    d = np.frombuffer(data[start:], [("a", ">u4"), ("t", ">u4")]).copy()
+    dvs = np.flatnonzero((d["a"] >> 31 == 0) & ((d["a"] >> 10) & 1 == 0))
+    i = int(dvs[rng.integers(dvs.size)])
+    a = int(d["a"][i])
+    if rng.random() < 0.5:
+        v = int(rng.integers(width, 1 << 10))
+        a, desc = (a & ~(0x3FF << 12)) | (v << 12), f"x field {v}"
+    else:
+        v = int(rng.integers(height, 1 << 9))
+        a, desc = (a & ~(0x1FF << 22)) | (v << 22), f"y field {v}"
+    d["a"][i] = a
+    path.write_bytes(data[:start] + d.tobytes())
+    return f"{path.name}: event {i} {desc}"
+
+
+def _fields_e2vid(path: Path, rng: np.random.Generator, width: int, height: int) -> str:
+    """E2VID HDF5: ps values outside bool / 0-1 / -1+1, an xs or ys beyond the sensor, or ts as int64 us."""
+    with h5py.File(path, "r+") as f:
+        ev = f["events"]
+        n, kind = ev["ps"].shape[0], rng.integers(4)
+        i = int(rng.integers(n))
+        if kind == 0:
+            ps = ev["ps"][()].astype(np.float64)
+            bad = BAD_POLARITY[rng.integers(len(BAD_POLARITY))]
+            ps[i] = bad
+            if rng.random() < 0.5:  # every ON event the same other value, as the issue's 4 and 2
+                ps[ps == 1] = bad
+            del ev["ps"]
+            ev["ps"] = ps
+            return f"{path.name}: ps[{i}] = {bad}"
+        if kind == 3:
+            ts = np.rint(ev["ts"][()] * 1e6).astype(np.int64)
+            del ev["ts"]
+            ev["ts"] = ts
+            return f"{path.name}: ts stored as int64 microseconds"
+        name, side = ("xs", width) if kind == 1 else ("ys", height)
+        v = int(rng.integers(side, 1 << 15))
+        ev[name][i] = v
+        return f"{path.name}: {name}[{i}] = {v}"
+
+
+def _fields_mat(path: Path, rng: np.random.Generator, width: int, height: int) -> str:
+    """AKF .mat: a polarity outside -1/0/1, or a 1-based x or y beyond the sensor."""
+    m = {k: v for k, v in scipy.io.loadmat(path).items() if not k.startswith("__")}
+    ev = np.array(m["events"], np.float64)
+    i, kind = int(rng.integers(ev.shape[0])), rng.integers(3)
+    if kind == 0:
+        bad = BAD_POLARITY[rng.integers(len(BAD_POLARITY))]
+        ev[i, 3], desc = bad, f"polarity {bad}"
+    else:
+        col, side = (1, width) if kind == 1 else (2, height)
+        v = int(rng.integers(side + 1, 1 << 16))
+        ev[i, col], desc = v, f"{'xy'[col - 1]} (1-based) {v}"
+    m["events"] = ev
+    scipy.io.savemat(path, m)
+    return f"{path.name}: event {i} {desc}"

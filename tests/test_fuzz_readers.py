@@ -6,9 +6,11 @@ generators.formats.recording.validate_recording), or a DatasetFormatError naming
 type, never a crash, never a hang (cases run in a forked child, killed after CASE_TIMEOUT_S), and never a time
 span (of the events, the frames' mid-exposure times or the reference) that grows by more than the original file's
 own span: what a misread wrap or offset does. Every reader gets byte-level or structural mutants and time-order
-mutants (a time that goes back, a reversed block, a time that jumps ahead, a Prophesee wrap word that goes back).
-EVSIM_FUZZ_N sets the mutants per layout (default 40 in CI: about 1,000 cases; EVSIM_FUZZ_N=400 runs about
-10,000). EVSIM_FUZZ_SEED shifts the seeds."""
+mutants (a time that goes back, a reversed block, a time that jumps ahead, a Prophesee wrap word that goes back);
+the formats with a field to mutate get field mutants that must be refused (polarity, coordinates, units:
+fuzz_mutators.mutate_fields); the streaming reader (open_event_stream) gets every mutant of the formats it streams.
+EVSIM_FUZZ_N sets the mutants per layout (default 40 in CI: 1,720 cases, about 15 s; EVSIM_FUZZ_N=400 runs 17,200
+in about 2 minutes). EVSIM_FUZZ_SEED shifts the seeds."""
 
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ import pytest
 from generators.formats import DatasetFormatError, export, load
 from generators.formats.exr import read_exr_sequence
 from generators.formats.recording import Recording
+from generators.formats.streaming import open_event_stream
 from sim import EVENT_DTYPE
 
 import fuzz_mutators as fm
@@ -224,18 +227,31 @@ def exr_spans(out) -> dict[str, int]:
     return {"reference": int(t.max()) - int(t.min())} if t.size else {}
 
 
+STREAM_CHUNK = 37  # events per chunk of the streaming reader here: small and odd, so that checks cross chunks
+
+
+def read_stream(path: Path) -> Recording:
+    """Every event of open_event_stream(path) (the reader of plots and videos, chunk by chunk), as a Recording."""
+    stream = open_event_stream(path, size=STREAM_CHUNK)
+    chunks = list(stream.chunks())
+    events = np.concatenate(chunks) if chunks else np.zeros(0, EVENT_DTYPE)
+    return Recording(events=events, height=stream.height, width=stream.width)
+
+
 # what each reader is: (read, rules, spans)
-READERS = {"load": (load, rule_violations, spans), "exr": (read_exr_sequence, exr_violations, exr_spans)}
+READERS = {"load": (load, rule_violations, spans), "exr": (read_exr_sequence, exr_violations, exr_spans),
+           "stream": (read_stream, rule_violations, spans)}
 
 
-def run_case(path: Path, own: dict[str, int] | None = None, reader: str = "load") -> str:
+def run_case(path: Path, own: dict[str, int] | None = None, reader: str = "load", must_refuse: bool = False) -> str:
     """'valid', 'error' (DatasetFormatError naming the file), or a failure description ('hang' past
     CASE_TIMEOUT_S, a crash, an undocumented exception, a silent acceptance). own: the time spans of the original
-    file, which a valid outcome's must not exceed by more than themselves."""
-    return _WORKER(path, own, reader)
+    file, which a valid outcome's must not exceed by more than themselves; must_refuse: the mutant holds a value
+    the format does not allow (a field mutant), so a valid outcome is a silent acceptance."""
+    return _WORKER(path, own, reader, must_refuse)
 
 
-def _case(path: Path, own: dict[str, int] | None, reader: str) -> str:
+def _case(path: Path, own: dict[str, int] | None, reader: str, must_refuse: bool) -> str:
     read, rules, time_spans = READERS[reader]
     try:
         with time_bound(CASE_TIMEOUT_S):
@@ -253,6 +269,8 @@ def _case(path: Path, own: dict[str, int] | None, reader: str) -> str:
             bad = [f"{k} time span grew from {own[k]} to {got[k]} us" for k in own if got.get(k, 0) > 2 * own[k]]
     except Exception as e:  # noqa: BLE001 - content so broken that plain numpy checks fail on it
         bad = [f"unusable content ({type(e).__name__}: {e})"]
+    if not bad and must_refuse:
+        bad = ["a mutant that must be refused was read"]
     return "valid" if not bad else f"silent acceptance: {', '.join(bad)}"
 
 
@@ -333,7 +351,17 @@ LAYOUTS = {
     "e2vid-txt-time": ("e2vid.txt", fm.mutate_time_e2vid_text, "load"),
     "exr-sequence": ("exr", fm.mutate_folder, "exr"),
     "exr-sequence-time": ("exr", fm.mutate_time_folder, "exr"),
+    # polarity, coordinate and unit fields (fm.mutate_fields): every mutant must be refused
+    "e2vid-fields": ("e2vid.h5", fm.mutate_fields, "load"),
+    "akf-mat-fields": ("akf.mat", fm.mutate_fields, "load"),
+    "evt3-fields": ("evt3.raw", fm.mutate_fields, "load"),
+    "evt2-fields": ("evt2.raw", fm.mutate_fields, "load"),
+    "dat-fields": ("td.dat", fm.mutate_fields, "load"),
+    "aedat2-fields": ("jaer.aedat2", fm.mutate_fields, "load"),
 }
+# the streaming reader (open_event_stream, chunk by chunk) gets every mutant of the layouts it streams
+LAYOUTS.update({f"{name}-stream": (source, mutate, "stream") for name, (source, mutate, _) in list(LAYOUTS.items())
+                if name.split("-")[0] in ("evt3", "evt2", "dat", "aedat2")})
 
 
 def fuzz(originals: Path, work: Path, layout: str, n: int) -> Counter:
@@ -345,10 +373,10 @@ def fuzz(originals: Path, work: Path, layout: str, n: int) -> Counter:
         rng = np.random.default_rng([SEED, i, sum(map(ord, layout))])
         target = fm.copy_input(originals / source, work / f"{layout}_{i}{Path(source).suffix}")
         desc = mutate(target, rng)
-        if rng.random() < 0.3 and not layout.endswith("-time"):  # a second mutation on top, for combinations
+        if rng.random() < 0.3 and "-time" not in layout:  # a second mutation on top, for combinations
             # (time-order mutants carry one corruption: two can build a valid file whose last time is later)
             desc += "; " + mutate(target, rng)
-        out = run_case(target, own, reader)
+        out = run_case(target, own, reader, must_refuse="-fields" in layout)
         outcomes[out.split(":")[0]] += 1
         if out not in ("valid", "error"):
             failures.append(f"{layout} #{i} ({desc}): {out}")

@@ -24,7 +24,7 @@ from .aedat2 import SUFFIXES as AEDAT2_SUFFIXES
 from .aedat2 import is_aedat2, read_aedat2, write_aedat2
 from .aedat4 import read_aedat4, write_aedat4
 from .akfmat import read_akf_mat, write_akf_mat
-from .common import DatasetFormatError, fail, open_h5, reading, validated
+from .common import DatasetFormatError, ReaderNoteWarning, fail, open_h5, reading, validated
 from .e2vid import is_e2vid, read_e2vid, write_e2vid
 from .exr import TIMES_FILE, read_exr_recording, write_exr_sequence
 from .ijrr import e2vid_txt_problem, is_ijrr, read_e2vid_txt, read_ijrr, write_e2vid_txt, write_ijrr
@@ -45,7 +45,7 @@ HOLDS = {
 }
 
 __all__ = ["EXPORT_FORMATS", "FORMATS", "HOLDS", "DatasetFormatError", "ExportDropWarning", "NativeWriter",
-           "detect", "export", "from_tonic", "load", "to_tonic"]
+           "ReaderNoteWarning", "detect", "export", "from_tonic", "load", "to_tonic"]
 
 
 class ExportDropWarning(UserWarning):

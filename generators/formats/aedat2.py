@@ -190,27 +190,39 @@ def _keys(lines: list[str]) -> dict[str, str]:
 
 
 def _geometry(path: Path, keys: dict) -> tuple[int, int]:
-    """(height, width): evsim's "evsim_geometry WxH", else the size of the DAVIS chip named by "AEChip"."""
+    """(height, width): evsim's "evsim_geometry WxH", else the size of the DAVIS chip named by "AEChip". A chip
+    named beside the geometry key must be a DAVIS of that size (evsim writes it only then): another chip's
+    addresses (a DVS128's) would be read in the wrong layout."""
+    chip = keys.get("AEChip")
+    chip_size = None
+    if chip is not None:
+        chip_size = next(((h, w) for name, (w, h) in _CHIP_SIZES if name.lower() in chip.lower()), None)
+        if chip_size is None:
+            raise fail(path, f"AEChip {chip}: only the DAVIS address layout (Davis346, DAVIS240, Davis640, Davis128) "
+                             "is read")
     if "evsim_geometry" in keys:
         m = re.fullmatch(r"(\d+)x(\d+)", keys["evsim_geometry"])
         if not m or not (0 < int(m.group(1)) <= MAX_WIDTH and 0 < int(m.group(2)) <= MAX_HEIGHT):
             raise fail(path, f"header key evsim_geometry: expected WxH up to {MAX_WIDTH}x{MAX_HEIGHT}, got "
                              f"{keys['evsim_geometry']!r}")
-        return int(m.group(2)), int(m.group(1))
-    chip = keys.get("AEChip")
-    if chip is None:
+        size = int(m.group(2)), int(m.group(1))
+        if chip_size is not None and chip_size != size:
+            raise fail(path, f"header keys disagree: AEChip {chip} is {chip_size[1]}x{chip_size[0]}, evsim_geometry "
+                             f"says {keys['evsim_geometry']}")
+        return size
+    if chip_size is None:
         raise fail(path, "sensor size unknown: the header names no AEChip (and no evsim_geometry); the DAVIS x field "
                          "is read from the sensor's right edge, so the size is needed")
-    for name, (w, h) in _CHIP_SIZES:
-        if name.lower() in chip.lower():
-            return h, w
-    raise fail(path, f"AEChip {chip}: only the DAVIS address layout (Davis346, DAVIS240, Davis640, Davis128) is read")
+    return chip_size
 
 
 def _offset(path: Path, keys: dict) -> int:
     if "evsim_layout_version" in keys and keys["evsim_layout_version"] not in {str(v) for v in
                                                                                 range(1, LAYOUT_VERSION + 1)}:
         raise fail(path, f"header key evsim_layout_version: unknown version {keys['evsim_layout_version']!r}")
+    if keys.get("evsim_time_base", "us") != "us":
+        raise fail(path, f"header key evsim_time_base: {keys['evsim_time_base']!r}, where evsim writes and reads only "
+                         "'us' (1 us ticks)")
     text = keys.get("evsim_t_offset_us", "0")
     try:
         offset = int(text)

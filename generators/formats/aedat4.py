@@ -32,7 +32,7 @@ from .aedat4_tables import (
     stream_ids,
 )
 from .atomic import commit, discard, disk_full_error, is_disk_full, temp_sibling
-from .common import events_from_columns, fail, polarity_pm1
+from .common import events_from_columns, fail, polarity_pm1, quiet_native_output
 from .native import recording_event_chunks
 from .recording import Recording, validate_recording
 
@@ -67,20 +67,21 @@ def read_aedat4(path: str | Path) -> Recording:
         raise fail(path, "reading AEDAT4 needs the optional 'aedat' package (pip install aedat)") from e
     chunks, frames, times = [], [], []
     try:
-        decoder = aedat.Decoder(path)
-        streams = decoder.id_to_stream()
-        ev_ids = sorted(i for i, s in streams.items() if s["type"] == "events")
-        fr_ids = sorted(i for i, s in streams.items() if s["type"] == "frame")
-        if not ev_ids and not fr_ids:
-            raise fail(path, "no event or frame stream")
-        main = streams[(ev_ids or fr_ids)[0]]
-        for packet in decoder:
-            if "events" in packet and packet["stream_id"] == ev_ids[0]:
-                chunks.append(packet["events"].copy())
-            elif "frame" in packet and packet["stream_id"] == fr_ids[0]:
-                f = packet["frame"]
-                frames.append(_grey(f))
-                times.append((int(f["exposure_begin_t"]), int(f["exposure_end_t"])))
+        with quiet_native_output():  # the decoder's panic text (and RUST_BACKTRACE's backtrace) stays off the terminal
+            decoder = aedat.Decoder(path)
+            streams = decoder.id_to_stream()
+            ev_ids = sorted(i for i, s in streams.items() if s["type"] == "events")
+            fr_ids = sorted(i for i, s in streams.items() if s["type"] == "frame")
+            if not ev_ids and not fr_ids:
+                raise fail(path, "no event or frame stream")
+            main = streams[(ev_ids or fr_ids)[0]]
+            for packet in decoder:
+                if "events" in packet and packet["stream_id"] == ev_ids[0]:
+                    chunks.append(packet["events"].copy())
+                elif "frame" in packet and packet["stream_id"] == fr_ids[0]:
+                    f = packet["frame"]
+                    frames.append(_grey(f))
+                    times.append((int(f["exposure_begin_t"]), int(f["exposure_end_t"])))
     except RuntimeError as e:  # the decoder's error for truncated or corrupt files
         raise fail(path, f"unreadable AEDAT4 file (truncated or corrupt?): {e}") from e
     except BaseException as e:
@@ -90,7 +91,7 @@ def read_aedat4(path: str | Path) -> Recording:
     ev = np.concatenate(chunks) if chunks else None
     if ev is not None:
         pol = ev["on"] if "on" in ev.dtype.fields else ev["p"]
-        events = events_from_columns(path, ev["t"].astype(np.int64), ev["x"], ev["y"], polarity_pm1(pol))
+        events = events_from_columns(path, ev["t"].astype(np.int64), ev["x"], ev["y"], polarity_pm1(path, pol))
     else:
         events = events_from_columns(path, [], [], [], [])
     t = np.array(times, dtype=np.int64).reshape(-1, 2)

@@ -153,7 +153,7 @@ def _text(v) -> str:
 def read_akf_mat(path: str | Path) -> Recording:
     """Read an AKF .mat (the authors' example datasets or ours) into a Recording.
 
-    ct, f_Q and post_process go to metadata["akf_mat"]. Polarity > 0 is ON, anything else (-1 or 0) OFF.
+    ct, f_Q and post_process go to metadata["akf_mat"]. Polarity 1 is ON, 0 or -1 OFF; other values are refused.
     """
     path = Path(path)
     m = _load_mat(path)
@@ -165,7 +165,7 @@ def read_akf_mat(path: str | Path) -> Recording:
         raise fail(path, f"events must be N x 4 [t_us, x+1, y+1, p], got shape {ev.shape}")
     ev = ev.reshape(-1, 4)
     events = events_from_columns(path, np.rint(ev[:, 0]).astype(np.int64), ev[:, 1] - 1, ev[:, 2] - 1,
-                                 polarity_pm1(ev[:, 3]))
+                                 polarity_pm1(path, ev[:, 3]))
     h, w = int(np.asarray(m["im_height"]).ravel()[0]), int(np.asarray(m["im_width"]).ravel()[0])
     image = np.asarray(m["image"])
     if image.ndim == 2:

@@ -7,6 +7,7 @@ import json
 import os
 import select
 import signal
+import sys
 import time
 import warnings
 import zlib
@@ -32,6 +33,13 @@ EVENT_CHUNK = 1 << 20  # events per chunk when streaming between files (about 13
 
 class DatasetFormatError(EvsimInputError):
     """A dataset file or folder cannot be read: missing, truncated, malformed or of an unknown layout."""
+
+
+class ReaderNoteWarning(UserWarning):
+    """A file is read, but something in it deserves a look (a long silence that a corrupt time word would also
+    give). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
+
+    evsim_note = True
 
 
 def fail(path: str | Path, problem: str) -> DatasetFormatError:
@@ -265,10 +273,62 @@ def reading(path: str | Path) -> Iterator[None]:
         raise fail(path, f"malformed content ({type(e).__name__}: {e})") from e
 
 
+@contextmanager
+def quiet_native_output() -> Iterator[None]:
+    """Send what is written to file descriptors 1 and 2, and to sys.stdout and sys.stderr, while the block runs to
+    /dev/null: native libraries write there directly or through Python's streams (a Rust panic's message and, with
+    RUST_BACKTRACE, a backtrace; libpng's and OpenCV's complaints; the OpenEXR binding's "Warning: ..." printed to
+    sys.stdout), where evsim's own one-line error already says what failed. C's stdio buffers are flushed before the
+    descriptors are restored, so nothing held back reaches them later. Wrap only the library's calls: Python's own
+    writes in the block go too."""
+    import ctypes
+
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = [os.dup(fd) for fd in (1, 2)]
+    streams = sys.stdout, sys.stderr
+    try:
+        with open(os.devnull, "w") as null:
+            for fd in (1, 2):
+                os.dup2(null.fileno(), fd)
+            sys.stdout = sys.stderr = null
+            yield
+    finally:
+        sys.stdout, sys.stderr = streams
+        if os.name == "posix":  # (the C library of the process itself: CDLL(None) is POSIX only)
+            ctypes.CDLL(None).fflush(None)
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
 def validated(path: str | Path, rec: Recording) -> Recording:
     """validate_recording(rec), its errors as DatasetFormatError naming `path`; returns rec."""
     with reading(path):
         return validate_recording(rec)
+
+
+def check_event_chunk(path: str | Path, chunk: np.ndarray, height: int, width: int, t_last: int | None,
+                      labels: np.ndarray | None = None) -> int | None:
+    """Check one chunk of a streamed reader as load() checks a whole recording (validate_recording: polarity,
+    time order, coordinates inside the height x width sensor, labels), and that it does not start before the
+    previous chunk's last time `t_last`; DatasetFormatError naming `path`. Returns the new last time."""
+    if not chunk.size:
+        return t_last
+    if t_last is not None and chunk["t"][0] < t_last:
+        raise fail(path, f"events are not sorted by time across chunks: {int(chunk['t'][0])} us after {t_last} us")
+    validated(path, Recording(events=chunk, height=height, width=width, event_labels=labels))
+    return int(chunk["t"][-1])
+
+
+def checked_event_chunks(path: str | Path, chunks: Iterator[np.ndarray], height: int,
+                         width: int) -> Iterator[np.ndarray]:
+    """The chunks of a streamed reader, each passed through check_event_chunk: a stream holds what load() of the
+    same file would accept, or raises its error."""
+    t_last = None
+    for chunk in chunks:
+        t_last = check_event_chunk(path, chunk, height, width, t_last)
+        yield chunk
 
 
 def require(f: h5py.File, path: str | Path, names: list[str]) -> None:
@@ -359,13 +419,19 @@ def events_from_columns(path: str | Path, t: ArrayLike, x: ArrayLike, y: ArrayLi
         raise fail(path, str(e)) from e
 
 
-def polarity_pm1(p: ArrayLike) -> np.ndarray:
-    """Polarity as int8 -1/+1 from any of the field's encodings (bool, 0/1, -1/+1); NaN is an error."""
+def polarity_pm1(path: str | Path, p: ArrayLike) -> np.ndarray:
+    """Polarity as int8 -1/+1 from the field's encodings: bool, 0/1 or -1/+1 (0 and -1 are OFF, 1 is ON), whatever
+    the number type (1.0 is 1). Any other value (2, 0.5, NaN) is refused with DatasetFormatError naming `path` and
+    the values found: a reader never guesses what 4 or 0.5 means."""
     p = np.asarray(p)
-    if p.dtype.kind == "f" and not np.isfinite(p).all():
-        raise EvsimInputError("event polarity holds NaN or infinite values")
     if p.dtype.kind not in "biuf":
-        raise EvsimInputError(f"event polarity must be numeric or boolean, got {p.dtype}")
+        raise fail(path, f"event polarity must be numeric or boolean, got {p.dtype}")
+    if p.dtype.kind == "b" or p.size == 0:
+        return np.where(p, 1, -1).astype(np.int8)
+    if not ((p == 0) | (p == 1) | (p == -1)).all():
+        found = np.unique(p)
+        listed = ", ".join(f"{v:g}" for v in found[:6]) + (f" and {found.size - 6} more" if found.size > 6 else "")
+        raise fail(path, f"event polarity must be 0/1 or -1/+1 (0 and -1 are OFF), found values {listed}")
     return np.where(p > 0, 1, -1).astype(np.int8)
 
 

@@ -11,8 +11,9 @@ evsim extras that other readers ignore: image attrs t_start_us, t_mid_us, t_end_
 evsim_metadata and evsim_crf (JSON); group /evsim with reference/images, reference/t_us, threshold_maps and
 event_labels.
 Precision: ts are float64 seconds; times read back as rint(ts * 1e6) microseconds, exact for |t| < 2**51 us
-(about 71 years: Unix-time microseconds included). Frames are 8-bit by layout: deeper frames lose their low bits
-(frame >> (bit_depth - 8)).
+(about 71 years: Unix-time microseconds included). Integer ts (other tools' microseconds or nanoseconds) are
+refused, not read as seconds. Frames are 8-bit by layout: deeper frames lose their low bits (frame >>
+(bit_depth - 8)).
 
 References (full citations also in docs/models/references.md):
 
@@ -127,8 +128,12 @@ def read_e2vid(path: str | Path) -> Recording:
     with open_h5(path) as f:
         require(f, path, ["events/xs", "events/ys", "events/ts", "events/ps"])
         ev = f["events"]
-        t = np.rint(ev["ts"][()] * 1e6).astype(np.int64)
-        events = events_from_columns(path, t, ev["xs"][()], ev["ys"][()], polarity_pm1(ev["ps"][()]))
+        ts = ev["ts"][()]
+        if ts.dtype.kind in "iu":  # 2e5 would be 55 hours: tools that store integers mean us or ns, never seconds
+            raise fail(path, f"events/ts holds integers ({ts.dtype}), where the E2VID layout stores float seconds: "
+                             "the unit is not guessed; store seconds as float (ts / 1e6 for microseconds)")
+        t = np.rint(ts * 1e6).astype(np.int64)
+        events = events_from_columns(path, t, ev["xs"][()], ev["ys"][()], polarity_pm1(path, ev["ps"][()]))
         names = sorted(f["images"].keys()) if "images" in f else []
         frames = np.stack([f["images"][k][()] for k in names]) if names else None
         if "sensor_resolution" in f.attrs:

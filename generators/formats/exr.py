@@ -8,6 +8,7 @@ Half floats keep about 3 significant digits (relative error <= 2**-11) and satur
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,7 +17,7 @@ import numpy as np
 from sim import EVENT_DTYPE, EvsimInputError
 
 from .atomic import atomic_path
-from .common import fail
+from .common import fail, quiet_native_output
 from .recording import MAX_TIME_US, Recording
 
 TIMES_FILE = "timestamps.txt"
@@ -53,7 +54,8 @@ def read_exr(path: str | Path) -> np.ndarray:
     import OpenEXR
 
     try:
-        channels = OpenEXR.File(str(path), separate_channels=True).channels()
+        with quiet_native_output():  # OpenEXR's own "Warning: ..." (on stdout) on a corrupt file
+            channels = OpenEXR.File(str(path), separate_channels=True).channels()
     except Exception as e:  # the binding raises plain RuntimeError/Exception for every decoding failure
         raise fail(path, f"not a readable OpenEXR file: {e}") from e
     name = "Y" if "Y" in channels else (next(iter(channels)) if len(channels) == 1 else None)
@@ -95,7 +97,7 @@ def read_exr_sequence(directory: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if not line.strip() or line.startswith("#"):
             continue
         parts = line.split()
-        if len(parts) != 2 or not parts[0].lstrip("-").isdigit():
+        if len(parts) != 2 or not re.fullmatch(r"-?[0-9]+", parts[0]):  # (not isdigit: "--5", "²" pass it)
             raise fail(times, f"line {n}: expected 't_us file_name', got {line!r}")
         ti = int(parts[0])
         if abs(ti) > MAX_TIME_US:

@@ -45,7 +45,14 @@ import numpy as np
 from sim import EvsimInputError
 
 from .atomic import atomic_path
-from .common import DatasetFormatError, events_from_columns, fail, polarity_pm1, to_json
+from .common import (
+    DatasetFormatError,
+    events_from_columns,
+    fail,
+    polarity_pm1,
+    quiet_native_output,
+    to_json,
+)
 from .exr import read_exr_sequence, write_exr_sequence
 from .native import recording_event_chunks
 from .recording import Recording, validate_recording
@@ -144,10 +151,8 @@ def read_ijrr(directory: str | Path) -> Recording:
         except ValueError as e:
             raise fail(d / "evsim.json", f"invalid JSON: {e}") from e
     ev = _load_table(d / "events.txt", 4)
-    if ev.size and not np.isin(ev[:, 3], (0, 1, -1)).all():
-        raise fail(d / "events.txt", "polarity column must hold 0/1 (or -1/+1)")
     events = events_from_columns(d / "events.txt", _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2],
-                                 polarity_pm1(ev[:, 3]))
+                                 polarity_pm1(d / "events.txt", ev[:, 3]))
     del ev
     frames, t_start, t_mid, t_end, depth = _read_frames(d)
     if "height" in info and "width" in info:
@@ -205,7 +210,8 @@ def _read_frames(d: Path):
     for _, name in rows:
         if not (d / name).is_file():  # said here: OpenCV would print its own warning first
             raise fail(d / name, f"missing or unreadable image: no such file (listed in {path.name})")
-        img = cv2.imread(str(d / name), cv2.IMREAD_UNCHANGED)
+        with quiet_native_output():  # libpng's and OpenCV's messages on a corrupt image: evsim's error says it
+            img = cv2.imread(str(d / name), cv2.IMREAD_UNCHANGED)
         if img is None:
             raise fail(d / name, "missing or unreadable image")
         images.append(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img)
@@ -319,10 +325,8 @@ def read_e2vid_txt(path: str | Path) -> Recording:
     except ValueError as e:
         raise fail(path, f"malformed line: {e}") from e
     ev = ev.reshape(-1, 4) if ev.size else np.zeros((0, 4))
-    if ev.size and not np.isin(ev[:, 3], (0, 1, -1)).all():
-        raise fail(path, "polarity column must hold 0/1 (or -1/+1)")
     width, height = int(header[0]), int(header[1])
-    events = events_from_columns(path, _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2], polarity_pm1(ev[:, 3]))
+    events = events_from_columns(path, _seconds_to_us(ev[:, 0]), ev[:, 1], ev[:, 2], polarity_pm1(path, ev[:, 3]))
     if events.size and (events["x"].max() >= width or events["y"].max() >= height):
         raise fail(path, f"event coordinates exceed the header's sensor size {width}x{height}")
     rec = Recording(events=events, height=height, width=width,

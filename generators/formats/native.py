@@ -48,6 +48,7 @@ from .common import (
     H5Output,
     add_offset,
     append_rows,
+    check_event_chunk,
     event_chunks,
     events_from_columns,
     fail,
@@ -418,10 +419,7 @@ def iter_native_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[tu
                 cols[3] = _decode_polarity(path, cols[3], version)
                 labels = ev["label"][i : i + size] if "label" in ev else None
                 chunk = events_from_columns(path, *cols)
-                if t_last is not None and chunk.size and chunk["t"][0] < t_last:
-                    raise fail(path, f"events are not sorted by time across chunks (at event {i})")
-                t_last = int(chunk["t"][-1]) if chunk.size else t_last
-                validated(path, Recording(events=chunk, height=h, width=w, event_labels=labels))
+            t_last = check_event_chunk(path, chunk, h, w, t_last, labels)
             yield chunk, labels
 
 
@@ -455,17 +453,22 @@ def iter_native_columns(path: str | Path, names: tuple[str, ...] = ("t", "p"),
                         size: int = EVENT_CHUNK) -> Iterator[dict[str, np.ndarray]]:
     """Stream some event columns of a native file in chunks, {name: array}: t absolute int64 microseconds, x and
     y uint16, p int8 -1/+1, label uint8. Lighter than iter_native_events (which builds and checks whole events)
-    for a pass that needs a few columns, e.g. an event rate from t and p; times are checked to be sorted."""
+    for a pass that needs a few columns, e.g. an event rate from t and p; times are checked to be sorted, x and y
+    to be inside the sensor."""
     with open_h5(path) as f:
         with reading(path):
             _require_complete(f, path)
             require(f, path, [f"events/{n}" for n in names])
             ev, offset, version = f["events"], _t_offset(f), _layout_version(f)
-            n = ev["t"].shape[0]
+            n, (h, w) = ev["t"].shape[0], _resolution(f, path)
         t_last = None
         for i in range(0, n, size):
             with reading(path):
                 chunk = {name: ev[name][i : i + size] for name in names}
+                for name, side in (("x", w), ("y", h)):
+                    if name in chunk and chunk[name].size and int(chunk[name].max()) >= side:
+                        raise fail(path, f"event coordinates outside the {w}x{h} sensor (max {name} "
+                                         f"{int(chunk[name].max())}, in events {i}..{i + chunk[name].size})")
                 if "t" in chunk:
                     t = chunk["t"] = add_offset(path, chunk["t"], offset)
                     if t.size and ((t_last is not None and t[0] < t_last) or np.any(np.diff(t) < 0)):

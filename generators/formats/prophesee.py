@@ -12,13 +12,15 @@ Layouts (little-endian):
           "% format EVT3;height=H;width=W", "% geometry WxH", evsim's keys. The data starts with a TIME_HIGH 0
           word so that no decoder mistakes a first data byte 0x25 ('%') for more header.
     EVT 3.0: 16-bit words, see prophesee_kernels.py. The 24-bit time wraps every 16.8 s; TIME_HIGH words make
-          every wrap visible, so streams of any length are exact.
+          every wrap visible, so streams of any length are exact. Words of the undefined types (0x1, 0x9, 0xB..0xD)
+          are refused.
     EVT 2.0: 32-bit words, type in bits 31..28: 0x0 CD_OFF / 0x1 CD_ON with bits 27..22 time bits 5..0,
           21..11 x, 10..0 y; 0x8 TIME_HIGH with bits 27..0 = time bits 33..6 (2**34 us, about 4.8 h, per file).
-          Other types (0xA trigger, 0xE, 0xF) are skipped.
+          Types 0xA (trigger), 0xE and 0xF are skipped; the undefined types (0x2..0x7, 0x9, 0xB..0xD) are refused.
     .dat: as Prophesee's DAT spec (docs.prophesee.ai, "DAT File Format"): "% " header lines "% Data file
           containing CD events", Date, Version 2, Width, Height (then evsim's keys), then two bytes, event type 0x0C
-          (EventCD) and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28).
+          (EventCD) and size 8, then 8-byte events: uint32 t, uint32 x (bits 13..0) | y (27..14) | p (31..28: 0 or 1,
+          anything else refused).
           32-bit times (2**32 us, about 71 min, per file). The Date is fixed (1970-01-01 00:00:00), so one recording
           always gives the same bytes. The reader also takes event type 0 (Event2d: the same 8-byte layout) and
           any first header line.
@@ -26,6 +28,7 @@ Layouts (little-endian):
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -33,7 +36,7 @@ import numpy as np
 
 from sim import EvsimInputError
 
-from .common import EVENT_CHUNK, events_from_columns, fail
+from .common import EVENT_CHUNK, ReaderNoteWarning, events_from_columns, fail, polarity_pm1
 from .event_file_writer import EventFileWriter
 from .native import recording_event_chunks
 from .recording import MAX_TIME_US, Recording, validate_recording
@@ -86,7 +89,7 @@ class PropheseeWriter(EventFileWriter):
     def _header(self) -> str:
         h, w = self.height, self.width
         evsim = [f"% evsim_layout_version {LAYOUT_VERSION}", f"% evsim_t_offset_us {self._offset}",
-                 "% evsim_time_base us", "% evsim_polarity 1=ON 0=OFF",
+                 *(f"% {k} {v}" for k, v in EVSIM_KEYS.items()),
                  "% evsim_holds events, sensor size (no frames, reference, labels, thresholds, CRF, metadata)"]
         if self.fmt == "dat":
             # a fixed Date (not the time of writing): the same file for the same recording, checkable by SHA-256
@@ -211,6 +214,10 @@ def _raw_kind(keys: dict) -> str | None:
     return None
 
 
+#: the header keys evsim writes whose value it reads back as written (checked by the readers)
+EVSIM_KEYS = {"evsim_time_base": "us", "evsim_polarity": "1=ON 0=OFF"}
+
+
 def _header_int(path: Path, keys: dict, key: str, lo: int, hi: int, value: str | None = None) -> int:
     """The integer header value of `key` (or `value`, taken from it), checked to be in lo..hi."""
     text = keys[key] if value is None else value
@@ -240,9 +247,13 @@ def _geometry(path: Path, keys: dict) -> tuple[int | None, int | None]:
 
 
 def _header_offset(path: Path, keys: dict) -> int:
-    """The evsim header keys the readers rely on: the time offset (0 when absent) and a known layout version."""
+    """The evsim header keys the readers rely on: the time offset (0 when absent), a known layout version and the
+    EVSIM_KEYS as evsim writes them."""
     if "evsim_layout_version" in keys:
         _header_int(path, keys, "evsim_layout_version", 1, LAYOUT_VERSION)
+    for key, value in EVSIM_KEYS.items():  # what evsim writes is read back: another unit or encoding is refused
+        if keys.get(key, value) != value:
+            raise fail(path, f"header key {key}: {keys[key]!r}, where evsim writes and reads only {value!r}")
     if "evsim_t_offset_us" not in keys:
         return 0
     return _header_int(path, keys, "evsim_t_offset_us", -MAX_TIME_US, MAX_TIME_US)
@@ -273,10 +284,34 @@ def iter_prophesee_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator
             if head[1] != 8:
                 raise fail(path, f".dat events of {head[1]} bytes: only 8-byte CD events are read")
             yield from _dat_chunks(path, f, offset, size)
-        elif kind == "evt2":
-            yield from _evt2_chunks(path, f, offset, size)
         else:
-            yield from _evt3_chunks(path, f, offset, size)
+            yield from _noting_silence(path, (_evt2_chunks if kind == "evt2" else _evt3_chunks)(path, f, offset, size))
+
+
+#: a silence between two events longer than this (us) in an EVT 2.0 / 3.0 stream is read with a note
+SILENCE_NOTE_US = 10_000_000
+
+
+def _noting_silence(path: Path, chunks: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+    """The chunks, with a ReaderNoteWarning (once per file) at the first silence between two events longer than
+    SILENCE_NOTE_US: in EVT 2.0 / 3.0 one TIME_HIGH word sets the time of every later event, so a corrupt one
+    moves the rest of the stream ahead, exactly as a real pause in the recording would; the file is read as it
+    says, and the user told where to look."""
+    last = None
+    for chunk in chunks:
+        t = chunk["t"] if last is None else np.concatenate(([last], chunk["t"]))
+        if t.size >= 2:
+            gaps = np.diff(t)
+            i = int(np.argmax(gaps))
+            if gaps[i] > SILENCE_NOTE_US:
+                warnings.warn(f"{path}: no events for {gaps[i] / 1e6:.4g} s before the one at {int(t[i + 1])} us: "
+                              "read as a pause in the recording (a corrupt TIME_HIGH word would give the same; "
+                              "`evsim info` shows the span)", ReaderNoteWarning, stacklevel=2)
+                yield chunk
+                yield from chunks
+                return
+        last = int(t[-1]) if t.size else last
+        yield chunk
 
 
 def _words(path, f, dtype, count):
@@ -337,8 +372,11 @@ def _dat_chunks(path, f, offset, size):
         t += (ovf + wraps) << 32
         ovf += n_wraps
         xyp = d["xyp"]
-        yield events_from_columns(path, t + offset, xyp & 0x3FFF, (xyp >> 14) & 0x3FFF,
-                                  np.where((xyp >> 28) & 1, 1, -1).astype(np.int8))
+        yield events_from_columns(path, t + offset, xyp & 0x3FFF, (xyp >> 14) & 0x3FFF, polarity_pm1(path, xyp >> 28))
+
+
+#: the EVT 2.0 word types: CD_OFF, CD_ON, TIME_HIGH, EXT_TRIGGER, OTHERS, CONTINUED (any other is a corrupt word)
+_EVT2_TYPES = np.array([0x0, 0x1, 0x8, 0xA, 0xE, 0xF])
 
 
 def _evt2_chunks(path, f, offset, size):
@@ -349,6 +387,11 @@ def _evt2_chunks(path, f, offset, size):
         if w.size == 0:
             return
         typ = w >> 28
+        odd = np.flatnonzero(~np.isin(typ, _EVT2_TYPES))
+        if odd.size:
+            i = int(odd[0])
+            raise fail(path, f"EVT 2.0 word of undefined type {int(typ[i]):#x} at byte {pos + 4 * i} (CD events are "
+                             "type 0 OFF or 1 ON): a corrupt file")
         is_th = typ == 0x8
         th_at = np.flatnonzero(is_th)
         th_full = np.zeros(w.size, np.int64)
@@ -370,6 +413,11 @@ def _evt2_chunks(path, f, offset, size):
                                   np.where(typ[cd] == 1, 1, -1).astype(np.int8))
 
 
+#: the EVT 3.0 word types (prophesee_kernels): ADDR_Y, ADDR_X, VECT_BASE_X, VECT_12, VECT_8, TIME_LOW, CONTINUED_4,
+#: TIME_HIGH, EXT_TRIGGER, OTHERS, CONTINUED_12 (0x1, 0x9, 0xB..0xD are undefined: a corrupt word)
+_EVT3_TYPES = np.array([0x0, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x8, 0xA, 0xE, 0xF])
+
+
 def _evt3_chunks(path, f, offset, size):
     from .prophesee_kernels import STATE_SIZE, decode_evt3  # (numba: on first use)
 
@@ -382,6 +430,10 @@ def _evt3_chunks(path, f, offset, size):
         if w.size == 0:
             return
         typ = w >> 12
+        odd = np.flatnonzero(~np.isin(typ, _EVT3_TYPES))
+        if odd.size:
+            i = int(odd[0])
+            raise fail(path, f"EVT 3.0 word of undefined type {int(typ[i]):#x} at byte {pos + 2 * i}: a corrupt file")
         n_max = int(np.count_nonzero(typ == 0x2) + _POPCOUNT[w[typ == 0x4] & 0xFFF].sum() +
                     _POPCOUNT[w[typ == 0x5] & 0xFF].sum())
         t, x, y, p = np.empty(n_max, np.int64), np.empty(n_max, np.uint16), np.empty(n_max, np.uint16), \
@@ -414,8 +466,6 @@ def read_prophesee(path: str | Path) -> Recording:
         if not events.size:
             raise fail(path, "sensor size unknown: no geometry in the header and no events")
         h, w = int(events["y"].max()) + 1, int(events["x"].max()) + 1
-    if events.size and (events["x"].max() >= w or events["y"].max() >= h):
-        raise fail(path, f"event coordinates exceed the header's sensor size {w}x{h}")
     rec = Recording(events=events, height=h, width=w,
                     metadata={"source": {"format": prophesee_kind(path), "path": str(path),
                                          "header": keys}})

@@ -3,7 +3,9 @@
 open_event_stream(path) reads native HDF5, Prophesee EVT 3.0 / EVT 2.0 .raw and .dat, and AEDAT 2.0 files a chunk
 at a time (memory does not grow with the stream); the other layouts are loaded whole (load()) and then cut into
 chunks. EventStream.of_array wraps events already in memory. Plots (`evsim plot events`), the DVS video writer
-and any other pass over a file's events read them through EventStream.
+and any other pass over a file's events read them through EventStream. Every chunk of a file read a chunk at a
+time is checked as load() checks the whole file (common.check_event_chunk): a stream never yields an event that
+load() would refuse.
 
 A native file is read as little as the pass needs: chunks(columns) reads only the named columns (e.g. t and p
 for an event rate), window(t0, t1) only the milliseconds of its ms_to_idx index that overlap the window, and the
@@ -19,7 +21,7 @@ import numpy as np
 
 from .aedat2 import iter_aedat2_events
 from .aedat2 import sensor_size as aedat2_sensor_size
-from .common import EVENT_CHUNK, event_chunks, open_h5, reading
+from .common import EVENT_CHUNK, checked_event_chunks, event_chunks, open_h5, reading
 from .native import (
     _t_offset,
     iter_native_columns,
@@ -133,9 +135,10 @@ def open_event_stream(path: str | Path, size: int = EVENT_CHUNK) -> EventStream:
             keys, _ = _read_header(path, f)
         h, w = _prophesee_geometry(path, keys)
         if h is not None:
-            return EventStream(h, w, lambda columns: iter_prophesee_events(path, size))
+            return EventStream(h, w, lambda columns: checked_event_chunks(path, iter_prophesee_events(path, size), h,
+                                                                          w))
     if kind == "aedat2":
         h, w = aedat2_sensor_size(path)
-        return EventStream(h, w, lambda columns: iter_aedat2_events(path, size))
+        return EventStream(h, w, lambda columns: checked_event_chunks(path, iter_aedat2_events(path, size), h, w))
     rec = load(path)
     return EventStream.of_array(rec.events, rec.height, rec.width, size)

@@ -18,7 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from sim import EvsimInputError, InvalidParameterError
+from sim import EvsimInputError, InvalidParameterError, OptionError
 from sim.errors import check_int
 
 from .base import Scene, level, number, numbers, positive
@@ -32,6 +32,12 @@ _SHAKE_WEIGHTS = np.array([1.0, 0.5, 0.25])
 # Prefiltered rendering under zoom: box filters for footprints 2**(1/48) (1.5 %) apart, the nearest one used (the
 # image then changes by a small fraction of a DVS threshold when the level changes).
 _LEVELS_PER_OCTAVE = 48
+#: the largest zoom in over a sequence, as a log magnification (e^50, about 5e21 x: far past any use, far inside
+#: float64's range; the maths fails near e^700). Zooming out is bounded by the image: see ImageMotionScene.
+MAX_LOG_ZOOM_IN = 50.0
+#: the farthest the view may travel over a sequence (pan) or swing (shake amplitude), in output pixels: 1e8 was
+#: measured to render, 1e11 does not (OpenCV's warp coordinates)
+MAX_TRAVEL_PX = 1e7
 
 
 @dataclass(frozen=True)
@@ -254,6 +260,7 @@ class ImageMotionScene(Scene):
         if trajectory is not None and not isinstance(trajectory, Trajectory):
             raise InvalidParameterError(f"ImageMotionScene: trajectory must be a Trajectory, got "
                                         f"{type(trajectory).__name__}")
+        self._check_motion(max(sh, sw) / scale)
         self.scale = scale
         self.supersample = int(supersample) if scale > 1 else 1
         self.prefilter = bool(prefilter)
@@ -280,6 +287,30 @@ class ImageMotionScene(Scene):
             self._to_work = np.array([[rx, 0, (rx - 1) / 2], [0, ry, (ry - 1) / 2], [0, 0, 1]])
             self._footprint0 = scale * math.sqrt(rx * ry)
         self._filtered = {}  # box-filtered working sources by footprint level (see _render_prefiltered)
+
+    def _check_motion(self, fit_px: float) -> None:
+        """sim.OptionError naming the parameter (as a keyword, and as the flag of `evsim generate ahdr --image`)
+        and the range that works when the trajectory leaves what can be rendered over the duration: a zoom in past
+        e^MAX_LOG_ZOOM_IN, a zoom out past the point where the whole image lies within one output pixel (2 x fit_px,
+        the image's larger side in output pixels at t=0: the box prefilter would then grow without end), a pan
+        travel or a shake amplitude over MAX_TRAVEL_PX."""
+        tr, seconds = self.trajectory, self.duration_us * 1e-6
+        log_zoom = tr.zoom_per_s * seconds
+        out_limit = math.log(max(2 * fit_px, 1.0))
+        if log_zoom > MAX_LOG_ZOOM_IN or -log_zoom > out_limit:
+            why = (f"over {seconds:g} s magnifies by e^{log_zoom:.4g}: zooming in works up to e^{MAX_LOG_ZOOM_IN:g}"
+                   f" and out, for this image and size, up to e^-{out_limit:.3g} (beyond, the whole image lies "
+                   f"within one pixel), so it must be in {-out_limit / seconds:.4g}..{MAX_LOG_ZOOM_IN / seconds:.4g}"
+                   " per second")
+            raise OptionError(f"ImageMotionScene: trajectory zoom_per_s {tr.zoom_per_s:g} {why}",
+                              f"--zoom {tr.zoom_per_s:g} (trajectory.zoom_per_s) {why}")
+        travel = math.hypot(*tr.pan_px_per_s) * seconds
+        if travel > MAX_TRAVEL_PX or tr.shake_px > MAX_TRAVEL_PX:
+            why = (f"over {seconds:g} s the view travels {travel:.3g} output pixels, with a shake of "
+                   f"{tr.shake_px:g} pixels: each must be at most {MAX_TRAVEL_PX:g} pixels")
+            raise OptionError(f"ImageMotionScene: trajectory pan_px_per_s {list(tr.pan_px_per_s)} and shake_px: {why}",
+                              f"--pan {' '.join(f'{v:g}' for v in tr.pan_px_per_s)} and --shake-px "
+                              f"(trajectory.pan_px_per_s, shake_px): {why}")
 
     @classmethod
     def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
