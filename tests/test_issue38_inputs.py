@@ -356,3 +356,31 @@ def test_evt3_word_of_an_undefined_type_is_refused(tmp_path):
     path.write_bytes(bytes(data))
     with pytest.raises(DatasetFormatError, match=r"e\.raw: EVT 3\.0 word of undefined type 0x9 at byte \d+"):
         load(path)
+
+
+@pytest.mark.parametrize("suffix", [".png", ".exr"])
+def test_a_corrupt_scene_image_prints_only_evsims_line(tmp_path, capfd, suffix):
+    """generate ahdr --image of a corrupt PNG (libpng's complaints) or EXR (OpenEXR's warnings on stdout): only
+    evsim's own line, exit 2."""
+    import cv2
+
+    from evsim_app.cli import main
+    from generators.formats.exr import write_exr_sequence
+
+    image = tmp_path / f"photo{suffix}"
+    if suffix == ".png":
+        cv2.imwrite(str(image), (np.arange(64 * 48) % 251).reshape(48, 64).astype(np.uint8))
+        data = bytearray(image.read_bytes())
+        at = data.index(b"IDAT") + 8
+        data[at: at + 8] = b"\xff" * 8
+    else:
+        write_exr_sequence(tmp_path / "seq", np.ones((1, 48, 64), np.float32), np.array([0]))
+        data = bytearray((tmp_path / "seq" / "frame_000000.exr").read_bytes())
+        data[-7] ^= 0xFF
+    image.write_bytes(bytes(data))
+    capfd.readouterr()
+    code = main(["generate", "ahdr", "--image", str(image), "--duration-s", "0.1", "--out", str(tmp_path / "o"),
+                 "--no-progress"])
+    out, err = capfd.readouterr()
+    assert code == 2 and err.startswith("evsim: error: ") and err.count("\n") == 1, (code, out, err)
+    assert str(image) in err and "Warning" not in out and "libpng" not in out + err

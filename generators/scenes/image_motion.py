@@ -21,6 +21,7 @@ import numpy as np
 from sim import EvsimInputError, InvalidParameterError, OptionError
 from sim.errors import check_int
 
+from ..formats.common import quiet_native_output
 from .base import Scene, level, number, numbers, positive
 from .luminance import to_luminance
 
@@ -130,7 +131,8 @@ def load_image(path: str | Path, *, channel: str | int | None = None, crf: str |
     if suffix == ".exr":
         img = _read_exr(path)
     elif suffix in (".hdr", ".pic"):
-        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        with quiet_native_output():  # OpenCV's own complaints about a corrupt file: evsim's line says it
+            img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if img is None:
             raise EvsimInputError(f"cannot read Radiance image {path}")
         img = img[..., ::-1] if img.ndim == 3 else img
@@ -140,7 +142,8 @@ def load_image(path: str | Path, *, channel: str | int | None = None, crf: str |
         except (ValueError, OSError, EOFError) as e:  # not .npy, truncated, or an object array (pickles refused)
             raise EvsimInputError(f"cannot read {path} as a numpy array: {e}") from None
     else:
-        raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        with quiet_native_output():
+            raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if raw is None:
             raise EvsimInputError(f"cannot read image {path} (supported: .exr, .hdr, .npy and OpenCV's LDR formats)")
         if raw.ndim == 3:
@@ -156,16 +159,17 @@ def _read_exr(path: Path) -> np.ndarray:
     import OpenEXR
 
     try:
-        channels = OpenEXR.File(str(path)).channels()
+        with quiet_native_output():  # the binding prints its decoder's warnings (on stdout)
+            channels = OpenEXR.File(str(path)).channels()
+            for key in ("RGB", "RGBA"):
+                if key in channels:
+                    return np.asarray(channels[key].pixels)[..., :3]
+            if all(k in channels for k in "RGB"):
+                return np.stack([np.asarray(channels[k].pixels) for k in "RGB"], axis=-1)
+            if "Y" in channels:
+                return np.asarray(channels["Y"].pixels)
     except Exception as e:  # the OpenEXR binding raises plain exceptions for unreadable files
         raise EvsimInputError(f"cannot read OpenEXR file {path}: {e}") from None
-    for key in ("RGB", "RGBA"):
-        if key in channels:
-            return np.asarray(channels[key].pixels)[..., :3]
-    if all(k in channels for k in "RGB"):
-        return np.stack([np.asarray(channels[k].pixels) for k in "RGB"], axis=-1)
-    if "Y" in channels:
-        return np.asarray(channels["Y"].pixels)
     raise EvsimInputError(f"OpenEXR file {path} has no RGB, RGBA or Y channels (has {sorted(channels)})")
 
 
