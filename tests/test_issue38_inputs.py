@@ -384,3 +384,24 @@ def test_a_corrupt_scene_image_prints_only_evsims_line(tmp_path, capfd, suffix):
     out, err = capfd.readouterr()
     assert code == 2 and err.startswith("evsim: error: ") and err.count("\n") == 1, (code, out, err)
     assert str(image) in err and "Warning" not in out and "libpng" not in out + err
+
+
+def test_a_truncated_video_prints_only_evsims_line(tmp_path, capfd):
+    """convert of an MP4 cut after 100 bytes: FFmpeg's "moov atom not found" stays off stderr, evsim's line says it
+    (exit 2)."""
+    import cv2
+
+    from evsim_app.cli import main
+
+    whole = tmp_path / "whole.mp4"
+    writer = cv2.VideoWriter(str(whole), cv2.VideoWriter_fourcc(*"mp4v"), 25, (64, 48))
+    for k in range(5):
+        writer.write(np.full((48, 64, 3), 40 * k, np.uint8))
+    writer.release()
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes(whole.read_bytes()[:100])
+    capfd.readouterr()
+    code = main(["convert", str(cut), "--out", str(tmp_path / "o"), "--no-progress"])
+    out, err = capfd.readouterr()
+    assert code == 2 and err.startswith(f"evsim: error: {cut}: cannot open as a video") and err.count("\n") == 1, \
+        (code, out, err)

@@ -65,7 +65,7 @@ from sim import EvsimInputError, InvalidParameterError, OptionError
 from sim.errors import check_int
 
 from ..choices import UPSAMPLE_MODES
-from ..formats.common import DatasetFormatError, fail
+from ..formats.common import DatasetFormatError, fail, quiet_native_output
 from .base import Scene, positive
 from .capture_rate import capture_fps
 from .conditioning import ConditioningParams, InputConditioner, condition_linear
@@ -216,7 +216,8 @@ class _VideoFile(_Frames):
         return use, source
 
     def _open(self):
-        cap = cv2.VideoCapture(str(self.path))
+        with quiet_native_output():  # FFmpeg's own complaints ("moov atom not found"): evsim's line says it
+            cap = cv2.VideoCapture(str(self.path))
         if not cap.isOpened():
             raise fail(self.path, "cannot open as a video (OpenCV VideoCapture: unknown container or codec, or "
                                   "not a video)")
@@ -384,7 +385,8 @@ def input_size(path: str | Path) -> tuple[int, int]:
         return _image_size(frames[0])
     if path.suffix.lower() == ".npy":
         return _NpyStack.shape(path)[1:3]
-    cap = cv2.VideoCapture(str(path))
+    with quiet_native_output():
+        cap = cv2.VideoCapture(str(path))
     try:
         opened = cap.isOpened()
         size = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
