@@ -290,7 +290,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     not a constant: their thresholds are flat-fielded from the event counts (params.flat_field; akf.flat_field),
     the one-sided rule keeps them on their side of the clip level, and the clip prior and the output smoothing
     average their speckle. On the AHDR pan of the real HDR photo Desk (davis346 sensor) the largest output is
-    5.4 x the truth's largest (2e9 x with the nominal thresholds).
+    5.2 x the truth's largest (2e9 x with the nominal thresholds).
 
     Returns float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative)
     in the CRF's scaled-irradiance units (of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k),

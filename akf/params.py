@@ -112,8 +112,8 @@ class AKFParams:
     AHDR window CRF squared, and max_variance = 1e4 sigma_im2 (the paper: clipped responses get a large variance
     "so the filter trusts events there"). Where the state is consistent with two clipped frames it is not pulled
     at all (a clipped response says only that the truth is beyond the clip level), so events carry the clipped
-    regions; the drift of event noise there is bounded by the output bound (reconstruct's max_intensity, the full
-    well) above and by the strong one-sided pull at the clip level. max_variance is the best of 100, 3e3, 1e4 and
+    regions; the drift of event noise there is held by the flat-fielded thresholds (flat_field) and the clip prior
+    above, and by the strong one-sided pull at the clip level. max_variance is the best of 100, 3e3, 1e4 and
     1e5 times sigma_im2 on the built-in AHDR suite with the tuning protocol (evsim_eval; measured while the
     possible side was still pulled with the saturated variance).
     """
