@@ -31,7 +31,7 @@ from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
 from .params import AKFParams
-from .smoothing import EDGE_RANGE, smooth_uncertain
+from .smoothing import EDGE_RANGE, LARGEST, smooth_uncertain
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -290,7 +290,8 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     not a constant: their thresholds are flat-fielded from the event counts (params.flat_field; akf.flat_field),
     the one-sided rule keeps them on their side of the clip level, and the clip prior and the output smoothing
     average their speckle. On the AHDR pan of the real HDR photo Desk (davis346 sensor) the largest output is
-    5.2 x the truth's largest (2e9 x with the nominal thresholds).
+    5.2 x the truth's largest (2e9 x with the nominal thresholds). An estimate run out of float32's range (events
+    integrated with a far too large threshold) is published as akf.smoothing.LARGEST, a finite number.
 
     Returns float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative)
     in the CRF's scaled-irradiance units (of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k),
@@ -337,7 +338,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
     out_k = np.zeros((nt, h, w), np.float32) if return_gain else None
     run_filter(inp, crf, params, leak_rate_hz, out_i, out_p, out_k, finish_image(params, inp.shape))
-    np.clip(out_i, 0.0, np.inf if max_intensity is None else max_intensity, out=out_i)
+    np.clip(out_i, 0.0, LARGEST if max_intensity is None else max_intensity, out=out_i)  # NaN-free and finite
     result = [out_i] + ([out_p] if return_variance else []) + ([out_k] if return_gain else [])
     return result[0] if len(result) == 1 else tuple(result)
 

@@ -43,6 +43,7 @@ from .filter import Masks, check_filter_options, prepared_inputs, run_filter, sm
 from .frame_noise import frame_read_noise
 from .inputs import Inputs, as_crf
 from .params import AKFParams
+from .smoothing import LARGEST
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -161,8 +162,19 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
                                                           masks.floor[j], masks.low[j], masks.high[j], None),
                          params, (h, w))
     out = intensity.reshape(nt, h, w)
-    np.clip(out, 0.0, np.inf if max_intensity is None else max_intensity, out=out)
+    np.clip(out, 0.0, LARGEST if max_intensity is None else max_intensity, out=out)
     return (out, variance.reshape(nt, h, w)) if return_variance else out
+
+
+def _log(intensity: np.ndarray, i0: float) -> np.ndarray:
+    """log(I + i0) in float64, finite: an estimate run out of float32 range (events integrated with a far too
+    large threshold) counts as LARGEST."""
+    return np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, LARGEST))
+
+
+def _intensity(log: np.ndarray, i0: float) -> np.ndarray:
+    """exp(log) - i0 as float32, at most LARGEST."""
+    return np.minimum(np.exp(log) - i0, LARGEST).astype(np.float32)
 
 
 def _with_clip_prior(intensity: np.ndarray, side: np.ndarray, measured: np.ndarray, i0: float
@@ -172,7 +184,7 @@ def _with_clip_prior(intensity: np.ndarray, side: np.ndarray, measured: np.ndarr
     filled = intensity.copy()
     for j in range(filled.shape[0]):
         fill_unmeasured(filled[j], i0, side[j].astype(np.float64), measured[j])
-    return np.log(filled.astype(np.float64) + i0), (filled != intensity) & ~measured
+    return _log(filled, i0), (filled != intensity) & ~measured
 
 
 def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params: AKFParams, log_gain: float) -> None:
@@ -193,8 +205,8 @@ def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params:
         wf, wb = np.where(known, 1.0 / pf, 1.0), np.where(known, 1.0 / pb, 0.0)  # a bound on both sides: forward's
         fused_l = (lf * wf + lb * wb) / (wf + wb)
         fused_p = np.where(known, 1.0 / (wf + wb), fwd.variance[sel])
-    intensity[sel] = (np.exp(fused_l) - i0).astype(np.float32)
-    variance[sel] = fused_p.astype(np.float32)
+    intensity[sel] = _intensity(fused_l, i0)
+    variance[sel] = np.minimum(fused_p, LARGEST).astype(np.float32)
     masks.measured[sel] = mf | mb
     masks.side[sel] = np.where(fwd.side[sel] == rev["side"], fwd.side[sel], 0)
     measured_now = np.isinf(fwd.floor[sel]) | np.isinf(rev["floor"])
@@ -212,14 +224,13 @@ def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
         for j in range(nt):
             fill_unmeasured(intensity[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
         if unknown.any():
-            bounded = np.clip(np.log(intensity.astype(np.float64) + i0), masks.low, masks.high)
-            intensity[:] = (np.exp(bounded) - i0).astype(np.float32)
+            intensity[:] = _intensity(np.clip(_log(intensity, i0), masks.low, masks.high), i0)
         return
-    log = np.log(intensity.astype(np.float64) + i0)
+    log = _log(intensity, i0)
     filled = intensity.copy()
     for j in range(nt):
         fill_unmeasured(filled[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
-    prior = (np.log(filled.astype(np.float64) + i0) - log).mean(axis=0)
+    prior = (_log(filled, i0) - log).mean(axis=0)
     # the offsets that keep each pixel on its side of the clip bound at every time (low / high: log bounds)
     lowest = np.max(np.where(np.isfinite(masks.low), masks.low - log, -np.inf), axis=0)
     highest = np.min(np.where(np.isfinite(masks.high), masks.high - log, np.inf), axis=0)
@@ -228,4 +239,4 @@ def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
                        lowest.reshape(shape), highest.reshape(shape)).ravel()
     # every frame clipped the never-measured pixels: each says "at least (at most) this level"
     level = np.where(unknown, np.clip(log + d, masks.low, masks.high), log)
-    intensity[:] = (np.exp(level) - i0).astype(np.float32)
+    intensity[:] = _intensity(level, i0)

@@ -28,8 +28,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-METHODS = ("akf", "cf", "cf_adaptive", "frames")
-METHOD_NAMES = {"akf": "AKF", "cf": "CF", "cf_adaptive": "CF adaptive", "frames": "frames only"}
+METHODS = ("akf", "aks", "cf", "cf_adaptive", "frames")
+METHOD_NAMES = {"akf": "AKF", "aks": "AKS (smoother)", "cf": "CF", "cf_adaptive": "CF adaptive",
+                "frames": "frames only"}
 LOWER_IS_BETTER = {"mse01", "mse", "log_mse"}
 
 

@@ -91,3 +91,19 @@ def test_bad_options_are_refused_by_name():
         akf.reconstruct_smoothed(ev, frames, ts, te, LINEAR, [20_000], max_intensity=-1.0)
     with pytest.raises(sim.InvalidParameterError, match="smoother_drift2"):
         akf.AKFParams(smoother_drift2=-1.0)
+
+
+def test_an_estimate_run_out_of_float32_range_stays_finite():
+    """Every frame clipped and a hot pixel firing 600 ON events at a nominal contrast of 1 (no flat field): its
+    estimate runs out of float32's range in both passes; the smoother's and the filter's outputs are finite (the
+    fusion multiplied an infinity by a zero weight: NaN), the hot pixel at the largest value, the others at the clip
+    level."""
+    frames = np.full((4, 12, 12), 255, np.uint8)
+    ts = np.array([0, 50_000, 100_000, 150_000])
+    ev = sim.make_events(np.arange(600) * 100 + 10_000, [6] * 600, [6] * 600, [1] * 600)
+    params = akf.AKFParams(flat_field=False)
+    for method in (akf.reconstruct, akf.reconstruct_smoothed):
+        out = method(ev, frames, ts, ts + 5_000, LINEAR, [90_000, 150_000], contrast=1.0, params=params)
+        assert np.isfinite(out).all(), method.__name__
+        assert out[1, 6, 6] > 1e30
+        np.testing.assert_allclose(np.delete(out[1].ravel(), 6 * 12 + 6), 1.0, rtol=1e-3)
