@@ -10,6 +10,7 @@ import akf
 import crf_models
 import sim
 from akf.clip_prior import MIN_SAMPLE, conditional_median, fill_unmeasured
+from akf.smoothing import LARGEST
 
 LINEAR = crf_models.get("linear")
 
@@ -84,17 +85,18 @@ def test_a_highlight_clipped_since_the_start_takes_the_level_events_carried_its_
 
 def test_a_hot_pixel_in_a_clipped_region_leaves_every_output_finite():
     """Every frame clipped high and a hot pixel firing 600 ON events at a nominal contrast of 1: with the nominal
-    threshold its estimate runs out of float32 range (no clipped frame pulls it back), and with a bound the output
-    stays finite and within it, the smoothing not spreading the overflow to its neighbours (OpenCV's bilateral
-    filter turned an infinity into NaN, or crashed). At the defaults the flat field reads the hot pixel's
-    threshold from its count against its neighbours': finite, unbounded."""
+    threshold its estimate runs out of float32 range (no clipped frame pulls it back; published as the largest
+    finite value), and with a bound the output stays finite and within it, the smoothing not spreading the
+    overflow to its neighbours (OpenCV's bilateral filter turned an infinity into NaN, or crashed). At the
+    defaults the flat field reads the hot pixel's threshold from its count against its neighbours': finite,
+    unbounded."""
     frames = np.full((4, 12, 12), 255, np.uint8)
     ts = np.array([0, 50_000, 100_000, 150_000])
     ev = sim.make_events(np.arange(600) * 100 + 10_000, [6] * 600, [6] * 600, [1] * 600)
     nominal = akf.AKFParams(flat_field=False)
     free = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0,
                            params=dataclasses.replace(nominal, smooth_range=0.0))
-    assert np.isinf(free[0, 6, 6])  # the estimate did overflow
+    assert free[0, 6, 6] == np.float32(LARGEST)  # the estimate did overflow: published as the largest finite value
     assert np.isfinite(akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [175_000], contrast=1.0)).all()
     img = akf.reconstruct(ev, frames, ts, ts + 5_000, LINEAR, [90_000, 175_000], contrast=1.0, params=nominal,
                           max_intensity=1.0)
