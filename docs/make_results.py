@@ -291,7 +291,7 @@ def evaluation_page(e: dict, m: dict) -> str:
              "camera pan, zoom or rotation and seen by a noisy DAVIS346-like event sensor and an LDR camera behind "
              "the AKF paper's window CRF, which clips most of each frame. Every method reconstructs the HDR "
              "reference frames' times; the scores are the paper's protocol (`mse01`, `ssim01`: both images "
-             "mapped to [0, 1] by a white the methods can reach, min(scene white, output bound)) and HDR-aware "
+             "mapped to [0, 1] by a white the methods can reach, min(scene white, the full well)) and HDR-aware "
              "metrics on absolute values (`mse`, "
              "`log_mse`, PU21-SSIM); the model reference describes each metric and protocol.", "",
              f"The suite: `generate_ahdr_suite('ahdr_suite', include_hdr=False)` at {size['height']}x"
@@ -309,7 +309,8 @@ def evaluation_page(e: dict, m: dict) -> str:
              "every reference frame."),
             ("tuned", "Tuned: each method's parameters searched on held-out frames",
              "With `--tune`: for each method, one coordinate search over its main parameters (contrast scale; "
-             "CF gain; AKF event and frame noise scales; the output bound) picks the setting of least mean "
+             "CF gain; AKF and smoother event and frame noise scales and output smoothing; the smoother's drift and "
+             "clip-prior variance; the output bound) picks the setting of least mean "
              "`mse01` on the first third of every sequence's scored frames, starting from the defaults; every "
              "method is then scored on the remaining two thirds, so these numbers are not comparable frame for "
              "frame with the untuned ones.")):
