@@ -19,7 +19,7 @@ import warnings
 from pathlib import Path
 
 import sim
-from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
+from evsim_eval.choices import DEFAULT_METHODS, DEFAULT_METRICS, KALMAN_METHODS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, OUTPUTS, UPSAMPLE_MODES
 from generators.runner import TasksFailed, raise_failures
 from sim.suggest import unknown_name
@@ -391,7 +391,7 @@ def _evaluate_denoise(args) -> int:
 def _cmd_reconstruct(args) -> int:
     from evsim_eval.reconstruct import reconstruct_dataset
 
-    if args.leak_hz is not None and args.method not in ("akf", "aks"):
+    if args.leak_hz is not None and args.method not in KALMAN_METHODS:
         raise sim.EvsimInputError(f"--leak-hz applies to the akf and aks methods only, not {args.method!r}")
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.overwrite:
@@ -410,7 +410,7 @@ def _cmd_reconstruct(args) -> int:
 
 def _akf_options(args) -> dict:
     """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
-    return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in ("akf", "aks")}
+    return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in KALMAN_METHODS}
 
 
 def _metrics(args) -> tuple[str, ...]:

@@ -1,10 +1,13 @@
 """Import-free names and defaults of the evaluation layer: the `evsim evaluate` parser and the evaluators read them
 from here (so `evsim --help` loads no reconstruction code); evsim_eval.evaluate.check_request validates them."""
 
-__all__ = ["PROTOCOLS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC"]
+__all__ = ["PROTOCOLS", "KALMAN_METHODS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC"]
 
 #: reference: score against the HDR reference frames; interleave: feed every second frame and score on the others
 PROTOCOLS = ("reference", "interleave")
+#: the Kalman methods (akf.METHODS names): the filter and the smoother, which take the AKF's options (leak rate,
+#: AKFParams) and can return their state variance
+KALMAN_METHODS = ("akf", "aks")
 #: the methods `evsim evaluate` scores unless told otherwise (akf.METHODS names)
 DEFAULT_METHODS = ("akf", "aks", "cf", "frames")
 #: protocol -> the metrics `evsim evaluate` scores unless told otherwise (each table states its normalisation).

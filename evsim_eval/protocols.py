@@ -58,10 +58,8 @@ from generators.formats import detect
 from generators.formats.recording import Recording, missing_part_error
 from sim import EvsimInputError, OptionError
 
-from .choices import PROTOCOLS
+from .choices import KALMAN_METHODS, PROTOCOLS
 
-#: the methods that take the AKF's options (leak rate, AKFParams): the filter and the smoother
-KALMAN_METHODS = ("akf", "aks")
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
 WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the full well): "
                       "see the notes)",

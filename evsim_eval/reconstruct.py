@@ -15,6 +15,7 @@ from generators.formats.exr import write_exr_sequence
 from generators.formats.recording import Recording
 from sim import EvsimInputError, OptionError
 
+from .choices import KALMAN_METHODS
 from .protocols import check_frames, dataset_sequences, method_options_for, recording_contrast, recording_crf
 
 
@@ -44,10 +45,6 @@ def output_times(rec: Recording, times: str) -> np.ndarray:
                       "frames, fps:N")
 
 
-#: the methods that can return their state variance P (log^2) beside the images
-WITH_VARIANCE = ("akf", "aks")
-
-
 def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = "akf", times: str = "reference",
                         method_options: dict[str, Any] | None = None,
                         variance: bool = False) -> list[tuple[str, Path, int]]:
@@ -58,9 +55,9 @@ def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = 
     One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""
     if method not in akf.METHODS:
         raise EvsimInputError(f"unknown method {method!r}; one of {', '.join(sorted(akf.METHODS))}")
-    if variance and method not in WITH_VARIANCE:
-        raise OptionError(f"variance=True: only {' and '.join(WITH_VARIANCE)} have a variance, not {method!r}",
-                          f"--variance: only {' and '.join(WITH_VARIANCE)} have a variance, not --method {method}")
+    if variance and method not in KALMAN_METHODS:
+        raise OptionError(f"variance=True: only {' and '.join(KALMAN_METHODS)} have a variance, not {method!r}",
+                          f"--variance: only {' and '.join(KALMAN_METHODS)} have a variance, not --method {method}")
     sequences = dataset_sequences(path)
     written = []
     for name, file in sequences:
