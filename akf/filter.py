@@ -26,7 +26,7 @@ from sim.parallel import in_parallel
 from . import kernels
 from .augmentation import ContrastCalibration, edi_deblur, event_change, interval_start
 from .clip_prior import fill_unmeasured
-from .flat_field import flat_field_scales
+from .flat_field import thresholds
 from .frame_noise import frame_log_variance, frame_read_noise
 from .inputs import Inputs, as_crf, check_max_intensity, validate_inputs
 from .noise import FrameMeasurement, frame_measurement
@@ -357,10 +357,8 @@ def prepared_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us:
     """The validated inputs (akf.inputs.validate_inputs), with the thresholds flat-fielded from the event counts
     (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
-    if params.flat_field and np.ndim(contrast) < 2:
-        on, off = flat_field_scales(inp.events, inp.frames, inp.full_scale, crf, params.calib_scale_range)
-        inp = dataclasses.replace(inp, c_on=inp.c_on * on, c_off=inp.c_off * off)
-    return inp
+    c_on, c_off = thresholds(contrast, inp.events, inp.frames, inp.full_scale, crf, params)
+    return dataclasses.replace(inp, c_on=c_on, c_off=c_off)
 
 
 class Masks(NamedTuple):

@@ -27,12 +27,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.ndimage import uniform_filter
 
+from .inputs import contrast_maps
+
 if TYPE_CHECKING:
     import numpy.typing as npt
 
     from crf_models import CRF
 
-__all__ = ["SIZE", "PRIOR_COUNT", "MOSTLY_CLIPPED", "count_scales", "flat_field_scales"]
+    from .params import AKFParams
+
+__all__ = ["SIZE", "PRIOR_COUNT", "MOSTLY_CLIPPED", "count_scales", "flat_field_scales", "thresholds"]
 
 SIZE = 5  # pixels: the neighbourhood whose mean count stands for what the pixel saw
 PRIOR_COUNT = 10.0  # events: a pixel with this many events is half its own count, half its neighbourhood's
@@ -67,3 +71,16 @@ def flat_field_scales(events: np.ndarray, frames: npt.ArrayLike, full_scale: int
     clipped = np.mean((y <= crf.y_lo + step) | (y >= crf.y_hi - step), axis=0) >= MOSTLY_CLIPPED
     on, off = count_scales(events, frames.shape[1:], scale_range)
     return np.where(clipped, on, 1.0), np.where(clipped, off, 1.0)
+
+
+def thresholds(contrast: npt.ArrayLike, events: np.ndarray, frames: npt.ArrayLike, full_scale: int, crf: CRF,
+               params: AKFParams) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The (ON, OFF) thresholds (log, flat maps) the AKF integrates a sensor's events with: the contrast as given
+    (akf.inputs.contrast_maps), scaled by flat_field_scales when params.flat_field and the contrast is a scalar or an
+    (ON, OFF) pair (per-pixel maps are taken as they are)."""
+    frames = np.asarray(frames)
+    c_on, c_off = contrast_maps(contrast, frames.shape[1:])
+    if params.flat_field and np.ndim(contrast) < 2:
+        on, off = flat_field_scales(events, frames, full_scale, crf, params.calib_scale_range)
+        c_on, c_off = c_on * on, c_off * off
+    return c_on, c_off

@@ -105,16 +105,10 @@ def _neighbourhood(prep: Prepared, x: int, y: int, params: AKFParams):
     ev = ev[keep]
     local = make_events(ev["t"], ev["x"] - x0, ev["y"] - y0, ev["p"])
     frames = np.ascontiguousarray(rec.frames[:, y0:y1, x0:x1])
-    contrast = prep.contrast
-    if params.flat_field and np.ndim(contrast) < 2:
-        from akf.flat_field import flat_field_scales
-        from akf.inputs import contrast_maps
+    from akf.flat_field import thresholds
 
-        shape = (rec.height, rec.width)
-        scales = flat_field_scales(rec.events, rec.frames, (1 << rec.frame_bit_depth) - 1, prep.crf,
-                                   params.calib_scale_range)
-        maps = [(c * s).reshape(shape)[y0:y1, x0:x1] for c, s in zip(contrast_maps(contrast, shape), scales)]
-        contrast = np.stack(maps)
+    maps = thresholds(prep.contrast, rec.events, rec.frames, (1 << rec.frame_bit_depth) - 1, prep.crf, params)
+    contrast = np.stack([c.reshape(rec.height, rec.width)[y0:y1, x0:x1] for c in maps])
     return local, frames, contrast, (x - x0, y - y0)
 
 
