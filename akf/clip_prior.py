@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .smoothing import finite_log
+
 if TYPE_CHECKING:
     import numpy.typing as npt
 
@@ -65,10 +67,5 @@ def fill_unmeasured(intensity: npt.NDArray[np.float32], i0: float, side: npt.NDA
         if not unknown.any() or np.count_nonzero(sample) < MIN_SAMPLE:
             continue
         # on the low side the bound is an upper one: the same rule on -L
-        level = s * conditional_median(s * _log(intensity[unknown], i0), s * _log(intensity[sample], i0))
+        level = s * conditional_median(s * finite_log(intensity[unknown], i0), s * finite_log(intensity[sample], i0))
         intensity[unknown] = (np.exp(level) - i0).astype(intensity.dtype)
-
-
-def _log(intensity: npt.NDArray[np.float32], i0: float) -> npt.NDArray[np.float64]:
-    """log(I + i0), finite (an estimate run out of float32 range counts as the largest float32)."""
-    return np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, np.finfo(np.float32).max))

@@ -43,7 +43,7 @@ from .filter import Masks, check_filter_options, prepared_inputs, run_filter, sm
 from .frame_noise import frame_read_noise
 from .inputs import Inputs, as_crf
 from .params import AKFParams
-from .smoothing import LARGEST
+from .smoothing import LARGEST, finite_log
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -166,25 +166,26 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     return (out, variance.reshape(nt, h, w)) if return_variance else out
 
 
-def _log(intensity: np.ndarray, i0: float) -> np.ndarray:
-    """log(I + i0) in float64, finite: an estimate run out of float32 range (events integrated with a far too
-    large threshold) counts as LARGEST."""
-    return np.log(np.clip(intensity.astype(np.float64) + i0, i0 * 1e-3, LARGEST))
-
-
 def _intensity(log: np.ndarray, i0: float) -> np.ndarray:
     """exp(log) - i0 as float32, at most LARGEST."""
     return np.minimum(np.exp(log) - i0, LARGEST).astype(np.float32)
 
 
-def _with_clip_prior(intensity: np.ndarray, side: np.ndarray, measured: np.ndarray, i0: float
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    """(log, filled) of one pass at each time: its estimate with the clip prior's level (akf.clip_prior) where a
-    frame has not measured the pixel yet, and where that prior gave a level."""
+def _clip_prior_filled(intensity: np.ndarray, side: np.ndarray, measured: np.ndarray, i0: float) -> np.ndarray:
+    """A copy of the (T, n) estimates with the clip prior's level (akf.clip_prior) at each time where a frame has
+    not measured the pixel yet and the prior has a level."""
     filled = intensity.copy()
     for j in range(filled.shape[0]):
         fill_unmeasured(filled[j], i0, side[j].astype(np.float64), measured[j])
-    return _log(filled, i0), (filled != intensity) & ~measured
+    return filled
+
+
+def _with_clip_prior(intensity: np.ndarray, side: np.ndarray, measured: np.ndarray, i0: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(log, filled) of one pass at each time: its estimate with the clip prior's level where a frame has not
+    measured the pixel yet (_clip_prior_filled), and where that prior gave a level."""
+    filled = _clip_prior_filled(intensity, side, measured, i0)
+    return finite_log(filled, i0), (filled != intensity) & ~measured
 
 
 def _fuse(intensity, variance, masks: _Pass, sel, fwd: _Pass, rev: dict, params: AKFParams, log_gain: float) -> None:
@@ -220,17 +221,14 @@ def _anchor(intensity, masks: _Pass, i0: float, shape: tuple[int, int]) -> None:
     level as the prior where no measured pixel reaches."""
     nt = intensity.shape[0]
     unknown = ~masks.measured.any(axis=0)
-    if not unknown.any() or unknown.all():
-        for j in range(nt):
-            fill_unmeasured(intensity[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
+    filled = _clip_prior_filled(intensity, masks.side, masks.measured, i0)
+    if not unknown.any() or unknown.all():  # nothing to anchor, or no measured pixel to anchor to
+        intensity[:] = filled
         if unknown.any():
-            intensity[:] = _intensity(np.clip(_log(intensity, i0), masks.low, masks.high), i0)
+            intensity[:] = _intensity(np.clip(finite_log(intensity, i0), masks.low, masks.high), i0)
         return
-    log = _log(intensity, i0)
-    filled = intensity.copy()
-    for j in range(nt):
-        fill_unmeasured(filled[j], i0, masks.side[j].astype(np.float64), masks.measured[j])
-    prior = (_log(filled, i0) - log).mean(axis=0)
+    log = finite_log(intensity, i0)
+    prior = (finite_log(filled, i0) - log).mean(axis=0)
     # the offsets that keep each pixel on its side of the clip bound at every time (low / high: log bounds)
     lowest = np.max(np.where(np.isfinite(masks.low), masks.low - log, -np.inf), axis=0)
     highest = np.min(np.where(np.isfinite(masks.high), masks.high - log, np.inf), axis=0)

@@ -36,6 +36,11 @@ EDGE_RANGE = 1.0
 LARGEST = float(np.finfo(np.float32).max) / 2
 
 
+def finite_log(intensity: npt.ArrayLike, i0: float) -> npt.NDArray[np.float64]:
+    """log(I + i0) in float64, finite: an estimate run out of float32 range counts as LARGEST (x units)."""
+    return np.log(np.clip(np.asarray(intensity, np.float64) + i0, i0 * 1e-3, LARGEST))
+
+
 def smooth_uncertain(intensity: npt.NDArray[np.float32], variance: npt.NDArray[np.float32], i0: float,
                      range_sigma: float, variance_floor: npt.NDArray[np.float32], low: npt.NDArray[np.float32],
                      high: npt.NDArray[np.float32]) -> None:
