@@ -404,8 +404,8 @@ def run_filter(inp: Inputs, crf: CRF, params: AKFParams, leak_rate_hz: float, ou
                out_p: np.ndarray | None, out_k: np.ndarray | None,
                post: Callable[[int, np.ndarray, np.ndarray, Masks], None]) -> None:
     """The filter over inp, writing exp(L) - I0 (and P, K when out_p / out_k are arrays) at inp.out_t into out_i
-    (T, H, W), each image then given to post(j, intensity, variance, masks) (flat views; variance a scratch array
-    when out_p is None) before the next."""
+    (T, H, W), each image then given to post(j, intensity, variance, masks) (flat views; where out_p is None, the
+    variance is a scratch array when params.smooth_range > 0, which reads it, else empty) before the next."""
     nf, (h, w) = inp.frames.shape[0], inp.shape
     n = h * w
     read_noise = params.read_noise_dn
@@ -484,13 +484,14 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     masks = Masks(C[:, kernels.CC_SIDE], np.zeros(S.shape[0], bool), np.full(S.shape[0], params.smooth_variance,
                   np.float32), np.full(S.shape[0], -np.inf, np.float32), np.full(S.shape[0], np.inf, np.float32),
                   np.full(S.shape[0], -np.inf))
-    scratch_p = np.empty(S.shape[0], np.float32) if out_p is None else None
+    # P where the caller does not ask for it but the output smoothing reads it (else akf_publish skips writing P)
+    scratch_p = np.empty(S.shape[0], np.float32) if out_p is None and params.smooth_range > 0 else None
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
 
     def publish(j, t, win, oi, op, ok):  # output images (flat) at t (us)
-        if op.shape[0] == 0:
+        if op.shape[0] == 0 and scratch_p is not None:
             op = scratch_p
         blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, oi, op, ok, y0 * w, y1 * w))
         post(j, oi, op, masks)

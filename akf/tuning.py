@@ -125,9 +125,14 @@ def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, opti
     return (float(c) if c.ndim == 0 else tuple(c.tolist()) if c.ndim == 1 else c), options
 
 
+def _untuned(method: str, parameters) -> Setting:
+    """{parameter: the method's untuned value} (METHOD_DEFAULTS, else DEFAULTS) of the named parameters."""
+    return {k: METHOD_DEFAULTS.get(method, {}).get(k, DEFAULTS[k]) for k in parameters}
+
+
 def default_setting(method: str) -> Setting:
     """The untuned setting of a method (its defaults for the searched parameters)."""
-    return {k: METHOD_DEFAULTS.get(method, {}).get(k, DEFAULTS[k]) for k in SEARCH_SPACES.get(method, {})}
+    return _untuned(method, SEARCH_SPACES.get(method, {}))
 
 
 def tune(method: str, objective: Callable[[Setting], float],
@@ -138,7 +143,7 @@ def tune(method: str, objective: Callable[[Setting], float],
     unknown = [k for k in space if k not in DEFAULTS]
     if unknown:
         raise InvalidParameterError(f"unknown tuning parameters {unknown}; known: {sorted(DEFAULTS)}")
-    best = {k: METHOD_DEFAULTS.get(method, {}).get(k, DEFAULTS[k]) for k in space}
+    best = _untuned(method, space)
     seen = {}
 
     def value(setting):
