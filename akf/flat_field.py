@@ -66,9 +66,12 @@ def flat_field_scales(events: np.ndarray, frames: npt.ArrayLike, full_scale: int
     beyond an end of the CRF's invertible range [crf.y_lo, crf.y_hi], within one DN) in at least MOSTLY_CLIPPED of
     the frames (N, H, W; raw responses up to full_scale), 1 elsewhere."""
     frames = np.asarray(frames)
-    y = frames.reshape(frames.shape[0], -1) / float(full_scale)
     step = 1.0 / float(full_scale)
-    clipped = np.mean((y <= crf.y_lo + step) | (y >= crf.y_hi - step), axis=0) >= MOSTLY_CLIPPED
+    count = np.zeros(frames.shape[1] * frames.shape[2], np.int64)
+    for frame in frames:  # one frame's responses at a time: no (N, H, W) float copy
+        y = frame.ravel() / float(full_scale)
+        count += (y <= crf.y_lo + step) | (y >= crf.y_hi - step)
+    clipped = count / frames.shape[0] >= MOSTLY_CLIPPED
     on, off = count_scales(events, frames.shape[1:], scale_range)
     return np.where(clipped, on, 1.0), np.where(clipped, off, 1.0)
 
