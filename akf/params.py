@@ -153,7 +153,7 @@ class AKFParams:
             check_number(f"AKFParams.{name}", getattr(self, name), positive=True)
         if self.read_noise_dn is not None:
             check_number("AKFParams.read_noise_dn", self.read_noise_dn, positive=False)
-        for name in ("bias_max_variance", "calib_prior", "smooth_range", "smoother_drift2", "clip_prior_variance"):
+        for name in ("bias_max_variance", "calib_prior", "smooth_range", "smoother_drift2"):
             check_number(f"AKFParams.{name}", getattr(self, name), positive=False)
         pair = self.calib_scale_range
         if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
@@ -171,4 +171,4 @@ class AKFParams:
 #: the AKFParams fields that must be > 0: every noise variance (a zero variance claims noise-free events or frames:
 #: the state variance then never grows between frames, or a frame is taken as exact), i0 (log(I + i0) at I = 0)
 POSITIVE_FIELDS = ("sigma_proc2", "sigma_iso2", "sigma_ref2", "sigma_im2", "max_variance", "i0", "p0",
-                   "smooth_variance")
+                   "smooth_variance", "clip_prior_variance")

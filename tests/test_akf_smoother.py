@@ -91,6 +91,8 @@ def test_bad_options_are_refused_by_name():
         akf.reconstruct_smoothed(ev, frames, ts, te, LINEAR, [20_000], max_intensity=-1.0)
     with pytest.raises(sim.InvalidParameterError, match="smoother_drift2"):
         akf.AKFParams(smoother_drift2=-1.0)
+    with pytest.raises(sim.InvalidParameterError, match="clip_prior_variance"):
+        akf.AKFParams(clip_prior_variance=0.0)  # a prior level of no uncertainty would outweigh every measurement
 
 
 def test_an_estimate_run_out_of_float32_range_stays_finite():
