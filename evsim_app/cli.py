@@ -724,8 +724,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _note(message, category, filename, lineno, file=None, line=None) -> None:
-    """Print a warning whose category says evsim_note as "evsim: note: ...", others as Python does."""
-    if getattr(category, "evsim_note", False):
+    """Print an evsim note (sim.EvsimNote) as "evsim: note: ...", others as Python does."""
+    if issubclass(category, sim.EvsimNote):
         print(f"evsim: note: {getattr(message, 'cli_message', message)}", file=sys.stderr)  # in flags
     else:
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))

@@ -11,8 +11,6 @@ Scenes are in `generators.scenes`. Every name is imported on first use.
 
 from sim.lazy import lazy_exports
 
-from . import moved
-
 _EXPORTS = {
     "AHDRConfig": "ahdr", "generate_ahdr": "ahdr",
     "generate_ahdr_suite": "builtin",
@@ -26,4 +24,3 @@ _EXPORTS = {
 }
 __all__ = sorted(_EXPORTS)
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
-moved.install()

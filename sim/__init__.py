@@ -10,13 +10,14 @@ Exports:
   arrays of real sensors by name: SENSOR_SIZES (sim.sensor_sizes);
 - events: EVENT_DTYPE, make_events, empty_events, concatenate, slice_time, validate_events, is_sorted,
   first_unsorted_index (sim.events);
-- errors: EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError.
+- errors: EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError; EvsimNote (the
+  base of evsim's warnings that the command line prints as one "evsim: note:" line).
 """
 
 from . import numba_cache  # noqa: F401  (first: sets numba's cache folder before any kernel imports numba)
 from .dvs_params import PRESETS as DVS_PRESETS
 from .dvs_params import DVSParams
-from .errors import EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError
+from .errors import EvsimInputError, EvsimNote, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError
 from .lazy import lazy_exports
 
 # name -> "submodule" or "submodule:name in it", imported on first use
@@ -28,6 +29,6 @@ _LAZY = {
     **dict.fromkeys(("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index", "is_sorted", "make_events",
                      "slice_time", "validate_events"), "events"),
 }
-__all__ = ["DVS_PRESETS", "DVSParams", "EvsimInputError", "InvalidParameterError", "OptionError", "TimeOrderError",
-           "UnsortedEventsError", *_LAZY]
+__all__ = ["DVS_PRESETS", "DVSParams", "EvsimInputError", "EvsimNote", "InvalidParameterError", "OptionError",
+           "TimeOrderError", "UnsortedEventsError", *_LAZY]
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

@@ -1,4 +1,5 @@
-"""Exceptions raised at evsim's boundaries (all derive from ValueError so that callers can catch broadly), and the
+"""Exceptions raised at evsim's boundaries (all derive from ValueError so that callers can catch broadly), the base
+class of evsim's notes (EvsimNote, a UserWarning), and the
 shared checks of parameters: one helper per kind (number, integer, real-valued array), each naming the parameter."""
 
 from __future__ import annotations
@@ -32,6 +33,19 @@ class OptionError(EvsimInputError):
         self.cli_message = cli_message
 
     def __reduce__(self):  # pickled whole (an error from a worker process)
+        return type(self), (str(self), self.cli_message)
+
+
+class EvsimNote(UserWarning):
+    """A note to the user (the input is used, but something in it deserves a look). The evsim command line prints it
+    as one line "evsim: note: ...": str() names a remedy in Python keywords, cli_message in command-line flags (as
+    OptionError); without a cli_message both say the same."""
+
+    def __init__(self, message: str, cli_message: str | None = None):
+        super().__init__(message)
+        self.cli_message = message if cli_message is None else cli_message
+
+    def __reduce__(self):
         return type(self), (str(self), self.cli_message)
 
 

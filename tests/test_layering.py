@@ -8,8 +8,6 @@ inside functions: a deferred import still makes a cycle.
 
 import ast
 import importlib
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -103,17 +101,6 @@ def test_evaluation_and_application_left_generators():
     assert not [n for n in left if (ROOT / "generators" / f"{n}.py").exists() or (ROOT / "generators" / n).is_dir()]
 
 
-def test_old_import_paths_warn_and_give_the_moved_module(monkeypatch):
-    from generators.moved import MOVED, new_home
-
-    for old in [*MOVED, "generators.plots.common"]:
-        module = importlib.import_module(new_home(old))
-        monkeypatch.delitem(sys.modules, old, raising=False)  # a first import of the old path in this process
-        with pytest.warns(DeprecationWarning, match=f"{old} moved to {new_home(old)}"):
-            assert importlib.import_module(old) is module
-        assert module.__spec__.name == module.__name__ == new_home(old)
-
-
 @pytest.mark.parametrize("package", PACKAGES)
 def test_every_public_name_is_exported_and_documented(package):
     module = importlib.import_module(package)
@@ -121,10 +108,3 @@ def test_every_public_name_is_exported_and_documented(package):
     for name in module.__all__:
         assert getattr(module, name) is not None
         assert name in module.__doc__, f"{package}.__doc__ does not list {name}"
-
-
-@pytest.mark.slow  # a subprocess
-def test_old_module_paths_still_run_with_python_m():
-    r = subprocess.run([sys.executable, "-m", "generators.cli", "--help"], capture_output=True, text=True, cwd=ROOT)
-    assert r.returncode == 0 and "usage: evsim" in r.stdout
-    assert "generators.cli moved to evsim_app.cli" in r.stderr

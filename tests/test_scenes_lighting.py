@@ -130,5 +130,5 @@ def test_the_realism_score_finds_the_flicker_of_the_event_rate():
 
     note = flicker_warning(both)
     assert "the real events flicker at 200 Hz" in str(note) and "'flicker_hz': 200" in str(note)
-    assert "convert with --lighting flicker_hz=200," in note.cli_message and note.evsim_note
+    assert "convert with --lighting flicker_hz=200," in note.cli_message and isinstance(note, sim.EvsimNote)
     assert flicker_warning(noise) is None

@@ -243,16 +243,9 @@ def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVS
     return candidates
 
 
-class LightFlickerWarning(UserWarning):
+class LightFlickerWarning(sim.EvsimNote):
     """The real events flicker with the light (a lamp on AC mains), which the recording's frames cannot show: the
-    fit takes it for noise. The evsim command line prints it as one line "evsim: note: ..." (evsim_note), in its
-    flags (cli_message)."""
-
-    evsim_note = True
-
-    def __init__(self, message: str, cli_message: str):
-        super().__init__(message)
-        self.cli_message = cli_message
+    fit takes it for noise."""
 
 
 def flicker_warning(real: RealismStats) -> LightFlickerWarning | None:

@@ -17,7 +17,7 @@ from typing import Any
 
 import h5py
 
-from sim import EvsimInputError
+from sim import EvsimInputError, EvsimNote
 
 from ..choices import EXPORT_FORMATS, FORMATS
 from .aedat2 import SUFFIXES as AEDAT2_SUFFIXES
@@ -48,11 +48,8 @@ __all__ = ["EXPORT_FORMATS", "FORMATS", "HOLDS", "DatasetFormatError", "ExportDr
            "ReaderNoteWarning", "detect", "export", "from_tonic", "load", "to_tonic"]
 
 
-class ExportDropWarning(UserWarning):
-    """An export format cannot hold part of the recording (labels, reference, thresholds, ...): it is left out.
-    The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
-
-    evsim_note = True
+class ExportDropWarning(EvsimNote):
+    """An export format cannot hold part of the recording (labels, reference, thresholds, ...): it is left out."""
 
 
 def detect(path: str | Path) -> str:

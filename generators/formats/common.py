@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
-from sim import EVENT_DTYPE, EvsimInputError, TimeOrderError, validate_events
+from sim import EVENT_DTYPE, EvsimInputError, EvsimNote, TimeOrderError, validate_events
 
 from . import held_interrupts
 from .atomic import GuardedSink, is_disk_full
@@ -35,11 +35,9 @@ class DatasetFormatError(EvsimInputError):
     """A dataset file or folder cannot be read: missing, truncated, malformed or of an unknown layout."""
 
 
-class ReaderNoteWarning(UserWarning):
+class ReaderNoteWarning(EvsimNote):
     """A file is read, but something in it deserves a look (a long silence that a corrupt time word would also
-    give). The evsim command line prints it as one line "evsim: note: ..." (evsim_note)."""
-
-    evsim_note = True
+    give)."""
 
 
 def fail(path: str | Path, problem: str) -> DatasetFormatError:

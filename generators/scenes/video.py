@@ -61,7 +61,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sim import EvsimInputError, InvalidParameterError, OptionError
+from sim import EvsimInputError, EvsimNote, InvalidParameterError, OptionError
 from sim.errors import check_int
 
 from ..choices import UPSAMPLE_MODES
@@ -85,16 +85,9 @@ SLOW_MOTION_MAX_CONTAINER_FPS = 60.0  # a container rate at or below which tiny 
 SLOW_MOTION_MOTION_PX = 0.25  # median largest motion per frame pair (input pixels) below which the warning is given
 
 
-class InputTimingWarning(UserWarning):
+class InputTimingWarning(EvsimNote):
     """The input's frame times look wrong (a slow-motion clip taken at its playback rate, or metadata that
-    contradicts the given rate). The evsim command line prints it as one line "evsim: note: ..." (evsim_note), in
-    its flags: str() names a remedy in keywords, cli_message in command-line flags (as sim.OptionError)."""
-
-    evsim_note = True
-
-    def __init__(self, message: str, cli_message: str | None = None):
-        super().__init__(message)
-        self.cli_message = message if cli_message is None else cli_message
+    contradicts the given rate)."""
 
 
 def read_timestamps(path: str | Path) -> tuple[np.ndarray, str]:
