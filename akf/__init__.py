@@ -1,4 +1,4 @@
-"""HDR reconstruction: frame augmentation, the Asynchronous Kalman Filter, baselines and metrics.
+"""HDR reconstruction: frame augmentation, the Asynchronous Kalman Filter, the smoother and the baselines.
 
 Exports:
 - the filter: reconstruct, AKFParams; the smoother (offline: the filter forward and backward, fused):
@@ -7,19 +7,14 @@ Exports:
   events-only high_pass_filter; estimate_contrast, estimate_log_offset, ContrastEstimate (the contrast threshold and
   the pixel's log offset from the data); estimate_read_noise, FrameNoise (the frames' read noise, which sets the
   frame update's variance);
-- metrics: log_rmse (full range), mse, psnr, ssim, mse01, ssim01 (clipped at a white), log_mse, pu21_encode,
-  pu21_psnr, pu21_ssim, score, METRICS (by name), NORMALISATION (how each one normalises);
-- evaluation and tuning: evaluate_sequence, METHODS (name -> method); tune, Tuned, SEARCH_SPACES.
+- METHODS: every method by name (akf.methods), one signature.
 Submodules with more:
-- akf.evaluate: Case, the one scoring path (evaluate_sequence, evsim_eval's dataset protocols and the tuning
-  objective all score through it);
 - akf.frame_noise: the frames' read noise from the frames (quantisation-corrected robust median of aligned
   frame differences) and the frame update's variance it implies;
-- akf.exposure: a method's output averaged over a frame's exposure window (exposure-matched scoring);
-- akf.pixel_classes: the pixel and time classes of the per-class scores;
-- akf.tuning: setting_options, default_setting, describe_setting, and tune_cases (the objective over Cases);
-- akf.denoise: event denoising filters, each a keep-mask over an event array (correlation, hot_pixel, wrappers of
-  dv-processing and tonic; FILTERS, keep_mask).
+- akf.flat_field, akf.clip_prior, akf.anchoring: the thresholds' flat field, the prior of clipped pixels and the
+  Poisson anchoring of never-measured pixels.
+Scoring, metrics and tuning are in evsim_eval (evsim_eval.metrics, evsim_eval.scoring, evsim_eval.tuning); event
+denoising filters in sim.denoise.
 
 References (full citations also in docs/models/references.md):
 
@@ -45,33 +40,14 @@ References (full citations also in docs/models/references.md):
 
 from .baselines import complementary_filter, direct_integration, frames_only, high_pass_filter
 from .contrast import ContrastEstimate, estimate_contrast, estimate_log_offset
-from .evaluate import METHODS, evaluate_sequence
 from .filter import AugmentedMeasurement, augmented_measurement, reconstruct
 from .frame_noise import FrameNoise, estimate_read_noise
-from .metrics import (
-    METRICS,
-    NORMALISATION,
-    log_mse,
-    log_rmse,
-    mse,
-    mse01,
-    psnr,
-    pu21_encode,
-    pu21_psnr,
-    pu21_ssim,
-    score,
-    ssim,
-    ssim01,
-)
+from .methods import METHODS
 from .params import AKFParams
 from .smoother import reconstruct_smoothed
-from .tuning import SEARCH_SPACES, Tuned, tune
 
 __all__ = [
     "reconstruct", "reconstruct_smoothed", "AKFParams", "augmented_measurement", "AugmentedMeasurement",
     "complementary_filter", "frames_only", "direct_integration", "high_pass_filter",
-    "estimate_contrast", "estimate_log_offset", "ContrastEstimate", "estimate_read_noise", "FrameNoise",
-    "log_rmse", "mse", "psnr", "ssim", "mse01", "ssim01", "log_mse", "pu21_encode", "pu21_psnr", "pu21_ssim", "score",
-    "METRICS", "NORMALISATION",
-    "evaluate_sequence", "METHODS", "tune", "Tuned", "SEARCH_SPACES",
+    "estimate_contrast", "estimate_log_offset", "ContrastEstimate", "estimate_read_noise", "FrameNoise", "METHODS",
 ]

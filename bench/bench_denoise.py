@@ -1,4 +1,4 @@
-"""Benchmark: events per second of every event denoiser of akf.denoise at DAVIS346 resolution (346 x 260), each at
+"""Benchmark: events per second of every event denoiser of sim.denoise at DAVIS346 resolution (346 x 260), each at
 its default parameter, and the peak memory.
 
 Input: a DAVIS346-like ("davis346" preset, shot noise raised with --shot-hz) emulation of a checkerboard panning
@@ -37,10 +37,10 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=0.5, help="sensor time (s)")
     ap.add_argument("--shot-hz", type=float, default=5.0, help="shot-noise rate per pixel (Hz)")
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per filter (the best is reported)")
-    ap.add_argument("--filters", help="comma-separated akf.denoise.FILTERS (default: all)")
+    ap.add_argument("--filters", help="comma-separated sim.denoise.FILTERS (default: all)")
     args = ap.parse_args()
 
-    from akf.denoise import FILTERS, filter_available, keep_mask
+    from sim.denoise import FILTERS, filter_available, keep_mask
 
     names = args.filters.split(",") if args.filters else list(FILTERS)
     events = make_events(args.seconds, args.shot_hz)

@@ -233,7 +233,7 @@ def _mean_table(scores: dict, metrics: tuple[str, ...]) -> list[str]:
     return lines
 
 
-#: the per-class rows of the results pages (akf.pixel_classes), in this order, with a short label
+#: the per-class rows of the results pages (evsim_eval.pixel_classes), in this order, with a short label
 CLASS_ROWS = {"well": "well-exposed in the nearest frames", "high": "clipped high in a nearest frame",
               "low": "clipped low in a nearest frame", "flat": "flat truth", "textured": "textured truth",
               "at_frames": "times inside a frame's exposure", "between": "times between frames"}
@@ -299,7 +299,7 @@ def evaluation_page(e: dict, m: dict) -> str:
              "complementary filter (CF) with a fixed and with the adaptive crossover gain, and the frames alone "
              "(the inverse CRF of the nearest frame). The best value of each metric is in bold.", "",
              *machine_block(m)]
-    from akf import NORMALISATION
+    from evsim_eval import NORMALISATION
 
     lines += ["How each metric normalises its inputs (as `evsim evaluate` prints it):", ""]
     lines += [f"- `{k}`: {NORMALISATION[k]}" for k in ("mse01", "ssim01", "mse", "log_mse", "pu21_ssim")] + [""]
@@ -322,13 +322,14 @@ def evaluation_page(e: dict, m: dict) -> str:
         classes = _class_table(scores)
         if classes:
             lines += ["Per pixel class (`mse01` / `ssim01` of the class's pixels pooled over each sequence's scored "
-                      "times, then averaged over the sequences; `akf.pixel_classes`): where each method wins.", "",
+                      "times, then averaged over the sequences; `evsim_eval.pixel_classes`): where each method "
+                      "wins.", "",
                       *classes, ""]
         losses = _losses(scores)
         lines += (["Where the AKF is not the best:", "", *losses, ""] if losses
                   else ["The AKF is the best on every sequence and every class of `mse01` and `ssim01`.", ""])
         if label == "tuned" and r["scores"].get("tuning"):
-            from akf.tuning import describe_setting
+            from evsim_eval.tuning import describe_setting
 
             lines += ["Settings the tuning chose:", ""]
             lines += [f"- {METHOD_NAMES.get(k, k)}: {describe_setting(v)}" for k, v in r["scores"]["tuning"].items()]

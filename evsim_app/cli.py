@@ -655,7 +655,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                     help=f"comma-separated methods (akf.METHODS; default {','.join(DEFAULT_METHODS)})")
     ev.add_argument("--metrics",
-                    help="comma-separated metrics (akf.METRICS; each table states its normalisation); default, "
+                    help="comma-separated metrics (evsim_eval.METRICS; each table states its normalisation); default, "
                          f"--protocol reference: {','.join(DEFAULT_METRICS['reference'])} (full-range log RMSE and "
                          "PU21 over the whole HDR reference first, then the paper's [0, 1] metrics, clipped at the "
                          "white); --protocol interleave: "
@@ -670,9 +670,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="interleave: score each reconstruction at the held-out frame's mid-exposure time instead "
                          "of averaged over its exposure window (exposure-matched, the default)")
     ev.add_argument("--tune", action="store_true",
-                    help="tune every method by one protocol (akf.tuning): a coordinate search over its main "
+                    help="tune every method by one protocol (evsim_eval.tuning): a coordinate search over its main "
                          "parameters (CF gain, contrast scale, AKF noise scales and smoothing, output bound; "
-                         "akf.tuning.SEARCH_SPACES) on the first --tune-fraction of every sequence's scored frames; "
+                         "evsim_eval.tuning.SEARCH_SPACES) on the first --tune-fraction of every sequence's scored "
+                         "frames; "
                          "all methods are then scored on the rest")
     ev.add_argument("--tune-fraction", type=float, default=TUNE_FRACTION,
                     help=f"fraction of each sequence's scored frames that tunes (default {TUNE_FRACTION:.3g})")
@@ -691,7 +692,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "methods on events denoised at each filter's default (needs files written with --labels; "
                          "--json then writes the result of evsim_eval.denoisers); realism: how real the events of "
                          "--against SIM are against those of DATASET (see below)")
-    dn.add_argument("--filters", help="comma-separated filters (akf.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
+    dn.add_argument("--filters", help="comma-separated filters (sim.denoise.FILTERS: correlation, hot_pixel, dv_ba, "
                                       "dv_knoise, dv_fast_decay, tonic_denoise; default: all whose library is "
                                       "installed)")
     dn.add_argument("--no-reconstruct", action="store_true", help="score the filters only")

@@ -2,7 +2,7 @@
 
 evsim labels every event it makes (sim.EVENT_LABELS: signal, shot, leak, hot; stored by files written with
 labels, e.g. `evsim generate ... --labels`), which is the ground truth denoising needs. For a filter's keep-mask
-(akf.denoise):
+(sim.denoise):
 - TPR (true-positive rate) = kept signal events / signal events;
 - FPR (false-positive rate) = kept noise events / noise events, for all noise and per type (shot, leak, hot);
 a rate is NaN when there is no event of its kind. Sweeping a filter's main parameter over its grid (larger keeps
@@ -34,11 +34,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from akf.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, filter_available, get_filter
 from generators.formats import load
 from generators.formats.atomic import write_text_atomic
 from generators.formats.recording import Recording
 from sim import EVENT_LABELS, EvsimInputError, OptionError
+from sim.denoise import DENOISE_EXTRA_HINT, FILTERS, DenoiseDependencyError, filter_available, get_filter
 
 from .evaluate import evaluate_recording
 from .protocols import dataset_sequences

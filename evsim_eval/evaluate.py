@@ -4,15 +4,16 @@ supplementary Table 2).
 evaluate_dataset tunes, when asked, in this process (the search scores every sequence for each setting), then
 scores every sequence as one task of generators.runner: serially, on local workers or on a Dask cluster, with the
 same result. The per-sequence task is evaluate_sequence_file: evaluate_recording of the loaded file. What every
-method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by akf.evaluate.Case:
+method gets and what it is scored against is the protocol's (evsim_eval.protocols), scored by evsim_eval.scoring.Case:
 exposure-matched against held-out frames unless exposure_matched=False, and per pixel/time class
-(akf.pixel_classes) as "metric@class" beside every per-pixel metric.
+(evsim_eval.pixel_classes) as "metric@class" beside every per-pixel metric.
 
 Metrics default to the protocol's (evsim_eval.choices.DEFAULT_METRICS: full-range log_rmse and PU21 first against
 an HDR reference, the paper's clipped [0, 1] metrics first against held-out frames).
 
 Tuning (tune=True, `evsim evaluate --tune`): the tuning split is the first tune_fraction of every sequence's scored
-times; akf.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean over
+times; evsim_eval.tuning.tune_cases searches each method's parameters once for the whole dataset on that split (mean
+over
 the sequences of tune_metric, by default the protocol's TUNE_METRIC: log_rmse against an HDR reference, mse01
 against held-out frames), and every method (tuned or without parameters) is then scored on the rest only.
 """
@@ -27,15 +28,16 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-import akf
-from akf.tuning import describe_setting, tune_cases
 from generators.formats import load
 from generators.formats.recording import Recording
 from generators.runner import TaskOutcome, raise_failures, run_tasks
 from sim import EvsimInputError, OptionError
 
+from . import metrics as metrics_module
+from . import scoring
 from .choices import DEFAULT_METHODS, DEFAULT_METRICS, PROTOCOLS, TUNE_FRACTION, TUNE_METRIC
 from .protocols import dataset_sequences, recording_case
+from .tuning import describe_setting, tune_cases
 
 
 class DatasetScores(NamedTuple):
@@ -64,9 +66,9 @@ def check_request(protocol: str, methods: Iterable[str], metrics: Iterable[str] 
     """EvsimInputError naming an unknown protocol, method, metric or tuning metric (None: the protocol's defaults),
     or a tuning fraction outside (0, 1)."""
     metrics, tune_metric = request_defaults(protocol, metrics, tune_metric)
-    akf.evaluate.check_names(methods, metrics)
-    if tune_metric not in akf.METRICS:
-        raise EvsimInputError(f"unknown tuning metric {tune_metric!r}; one of {', '.join(akf.METRICS)}")
+    scoring.check_names(methods, metrics)
+    if tune_metric not in metrics_module.METRICS:
+        raise EvsimInputError(f"unknown tuning metric {tune_metric!r}; one of {', '.join(metrics_module.METRICS)}")
     if not 0 < tune_fraction < 1:
         raise EvsimInputError(f"the tuning fraction must lie in (0, 1), got {tune_fraction}")
 
@@ -92,7 +94,7 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: 
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
     on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
-    scores "metric@class" and shares "share@class" (akf.evaluate.Case.scores).
+    scores "metric@class" and shares "share@class" (evsim_eval.scoring.Case.scores).
     """
     metrics = request_defaults(protocol, metrics)[0]
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
@@ -110,7 +112,7 @@ def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]
 def add_means(result: dict) -> dict:
     """Add {"mean": {key: mean over the sequences}} to every method of {method: {sequence: {key: value}}} that
     scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result.
-    A root-mean metric (akf.metrics.ROOT_MEAN: log_rmse, and its per-class keys "log_rmse@class") has the root
+    A root-mean metric (evsim_eval.metrics.ROOT_MEAN: log_rmse, and its per-class keys "log_rmse@class") has the root
     mean square over the sequences as its mean, the RMSE of sequences of one size pooled, as its per-sequence
     values pool their frames."""
     for rows in result.values():
@@ -121,7 +123,7 @@ def add_means(result: dict) -> dict:
                 values = np.array([r[k] for r in rows.values() if k in r and not math.isnan(r[k])])
                 if not values.size:
                     means[k] = math.nan
-                elif k.split("@")[0] in akf.metrics.ROOT_MEAN:
+                elif k.split("@")[0] in metrics_module.ROOT_MEAN:
                     means[k] = float(np.sqrt(np.mean(values**2)))
                 else:
                     means[k] = float(np.mean(values))
@@ -135,7 +137,7 @@ def tune_dataset(sequences: Iterable[tuple[str, str | Path]], *, protocol: str, 
                  sensor: str | None = None) -> tuple[dict, list[str]]:
     """({method: setting}, notes): the tuning search of every method over the tuning split of every sequence
     ((name, file) pairs), in this process, scored as the evaluation scores (exposure_matched); the objective is the
-    mean of tune_metric over the sequences (akf.tuning.tune_cases)."""
+    mean of tune_metric over the sequences (evsim_eval.tuning.tune_cases)."""
     cases = [recording_case(load(file), protocol, method_options, exposure_matched, sensor)[0] for _, file in sequences]
     selections = [split_times(case.times.size, tune_fraction)[0] for case in cases]
     settings = {}

@@ -1,4 +1,5 @@
-"""The evaluation protocols: what every method gets from a recording and what it is scored against (akf.evaluate.Case),
+"""The evaluation protocols: what every method gets from a recording and what it is scored against
+(evsim_eval.scoring.Case),
 for the paper's Table 1 (protocol "reference") and supplementary Table 2 (protocol "interleave").
 
 Units. Every method outputs linear intensity in the CRF's scaled-irradiance units "x" of the first input frame's
@@ -14,15 +15,16 @@ their max_intensity, default 1: what the camera can represent). Scores are compu
   [CRF^-1(0), CRF^-1(1)], so reconstructions are clipped to that range (of the held-out frame's exposure) before
   scoring: what the held-out frame would have recorded. Without a recorded CRF (real DAVIS data) the CRF is
   assumed linear (x = response). The held-out frame integrated the scene over its exposure window, so by default
-  (exposure_matched) each reconstruction is averaged over that window before the clip (akf.exposure, Case.windows);
+  (exposure_matched) each reconstruction is averaged over that window before the clip (evsim_eval.exposure,
+  Case.windows);
   exposure_matched=False scores the reconstruction at mid-exposure (point-in-time).
-Metrics are those of akf.metrics, per frame, averaged over the frames of a sequence (log_rmse: the root of the
+Metrics are those of evsim_eval.metrics, per frame, averaged over the frames of a sequence (log_rmse: the root of the
 mean square, all the frames' pixels pooled); "mean" averages the sequences (log_rmse: root mean square).
 The [0, 1] metrics (mse01, ssim01: the paper's protocol, clipped at the white) map to 1 (reference protocol) a white
-the methods can reach, min(scene white, the full well) (akf.evaluate.reachable_white; the scene white is the
+the methods can reach, min(scene white, the full well) (evsim_eval.scoring.reachable_white; the scene white is the
 recorded reference_white_radiance, else the reference's 98th percentile, with a note), or CRF^-1(1) (interleave: a
 held-out frame's white). The full-range log_rmse floors both images at 1e-3 of the frames' top, the largest x the
-fed frames can record, CRF^-1(1) T_0 / T_k of the shortest exposure (akf.evaluate.frames_range; a note gives
+fed frames can record, CRF^-1(1) T_0 / T_k of the shortest exposure (evsim_eval.scoring.frames_range; a note gives
 each sequence's range and floor), in both protocols; the range classes set the truth against that range.
 Every method gets the recording's nominal contrast thresholds, or, when it carries none (real recordings), those of
 a given sensor file (the camera calibrated by `evsim calibrate`), else the thresholds estimated from its events
@@ -52,13 +54,14 @@ import numpy as np
 import akf
 import crf_models
 import sim
-from akf.evaluate import Case
 from akf.frame_noise import estimate_read_noise, frame_noise_variance
 from generators.formats import detect
 from generators.formats.recording import Recording, missing_part_error
 from sim import EvsimInputError, OptionError
 
+from . import metrics, scoring
 from .choices import KALMAN_METHODS, PROTOCOLS
+from .scoring import Case
 
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
 WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the full well): "
@@ -168,7 +171,7 @@ def check_frames(rec: Recording, need: int, what: str) -> None:
 def recording_case(rec: Recording, protocol: str = "reference",
                    method_options: dict[str, dict[str, Any]] | None = None,
                    exposure_matched: bool = True, sensor: str | None = None) -> tuple[Case, list[str]]:
-    """The akf.evaluate.Case of a protocol on a recording, and notes on the assumptions it made.
+    """The evsim_eval.scoring.Case of a protocol on a recording, and notes on the assumptions it made.
     exposure_matched (interleave): reconstructions averaged over each held-out frame's exposure window (default),
     else taken at its mid-exposure time. sensor: see recording_contrast_or_estimate."""
     crf, note = recording_crf(rec)
@@ -190,7 +193,7 @@ def recording_case(rec: Recording, protocol: str = "reference",
         else:
             scene_white = float(np.percentile(truth, 98))
             notes.append("no reference_white_radiance recorded: the scene white is the reference's 98th percentile")
-        white, white_note = akf.evaluate.reachable_white(scene_white, crf, rec.frame_t_start_us, rec.frame_t_end_us)
+        white, white_note = scoring.reachable_white(scene_white, crf, rec.frame_t_start_us, rec.frame_t_end_us)
         notes.append(white_note)
         fed = np.arange(rec.frames.shape[0])
         times, clip, windows = rec.reference_t_us[inside], None, None
@@ -199,7 +202,7 @@ def recording_case(rec: Recording, protocol: str = "reference",
         nf = rec.frames.shape[0]
         fed = np.arange(0, nf, 2)
         held = np.arange(1, fed[-1], 2)
-        gains = akf.evaluate.exposure_gains(rec.frame_t_start_us, rec.frame_t_end_us)[held]
+        gains = scoring.exposure_gains(rec.frame_t_start_us, rec.frame_t_end_us)[held]
         full = float((1 << rec.frame_bit_depth) - 1)
         truth = np.stack([g * np.asarray(crf.inverse(rec.frames[k] / full), np.float64)
                           for g, k in zip(gains, held)])
@@ -221,7 +224,7 @@ def recording_case(rec: Recording, protocol: str = "reference",
                 windows=windows, exposure_matched=exposure_matched)
     lo, top = case.frames_range
     notes.append(f"frames' range {lo:.4g}..{top:.4g} x (CRF^-1(0), CRF^-1(1) over the fed exposures), log_rmse "
-                 f"floor {akf.metrics.LOG_FLOOR_FRACTION * top:.3g} x")
+                 f"floor {metrics.LOG_FLOOR_FRACTION * top:.3g} x")
     return case, notes
 
 

@@ -8,14 +8,14 @@ import math
 from collections.abc import Iterable
 from pathlib import Path
 
-import akf
-from akf.exposure import MAX_SAMPLES, MIN_SAMPLES, SAMPLES_PER_EVENT
-from akf.pixel_classes import CLIP_MARGIN_DN, FLAT_STD
 from generators.formats.atomic import write_text_atomic
 
+from . import metrics as metrics_module
+from .exposure import MAX_SAMPLES, MIN_SAMPLES, SAMPLES_PER_EVENT
+from .pixel_classes import CLIP_MARGIN_DN, FLAT_STD
 from .protocols import FRAMES_TOP, UNITS, WHITE
 
-#: what each pixel or time class holds (akf.pixel_classes), printed with the per-class blocks
+#: what each pixel or time class holds (evsim_eval.pixel_classes), printed with the per-class blocks
 CLASS_MEANING = {
     "well": "well-exposed in both nearest input frames",
     "high": f"clipped high in a nearest input frame (within {CLIP_MARGIN_DN} DN of the CRF's top)",
@@ -40,7 +40,7 @@ def scoring_mode(protocol: str, exposure_matched: bool = True) -> str:
     if exposure_matched:
         return (f"exposure-matched: each reconstruction averaged in linear x over the held-out frame's exposure "
                 f"window ({MIN_SAMPLES}..{MAX_SAMPLES} midpoint samples, {SAMPLES_PER_EVENT} per event of the "
-                f"busiest pixels; akf.exposure), then clipped to the frame's range; --point-scoring: at "
+                f"busiest pixels; evsim_eval.exposure), then clipped to the frame's range; --point-scoring: at "
                 f"mid-exposure")
     return "point-in-time: each reconstruction at the held-out frame's mid-exposure time (--point-scoring)"
 
@@ -63,14 +63,14 @@ def format_table(result: dict, protocol: str = "reference", notes: Iterable[str]
     methods = list(result)
     sequences = list(result[methods[0]])
     metrics, by_class, classes = _split(result[methods[0]][sequences[0]])
-    labels = {m: f"{m} (clipped)" if m in akf.metrics.NEEDS_WHITE else m for m in metrics}
+    labels = {m: f"{m} (clipped)" if m in metrics_module.NEEDS_WHITE else m for m in metrics}
     width = max(12, *(len(s) + 2 for s in sequences), *(len(label) + 2 for label in labels.values()))
     lines = [f"units: {UNITS[protocol]}", f"scoring: {scoring_mode(protocol, exposure_matched)}",
              *(f"note: {n}" for n in notes)]
     for metric in metrics:
-        rule = (WHITE[protocol] if metric in akf.metrics.NEEDS_WHITE
-                else FRAMES_TOP if metric in akf.metrics.NEEDS_TOP else "")
-        lines += ["", f"{metric}: {akf.NORMALISATION[metric]}{rule}",
+        rule = (WHITE[protocol] if metric in metrics_module.NEEDS_WHITE
+                else FRAMES_TOP if metric in metrics_module.NEEDS_TOP else "")
+        lines += ["", f"{metric}: {metrics_module.NORMALISATION[metric]}{rule}",
                   f"{labels[metric]:<{width}}" + "".join(f"{m:>14}" for m in methods)]
         for seq in sequences:
             lines.append(f"{seq:<{width}}" + "".join(f"{_fmt(result[m][seq][metric]):>14}" for m in methods))
@@ -83,7 +83,7 @@ def format_table(result: dict, protocol: str = "reference", notes: Iterable[str]
                   *(f"  {c}: {CLASS_MEANING.get(c, c)}" for c in classes)]
         cw = max(len(f"{s} {c} (100%)") for s in rows for c in classes) + 2
         for metric in shown:
-            label = f"{metric} (clipped)" if metric in akf.metrics.NEEDS_WHITE else metric
+            label = f"{metric} (clipped)" if metric in metrics_module.NEEDS_WHITE else metric
             lines += ["", f"{label} by class", f"{metric:<{cw}}" + "".join(f"{m:>14}" for m in methods)]
             for seq in rows:
                 for c in classes:

@@ -7,6 +7,7 @@ import pytest
 
 import akf
 import crf_models
+import evsim_eval
 import sim
 
 H, W, DURATION_US = 30, 40, 700_000
@@ -54,7 +55,7 @@ def test_akf_beats_cf_and_frames_on_synthetic_ahdr(preset):
     events, frames, ts, te, crf, reference, ref_t = make_ahdr_sequence(preset)
     clipped = np.mean((frames == 0) | (frames == 255))
     assert clipped > 0.5
-    table = akf.evaluate_sequence(events, frames, ts, te, crf, reference, ref_t,
+    table = evsim_eval.evaluate_sequence(events, frames, ts, te, crf, reference, ref_t,
                                   methods=("akf", "cf", "frames"), metrics=("mse", "ssim"))
     print(f"\nsynthetic AHDR ({preset}, {clipped:.0%} clipped):")
     for method, row in table.items():

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import akf
 import crf_models
+import evsim_eval
 import sim
 from sim.errors import EvsimInputError, InvalidParameterError
 
@@ -22,7 +22,7 @@ def test_table_of_a_static_scene():
     frames, ts, te = _static_sequence()
     ref_t = np.array([10_000, 50_000])
     reference = np.repeat(frames[:1] / 255.0, 2, axis=0)
-    table = akf.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, reference, ref_t,
+    table = evsim_eval.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, reference, ref_t,
                                   methods=("frames", "akf"), metrics=("mse", "psnr", "ssim", "log_rmse"))
     assert set(table) == {"frames", "akf"} and set(table["akf"]) == {"mse", "psnr", "ssim", "log_rmse"}
     assert table["frames"]["mse"] == pytest.approx(0.0, abs=1e-12)  # float32 output of exact DN / 255
@@ -37,17 +37,17 @@ def test_method_options_reach_the_method_and_images_are_returned():
     frames, ts, te = _static_sequence()
     ref_t = np.array([60_000])
     reference = frames[1:2] / 255.0
-    table, images = akf.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, reference, ref_t,
+    table, images = evsim_eval.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, reference, ref_t,
                                           methods=("cf",), metrics=("mse",), return_images=True,
                                           method_options={"cf": {"crossover_hz": 5.0, "i0": 0.5}})
     assert images["cf"].shape == (1, 16, 16)
-    assert table["cf"]["mse"] == pytest.approx(akf.mse(images["cf"][0], reference[0]))
+    assert table["cf"]["mse"] == pytest.approx(evsim_eval.mse(images["cf"][0], reference[0]))
 
 
 def test_bad_requests():
     frames, ts, te = _static_sequence()
     ref = np.zeros((1, 16, 16))
     with pytest.raises(InvalidParameterError, match="unknown"):
-        akf.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, ref, [10_000], methods=("e2vid",))
+        evsim_eval.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, ref, [10_000], methods=("e2vid",))
     with pytest.raises(EvsimInputError, match="reference"):
-        akf.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, ref, [10_000, 20_000])
+        evsim_eval.evaluate_sequence(sim.empty_events(), frames, ts, te, LINEAR, ref, [10_000, 20_000])

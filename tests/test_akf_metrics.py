@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from akf import metrics
+from evsim_eval import metrics
 from sim.errors import EvsimInputError
 
 

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import akf
+import evsim_eval
 import sim
-from akf.tuning import SEARCH_SPACES, default_setting, describe_setting, setting_options, tune
+from evsim_eval.tuning import SEARCH_SPACES, default_setting, describe_setting, setting_options, tune
 
 
 def test_coordinate_search_finds_the_grid_optimum_of_a_separable_objective():
@@ -74,6 +75,6 @@ def test_tuning_picks_a_high_cf_gain_when_the_events_lie():
     def objective(s):
         c, opts = setting_options("cf", s, 0.2)
         out = akf.complementary_filter(ev, frames, ts, te, "linear", times, contrast=c, **opts)
-        return float(np.mean([akf.mse(o, truth) for o in out]))
+        return float(np.mean([evsim_eval.mse(o, truth) for o in out]))
 
     assert tune("cf", objective).setting["alpha"] == max(SEARCH_SPACES["cf"]["alpha"])

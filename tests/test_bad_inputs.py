@@ -17,9 +17,9 @@ import pytest
 import akf
 import crf_models
 import sim
-from akf import metrics
 from akf.params import AKFParams
 from evsim_app.cli import main
+from evsim_eval import metrics
 from generators import load
 from generators.config import load_config
 from generators.scenes import Checkerboard, ImageMotionScene, MovingEdge, RotatingDisk, SunPatch, Trajectory

@@ -1,4 +1,4 @@
-"""Event denoisers (akf.denoise) scored against the emulator's per-event labels (evsim_eval.denoisers): the TPR/FPR
+"""Event denoisers (sim.denoise) scored against the emulator's per-event labels (evsim_eval.denoisers): the TPR/FPR
 arithmetic on a hand-made stream, the hot-pixel filter against the emulator's hot-pixel mask, the correlation
 filter's ROC under rising shot noise, the library wrappers against the libraries, and the CLI / plot / sweep."""
 
@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import sim
-from akf.denoise import (
+from evsim_eval.denoisers import filter_roc, rates, roc_auc
+from sim import EvsimInputError, make_events
+from sim.denoise import (
     FILTERS,
     CorrelationFilter,
     DenoiseDependencyError,
@@ -21,8 +23,6 @@ from akf.denoise import (
     hot_pixel_map,
     keep_mask,
 )
-from evsim_eval.denoisers import filter_roc, rates, roc_auc
-from sim import EvsimInputError, make_events
 
 H, W = 32, 48
 

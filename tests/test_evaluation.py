@@ -1,4 +1,4 @@
-"""`evsim evaluate` / `evsim reconstruct` and evsim_eval.evaluate: scores checked against akf.evaluate_sequence
+"""`evsim evaluate` / `evsim reconstruct` and evsim_eval.evaluate: scores checked against evsim_eval.evaluate_sequence
 run directly, the recorded unit factor against its closed form, EXR output read back, the interleave protocol on
 the IJRR and AKF .mat layouts, and bad inputs -> exit 2."""
 
@@ -10,10 +10,11 @@ import pytest
 
 import akf
 import crf_models
+import evsim_eval
 import sim
-from akf.exposure import sample_count, sample_times
 from evsim_app.cli import main
 from evsim_eval.evaluate import evaluate_dataset
+from evsim_eval.exposure import sample_count, sample_times
 from evsim_eval.protocols import reference_to_x
 from generators import load
 from generators.formats import export
@@ -30,8 +31,8 @@ def dataset(tiny_dataset):
 
 
 def _direct(path, methods=("akf", "aks", "cf", "frames"), leak_rate_hz=None):
-    """The reference protocol spelled out with akf.evaluate_sequence and the camera's closed-form exposure; the AKF
-    gets the recorded DVS leak rate unless leak_rate_hz is given."""
+    """The reference protocol spelled out with evsim_eval.evaluate_sequence and the camera's closed-form exposure; the
+    AKF gets the recorded DVS leak rate unless leak_rate_hz is given."""
     rec = load(path)
     cam = sim.CameraParams(**{k: tuple(v) if isinstance(v, list) else v
                               for k, v in rec.metadata["config"]["camera"].items()})
@@ -39,7 +40,7 @@ def _direct(path, methods=("akf", "aks", "cf", "frames"), leak_rate_hz=None):
     inside = (rec.reference_t_us > rec.frame_t_mid_us[0]) & (rec.reference_t_us < rec.frame_t_mid_us[-1])
     crf = crf_models.get(rec.crf["name"], **rec.crf["params"])
     dvs = rec.metadata["config"]["dvs"]
-    return akf.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
+    return evsim_eval.evaluate_sequence(rec.events, rec.frames, rec.frame_t_start_us, rec.frame_t_end_us, crf,
                                  rec.reference[inside] * to_x, rec.reference_t_us[inside], methods=methods,
                                  metrics=METRICS, contrast=(dvs["pos_threshold"], dvs["neg_threshold"]),
                                  method_options={m: {"leak_rate_hz": dvs["leak_hz"] if leak_rate_hz is None
@@ -81,7 +82,7 @@ def test_evaluate_table_and_json_match_akf_evaluate_sequence(dataset, tmp_path, 
                 np.mean([direct[n][method][metric] for n in ("a", "b")]), rel=1e-9)
     assert "units: x = CRF scaled irradiance" in text
     mse_block = text.split("\n\nmse: ")[1].split("\n\n")[0].splitlines()
-    assert mse_block[0] == akf.NORMALISATION["mse"]  # every table states its normalisation
+    assert mse_block[0] == evsim_eval.NORMALISATION["mse"]  # every table states its normalisation
     assert mse_block[1].split() == ["mse", "akf", "aks", "cf", "frames"]
     row = dict(zip(("akf", "aks", "cf", "frames"), map(float, mse_block[2].split()[1:])))
     assert mse_block[2].split()[0] == "a"

@@ -20,6 +20,7 @@ import pytest
 
 import akf
 import crf_models
+import evsim_eval
 import sim
 from akf.params import AKFParams
 from generators.ahdr import MAX_REFERENCE_FRAMES, AHDRConfig, _reference_times
@@ -335,12 +336,12 @@ def _function_calls():
     def image(v):  # a hostile number fills an image; other values are the image
         return np.full((8, 8), v) if isinstance(v, (int, float, complex, np.generic)) else v
 
-    for metric in akf.metrics.METRICS:
-        yield (f"metrics.{metric}", lambda v, metric=metric: akf.metrics.score(metric, image(v), ref, white=1.0),
+    for metric in evsim_eval.metrics.METRICS:
+        yield (f"metrics.{metric}", lambda v, metric=metric: evsim_eval.metrics.score(metric, image(v), ref, white=1.0),
                False, False)
-    yield "metrics.psnr.data_range", lambda v: akf.metrics.psnr(img, ref, data_range=v), True, False
-    yield "metrics.pu21_ssim.luminance_scale", lambda v: akf.metrics.pu21_ssim(img, ref, luminance_scale=v), False, \
-        False
+    yield "metrics.psnr.data_range", lambda v: evsim_eval.metrics.psnr(img, ref, data_range=v), True, False
+    yield ("metrics.pu21_ssim.luminance_scale",
+           lambda v: evsim_eval.metrics.pu21_ssim(img, ref, luminance_scale=v), False, False)
 
 
 def test_api_parameters_of_hostile_kinds_are_refused_naming_the_parameter():

@@ -9,18 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import akf
-import akf.exposure
 import crf_models
+import evsim_eval.exposure
 import sim
-from akf.evaluate import Case, reachable_white, white_cap
-from akf.exposure import MAX_SAMPLES, MIN_SAMPLES, exposure_average, sample_count, sample_times
-from akf.metrics import mse01, score_map, ssim01
-from akf.pixel_classes import CLASSES, RANGE_CLASSES
 from evsim_app.cli import main
 from evsim_eval.choices import DEFAULT_METRICS
 from evsim_eval.evaluate import add_means, evaluate_dataset, evaluate_recording, request_defaults
+from evsim_eval.exposure import MAX_SAMPLES, MIN_SAMPLES, exposure_average, sample_count, sample_times
+from evsim_eval.metrics import mse01, score_map, ssim01
+from evsim_eval.pixel_classes import CLASSES, RANGE_CLASSES
 from evsim_eval.protocols import recording_case
+from evsim_eval.scoring import Case, reachable_white, white_cap
 from generators import load
 from generators.ahdr import AHDRConfig, generate_ahdr
 from generators.scenes import MovingEdge
@@ -55,7 +54,7 @@ def _oracle(scene, to_x):
 def test_exposure_matched_scoring_gives_the_truth_a_zero_score_where_point_scoring_does_not(blurred, monkeypatch):
     rec, scene = blurred
     to_x = rec.metadata["reference_to_crf_x"]
-    monkeypatch.setitem(akf.evaluate.METHODS, "truth", _oracle(scene, to_x))
+    monkeypatch.setitem(evsim_eval.scoring.METHODS, "truth", _oracle(scene, to_x))
     case, _ = recording_case(rec, "interleave")
     assert case.scoring == "exposure-matched" and case.windows.shape == (case.times.size, 2)
     np.testing.assert_array_equal(case.windows[:, 1] - case.windows[:, 0], EXPOSURE)
@@ -94,7 +93,7 @@ def test_exposure_average_is_the_mean_of_midpoint_samples_and_the_count_follows_
         calls.append(len(t))
         return np.asarray(t, np.float64)[:, None, None] * np.ones((1, 2, 2))
     whole, _ = exposure_average(ramp, ev, windows, (2, 2))
-    monkeypatch.setattr(akf.exposure, "_CHUNK_BYTES", 1)  # budget: MAX_SAMPLES samples per call
+    monkeypatch.setattr(evsim_eval.exposure, "_CHUNK_BYTES", 1)  # budget: MAX_SAMPLES samples per call
     parts, _ = exposure_average(ramp, ev, windows, (2, 2))
     assert calls[0] == 20 * MIN_SAMPLES and calls[1:] == [MAX_SAMPLES] * 2 + [20 * MIN_SAMPLES - 2 * MAX_SAMPLES]
     np.testing.assert_array_equal(parts, whole)
@@ -287,11 +286,11 @@ def test_the_default_table_and_json_hold_every_figure(tiny_dataset, tmp_path, ca
     js = tmp_path / "s.json"
     assert main(["evaluate", str(tiny_dataset), "--methods", "frames,akf", "--json", str(js)]) == 0
     text = capsys.readouterr().out
-    blocks = [line.split(":")[0] for line in text.splitlines() if line.split(":")[0] in akf.METRICS]
+    blocks = [line.split(":")[0] for line in text.splitlines() if line.split(":")[0] in evsim_eval.METRICS]
     assert blocks == list(DEFAULT_METRICS["reference"])  # one block per metric, in the headline order
     assert "mse01 (clipped)" in text and "log_rmse by class" in text and "truth above the frames' top" in text
     data = json.loads(js.read_text())
-    per_pixel = [m for m in DEFAULT_METRICS["reference"] if m in akf.metrics.PER_PIXEL]
+    per_pixel = [m for m in DEFAULT_METRICS["reference"] if m in evsim_eval.metrics.PER_PIXEL]
     expected = {*DEFAULT_METRICS["reference"], *(f"{m}@{c}" for m in per_pixel for c in CLASSES),
                 *(f"share@{c}" for c in CLASSES)}
     for method in ("frames", "akf"):

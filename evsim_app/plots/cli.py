@@ -186,7 +186,7 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                                                    "denoiser's ROC AUC: auc (all noise), auc_shot, auc_leak, auc_hot "
                                                    "(sweeps written with --labels)")
     s.add_argument("--methods", nargs="+", help="methods (default: akf cf frames), or with an AUC metric the "
-                                                "akf.denoise filters (default: correlation hot_pixel)")
+                                                "sim.denoise filters (default: correlation hot_pixel)")
     s.add_argument("--recompute", action="store_true", help="ignore the cached sweep_metrics.json")
     s.add_argument("--no-progress", action="store_true", help="no progress messages")
     s.add_argument("--out", type=Path, help="figure file (default ./<results folder>_sweep.png)")
@@ -196,7 +196,7 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
                         help="ROC curves of event denoisers (TPR on signal against FPR per noise type) with AUCs")
     r.add_argument("source", type=Path, help="a dataset written with --labels, or the --json of `evsim evaluate "
                                              "DATASET --task denoise`")
-    r.add_argument("--filters", nargs="+", help="filters to draw (akf.denoise.FILTERS; default: all installed, or "
+    r.add_argument("--filters", nargs="+", help="filters to draw (sim.denoise.FILTERS; default: all installed, or "
                                                 "all in the JSON)")
     r.add_argument("--out", type=Path, help="figure file (default ./<source>_roc.png)")
     r.set_defaults(func=_cmd_roc)

@@ -197,7 +197,7 @@ class Prepared:
     def frames_range(self) -> tuple[np.ndarray, np.ndarray]:
         """(F,) float64 lowest and highest radiance (x) each frame records: CRF^-1(0) and CRF^-1(1) times T_0 / T_k,
         frame 0's exposure time over frame k's (x is in frame 0's units); outside it the frame is clipped."""
-        from akf.evaluate import exposure_gains
+        from evsim_eval.scoring import exposure_gains
 
         gain = exposure_gains(self.rec.frame_t_start_us, self.rec.frame_t_end_us)
         return float(self.crf.inverse(0.0)) * gain, float(self.crf.inverse(1.0)) * gain

@@ -69,6 +69,7 @@ def compare_images(prep: Prepared, t_us: int | None = None, methods: Sequence[st
         dB}, "gain" (the AKF's K in 1/s, or None).
     """
     import akf
+    import evsim_eval
 
     rec = prep.rec
     references = prep.reference_x
@@ -99,7 +100,7 @@ def compare_images(prep: Prepared, t_us: int | None = None, methods: Sequence[st
     lo, hi = prep.frames_range()
     tone = ToneMap.from_reference(reference, frames_top=float(hi[k]))
     log_error = {m: tone.log_error(im, reference) for m, im in images.items()}
-    psnr = {m: akf.pu21_psnr(np.clip(im, 0, None), reference) for m, im in images.items()}
+    psnr = {m: evsim_eval.pu21_psnr(np.clip(im, 0, None), reference) for m, im in images.items()}
     ldr = rec.frames[k].astype(np.float64) / ((1 << rec.frame_bit_depth) - 1)
     return {"t_us": t, "frame_index": k, "ldr": ldr, "frames_range": (float(lo[k]), float(hi[k])),
             "reference": reference, "images": images, "tone_map": tone, "gain": k_gain, "log_error": log_error,

@@ -95,10 +95,10 @@ def aggregate(rows: list[dict], key: str, method: str,
 def plot_sweep(results: str | Path, out: str | Path, *, methods: Sequence[str] = DEFAULT_METHODS, metric: str = "mse",
                recompute: bool = False, progress: bool = False) -> list[dict]:
     """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows."""
-    import akf
+    import evsim_eval
 
-    if metric not in akf.METRICS and metric not in AUC_METRICS:
-        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join((*akf.METRICS, *AUC_METRICS))}")
+    if metric not in evsim_eval.METRICS and metric not in AUC_METRICS:
+        raise EvsimInputError(f"unknown metric {metric!r}; one of {', '.join((*evsim_eval.METRICS, *AUC_METRICS))}")
     index = read_index(results)
     rows = sweep_metrics(results, methods, metric, recompute=recompute, progress=progress)
     keys = list(index["grid"])

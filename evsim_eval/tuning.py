@@ -5,7 +5,7 @@ method's contrast and keyword options. tune() starts from DEFAULTS (the untuned 
 turn, keeps the value of its grid that minimises the objective with the other parameters at their best so far
 (one sweep: sum of the grid sizes runs, not their product); lower is better; ties keep the earlier value.
 tune_cases() is the protocol's objective: the mean of one metric over the tuning split of every sequence (each an
-akf.evaluate.Case), negated for metrics where higher is better.
+evsim_eval.scoring.Case), negated for metrics where higher is better.
 
 Parameters (all multiplicative or in the method's units):
 - contrast_scale: multiplies the nominal contrast thresholds (every event-based method).
@@ -35,10 +35,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from akf.params import AKFParams
 from sim.errors import InvalidParameterError
 
 from .metrics import HIGHER_IS_BETTER
-from .params import AKFParams
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -50,7 +50,8 @@ if TYPE_CHECKING:
     Setting = dict[str, float | None]
 
     class _Case(Protocol):
-        """What tune_cases needs of an akf.evaluate.Case (not imported here: akf.evaluate imports this module)."""
+        """What tune_cases needs of an evsim_eval.scoring.Case (not imported here: evsim_eval.scoring imports this
+        module)."""
 
         def run(self, method: str, sel: slice | np.ndarray, setting: Setting | None) -> np.ndarray: ...
 
@@ -166,7 +167,7 @@ def tune(method: str, objective: Callable[[Setting], float],
 
 def tune_cases(method: str, cases: Sequence[_Case], selections: Sequence[slice | np.ndarray], metric: str,
                space: dict[str, Sequence[float | None]] | None = None) -> Tuned:
-    """tune() of `method` on the mean of `metric` over cases[i] (akf.evaluate.Case) scored at its times
+    """tune() of `method` on the mean of `metric` over cases[i] (evsim_eval.scoring.Case) scored at its times
     [selections[i]]; the Tuned objective is that mean (negated where higher is better)."""
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
 

@@ -10,13 +10,14 @@ And a split of the truth's local structure, independent of the first: "flat" whe
 by clip(I / white, 0, 1), has a local standard deviation below FLAT_STD over the 7x7 SSIM window, "textured"
 elsewhere.
 Range classes (RANGE_CLASSES, a partition of every scored time's pixels by the truth alone, range_classes): the
-truth against the range of x the input frames can record, [lo, hi] in frame 0's x units (akf.evaluate.frames_range:
+truth against the range of x the input frames can record, [lo, hi] in frame 0's x units
+(evsim_eval.scoring.frames_range:
 CRF^-1(0) and CRF^-1(1) times the smallest and the largest exposure gain T_0 / T_k): "below_range" where the truth
 is below lo (darker than any frame's floor), "in_range" inside [lo, hi], "above_range" above hi (brighter than any
 frame can record: only the events can tell it).
 Time classes (every pixel of a scored time): "at_frames" when t lies inside an input frame's exposure window
 [t_start, t_end], "between" otherwise (a frames-only method has not seen the scene then).
-Class scores pool every pixel of the class over the scored times (akf.metrics.score_map, SSIM maps
+Class scores pool every pixel of the class over the scored times (evsim_eval.metrics.score_map, SSIM maps
 SSIM_MARGIN pixels in from the border) and report the class's share of the scored pixels.
 
 References (full citations also in docs/models/references.md):
@@ -84,7 +85,7 @@ def range_classes(truth: npt.ArrayLike, lo: float, hi: float) -> dict[str, npt.N
     truth : array_like
         (H, W) reference of one scored time, linear intensity (x units of frame 0's exposure).
     lo, hi : float
-        The range of x the input frames can record (x units; akf.evaluate.frames_range).
+        The range of x the input frames can record (x units; evsim_eval.scoring.frames_range).
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Scoring reconstruction methods on one sequence: the one scoring path of evsim (akf.evaluate_sequence, the
+"""Scoring reconstruction methods on one sequence: the one scoring path of evsim (evsim_eval.evaluate_sequence, the
 dataset protocols of evsim_eval and the tuning objective all go through Case)."""
 
 from __future__ import annotations
@@ -9,12 +9,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from akf.inputs import as_crf
+from akf.methods import METHODS
 from sim.errors import EvsimInputError, InvalidParameterError
 
-from .baselines import BASELINES
 from .exposure import exposure_average
-from .filter import reconstruct
-from .inputs import as_crf
 from .metrics import METRICS, PER_PIXEL, ROOT_MEAN, SSIM_MAPS, score, score_map
 from .pixel_classes import (
     CLASSES,
@@ -25,7 +24,6 @@ from .pixel_classes import (
     time_classes,
     valid_region,
 )
-from .smoother import reconstruct_smoothed
 from .tuning import setting_options
 
 if TYPE_CHECKING:
@@ -38,13 +36,8 @@ if TYPE_CHECKING:
     #: the reconstruction scores of evaluate_sequence: {method: {metric: mean value}}
     ScoreTable = dict[str, dict[str, float]]
 
-__all__ = ["Case", "evaluate_sequence", "METHODS", "check_names", "white_cap", "reachable_white", "exposure_gains",
+__all__ = ["Case", "evaluate_sequence", "check_names", "white_cap", "reachable_white", "exposure_gains",
            "frames_range", "FULL_WELL"]
-
-#: name -> callable(events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, *, contrast,
-#: bit_depth, **method options) -> float32 (T, H, W) linear intensity
-METHODS = {"akf": reconstruct, "aks": reconstruct_smoothed, **BASELINES}
-
 
 def check_names(methods: Iterable[str] = (), metrics: Iterable[str] = ()) -> None:
     """InvalidParameterError naming the methods or metrics that akf does not have."""
@@ -118,7 +111,7 @@ class Case:
     the range classes), follows from the CRF and the exposure times.
     windows: (T, 2) int64 exposure windows [t_start, t_end] us when the truth is a frame that integrated the scene
     over them (a held-out frame); then, with exposure_matched (default), every reconstruction is the average of the
-    method over the window (akf.exposure), else the method at the scored time (point-in-time).
+    method over the window (evsim_eval.exposure), else the method at the scored time (point-in-time).
     options: {method: {keyword: value}} each method gets beyond the shared inputs.
     """
 
@@ -151,7 +144,7 @@ class Case:
     def run(self, method: str, sel: slice | np.ndarray = slice(None),
             setting: dict[str, float | None] | None = None) -> np.ndarray:
         """The method's reconstructions at times[sel] (exposure-matched: averaged over windows[sel]), with a tuning
-        setting (akf.tuning) applied on top of the case's contrast and options; clipped to the measurable range
+        setting (evsim_eval.tuning) applied on top of the case's contrast and options; clipped to the measurable range
         when the case has one (the held-out frame's response applied to the average)."""
         contrast, options = self.contrast, self.options.get(method, {})
         if setting:
@@ -173,8 +166,9 @@ class Case:
                by_class: bool = False) -> dict[str, float]:
         """{metric: mean over the frames} of images (at times[sel]) against the truth (of a ROOT_MEAN metric,
         log_rmse, the root of the mean square over the frames: the RMSE of all the frames' pixels pooled); with
-        by_class also "metric@class" for every per-pixel metric (akf.metrics.PER_PIXEL) and class
-        (akf.pixel_classes.CLASSES: the class's pixels pooled over the frames, a ROOT_MEAN metric the root of their
+        by_class also "metric@class" for every per-pixel metric (evsim_eval.metrics.PER_PIXEL) and class
+        (evsim_eval.pixel_classes.CLASSES: the class's pixels pooled over the frames, a ROOT_MEAN metric the root of
+        their
         mean square; NaN for an empty class) and "share@class", the class's share of the scored pixels."""
         metrics = list(metrics)
         truth = self.truth[sel]
@@ -189,7 +183,7 @@ class Case:
         return out
 
     def classes(self, k: int) -> dict[str, np.ndarray]:
-        """{class: (H, W) bool mask} of scored time k (akf.pixel_classes: pixel, range and time classes), cached
+        """{class: (H, W) bool mask} of scored time k (evsim_eval.pixel_classes: pixel, range and time classes), cached
         per white level (the flat class depends on it)."""
         key = (k, self.white)
         if key not in self._classes:
@@ -243,7 +237,7 @@ def evaluate_sequence(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_u
     in the CRF's scaled-irradiance units of frame 0's exposure (for frames from sim.LDRCamera: x = radiance *
     params.electrons_per_radiance_us * exposure_us of frame 0 / params.full_well_e).
 
-    Each metric is computed per reference frame (see akf.metrics for each one's normalisation) and averaged over
+    Each metric is computed per reference frame (see evsim_eval.metrics for each one's normalisation) and averaged over
     the frames. method_options: {method: {keyword: value}} passed to that method (e.g. {"akf": {"params": ...}}).
     white: the intensity the [0, 1] protocol metrics (mse01, ssim01) map to 1; default reachable_white of the 98th
     percentile of the reference (all frames pooled): at most what the methods can output.

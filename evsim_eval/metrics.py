@@ -3,7 +3,7 @@
 - log_rmse: the full-range error, on every pixel however bright: the root mean square of
   ln(max(I, f)) - ln(max(R, f)) (natural log, reconstruction I, reference R), with the floor
   f = LOG_FLOOR_FRACTION (1e-3) times `top`, the largest x the input frames can record (given by the caller:
-  CRF^-1(1) times the largest exposure gain T_0 / T_k, akf.evaluate.frames_range), so that values too dark for any
+  CRF^-1(1) times the largest exposure gain T_0 / T_k, evsim_eval.scoring.frames_range), so that values too dark for any
   frame to tell apart count alike and a ratio error counts the same in the shadows and in the highlights.
 - mse / psnr: on the raw linear intensities as given (no tone mapping, no rescaling). psnr uses
   data_range = reference max unless given: PSNR = 10 log10(data_range^2 / MSE).
@@ -225,7 +225,7 @@ def log_rmse(x: npt.ArrayLike, ref: npt.ArrayLike, top: float) -> float:
         Reconstruction I and reference R, (H, W) linear intensity (x units), >= 0.
     top : float
         The largest intensity the input frames can record (x units), CRF^-1(1) times the largest exposure gain
-        T_0 / T_k (akf.evaluate.frames_range); the floor f = 1e-3 top (LOG_FLOOR_FRACTION) keeps values darker
+        T_0 / T_k (evsim_eval.scoring.frames_range); the floor f = 1e-3 top (LOG_FLOOR_FRACTION) keeps values darker
         than any frame resolves from dominating the score.
 
     Returns
