@@ -90,3 +90,12 @@ def end_now(reported: bool = False) -> None:
     except (OSError, ValueError):
         pass
     os._exit(128 + signal.SIGTERM)
+
+
+class Terminated(BaseException):
+    """Raised in the main thread on SIGTERM, so that every writer's cleanup (temporary files) runs as on Ctrl-C."""
+
+
+def on_sigterm(signum: int, frame: object) -> None:
+    """The CLI's SIGTERM handler: raise Terminated in the main thread."""
+    raise Terminated()

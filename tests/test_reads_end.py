@@ -119,7 +119,7 @@ def test_evsim_info_on_the_corrupt_file_exits_2_and_ends_within_a_second_of_sigt
 
 STUCK_IN_C = """
 import ctypes, signal, sys
-from evsim_app import cli
+from evsim_app import cli, info_command
 from generators.formats.atomic import temp_sibling
 
 def stuck(args):  # the main thread inside one long C call that releases the GIL (as HDF5 and numba kernels do)
@@ -129,7 +129,7 @@ def stuck(args):  # the main thread inside one long C call that releases the GIL
     ctypes.CDLL(None).sleep(30)
     return 0
 
-cli._cmd_info = stuck
+info_command.run = stuck
 sys.exit(cli.main(["info", "x"]))
 """
 

@@ -1,0 +1,95 @@
+"""Flags shared by several subcommands: the epilog, number types, where the tasks run (--workers, --scheduler,
+--resume), the outputs (--out, --overwrite, --seed, --format), the AKF's --leak-hz and name lists."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+import sim
+from evsim_eval.choices import KALMAN_METHODS
+from generators.choices import EXPORT_FORMATS, OUTPUTS
+
+EPILOG = ("Units: times in seconds (-s) or microseconds (-us) as the flag names say, sizes in pixels, rates in Hz, "
+          "speeds in pixels per second, angles in degrees, contrast thresholds in natural-log units. "
+          "Exit codes: 0 success, 2 usage error, bad input or full disk, 3 some sequences failed (listed at the end; "
+          "the others were done), 1 unexpected failure, 130 Ctrl-C, 143 SIGTERM.")
+
+
+SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) or a sensor file (.toml: see "
+               "docs/guide/calibrate.md)")
+
+
+def non_negative(kind: type) -> Callable[[str], float]:
+    """argparse type: a finite number >= 0 converted by kind (int for seeds, float for rates)."""
+    what = "a non-negative integer" if kind is int else "a finite number >= 0"
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            v = -1
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return v
+
+    return parse
+
+
+def output_list(text: str) -> list[str]:
+    """argparse type of --outputs: comma-separated names of generators.choices.OUTPUTS, events among them."""
+    names = [o.strip() for o in text.split(",") if o.strip()]
+    unknown = [o for o in names if o not in OUTPUTS]
+    if unknown or "events" not in names:
+        why = f"unknown output {unknown[0]!r}" if unknown else "events are always written"
+        raise argparse.ArgumentTypeError(f"{why}; give events[,frames,reference], got {text!r}")
+    return names
+
+
+def names(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise sim.EvsimInputError(f"expected a comma-separated list of names, got {text!r}")
+    return names
+
+
+def add_run_flags(p: argparse.ArgumentParser, *, resume: bool = True) -> None:
+    """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
+    g = p.add_argument_group("running the sequences (default: one after the other in this process)")
+    where = g.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=non_negative(int), metavar="N",
+                       help="run them in parallel on a local Dask cluster of N (>= 1) worker processes")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run them on an existing Dask cluster (e.g. tcp://host:8786; its workers need evsim and "
+                            "the same input and output paths)")
+    if resume:
+        g.add_argument("--resume", action="store_true",
+                       help="complete an earlier run into --out: keep the sequences whose file is complete and "
+                            "records the same configuration and seed (hash), generate the others")
+
+
+def run_options(args: argparse.Namespace) -> dict:
+    """workers, scheduler (and resume) keyword arguments from the flags of add_run_flags."""
+    return {k: getattr(args, k) for k in ("workers", "scheduler", "resume") if hasattr(args, k)}
+
+
+def add_akf_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--leak-hz", type=non_negative(float), default=None,
+                   help="the DVS's leak rate (Hz) for the AKF's leak-aware event model (default: the recorded "
+                        "one, else 0 = the paper's model)")
+
+
+def akf_options(args: argparse.Namespace) -> dict:
+    """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
+    return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in KALMAN_METHODS}
+
+
+def add_output_flags(p: argparse.ArgumentParser, default_out: str) -> None:
+    p.add_argument("--out", default=default_out, help=f"output folder (default: {default_out})")
+    p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
+    p.add_argument("--seed", type=non_negative(int), default=None,
+                   help="root seed (non-negative integer, numpy SeedSequence entropy; default: the config's, or 0)")
+    p.add_argument("--format", choices=EXPORT_FORMATS, default=None,
+                   help="also export every sequence to this layout (the native HDF5 file is always written)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
