@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from evsim_eval.demo import DEMO_SIZE
+from evsim_eval.choices import DEMO_SIZE
 
 from .flags import EPILOG, SENSOR_HELP, non_negative
 from .model_flags import add_model_flags, camera_overrides, dvs_overrides, sensor_size

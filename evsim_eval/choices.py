@@ -1,7 +1,7 @@
 """Import-free names and defaults of the evaluation layer: the `evsim evaluate` parser and the evaluators read them
 from here (so `evsim --help` loads no reconstruction code); evsim_eval.evaluate.check_request validates them."""
 
-__all__ = ["PROTOCOLS", "KALMAN_METHODS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC"]
+__all__ = ["PROTOCOLS", "KALMAN_METHODS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC", "DEMO_SIZE"]
 
 #: reference: score against the HDR reference frames; interleave: feed every second frame and score on the others
 PROTOCOLS = ("reference", "interleave")
@@ -21,3 +21,6 @@ TUNE_FRACTION = 1 / 3  # the tuning split: the first third of every sequence's s
 #: protocol -> the metric the tuning minimises unless told otherwise: the full-range log_rmse against an HDR
 #: reference, the paper's mse01 against held-out frames
 TUNE_METRIC = {"reference": "log_rmse", "interleave": "mse01"}
+
+#: the demo sequence's size, height and width in pixels (evsim_eval.demo, `evsim demo`)
+DEMO_SIZE = (90, 120)

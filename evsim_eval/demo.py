@@ -11,9 +11,10 @@ import numpy as np
 
 import sim
 
-__all__ = ["DEMO_SIZE", "DemoSequence", "write_demo_sequence", "score_demo"]
+from .choices import DEMO_SIZE
 
-DEMO_SIZE = (90, 120)  # height, width of the demo sequence (pixels)
+__all__ = ["DemoSequence", "write_demo_sequence", "score_demo"]
+
 
 
 @dataclass(frozen=True)
