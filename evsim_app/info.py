@@ -17,13 +17,14 @@ import numpy as np
 
 from generators.choices import INDEX_FILE
 from generators.exports import folder_sequences
-from generators.formats import Recording, detect, load
+from generators.formats import detect, load
 from generators.formats.native import (
     event_summary,
     iter_native_events,
     open_native_images,
     recording_event_chunks,
 )
+from generators.formats.recording import Recording
 from sim.dvs_params import PRESETS
 
 LABEL_NAMES = ("signal", "shot", "leak", "hot")

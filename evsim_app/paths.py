@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 import sim
+from generators.choices import READ_SUFFIXES, VIDEO_SUFFIXES
 
 _FOLDER_OUTPUT_COMMANDS = ("demo", "generate", "convert", "reconstruct")  # their --out is a folder
 
@@ -16,8 +17,7 @@ _FILE_OUTPUT_FLAGS = ("json", "out", "animate", "video")  # of the other command
 
 
 #: suffixes of the files evsim reads and writes: a new --out folder ending in one is a mistaken file name
-_FILE_SUFFIXES = (".h5", ".hdf5", ".aedat4", ".aedat2", ".aedat", ".raw", ".dat", ".mat", ".zip", ".exr", ".txt",
-                  ".json", ".mp4", ".avi", ".mov")
+_FILE_SUFFIXES = (*READ_SUFFIXES, *VIDEO_SUFFIXES, ".exr", ".json")
 
 
 MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows file systems)

@@ -1,7 +1,8 @@
 """Import-free names and defaults of the evaluation layer: the `evsim evaluate` parser and the evaluators read them
 from here (so `evsim --help` loads no reconstruction code); evsim_eval.evaluate.check_request validates them."""
 
-__all__ = ["PROTOCOLS", "KALMAN_METHODS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC", "DEMO_SIZE"]
+__all__ = ["PROTOCOLS", "KALMAN_METHODS", "DEFAULT_METHODS", "DEFAULT_METRICS", "TUNE_FRACTION", "TUNE_METRIC",
+           "DEMO_SIZE"]
 
 #: reference: score against the HDR reference frames; interleave: feed every second frame and score on the others
 PROTOCOLS = ("reference", "interleave")

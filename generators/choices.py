@@ -2,10 +2,9 @@
 without loading the readers, OpenCV or numba. The modules that implement each choice import its names from here.
 """
 
-# dataset file formats (generators.formats)
-FORMATS = ("native", "e2vid", "ijrr", "akf-mat", "exr", "e2vid-txt", "aedat4", "aedat2", "evt3", "evt2", "dat")
-# the formats a dataset generator can write per sequence (exr holds only the reference frames)
-EXPORT_FORMATS = tuple(f for f in FORMATS if f != "exr")
+# dataset file formats: the registry's names (generators.formats.registry, itself import-free); EXPORT_FORMATS, the
+# formats a dataset generator can write per sequence (exr holds only the reference frames)
+from .formats.registry import EXPORT_FORMATS, FORMATS, READ_SUFFIXES  # noqa: F401 (names for the CLI)
 
 # the file of a dataset folder that lists its sequences (generators.dataset)
 INDEX_FILE = "index.json"
@@ -13,6 +12,9 @@ INDEX_FILE = "index.json"
 # what a generated sequence holds (generators.ahdr.AHDRConfig.outputs): the events always, LDR frames and HDR
 # reference frames when asked
 OUTPUTS = ("events", "frames", "reference")
+
+# the suffixes of video files (convert's inputs; what OpenCV decodes)
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
 
 # video conversion (generators.scenes.video, generators.scenes.flow_interpolation)
 UPSAMPLE_MODES = ("flow", "linear", "none")

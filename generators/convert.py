@@ -19,9 +19,10 @@ from typing import Any
 import sim
 from sim import EvsimInputError
 
+from .choices import VIDEO_SUFFIXES
 from .config import DatasetConfig, parse_config
 from .dataset import generate_dataset
-from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, VIDEO_SUFFIXES, input_size
+from .scenes.video import HDR_IMAGE_SUFFIXES, LDR_IMAGE_SUFFIXES, input_size
 
 __all__ = ["convert", "convert_config", "clips", "SCENE_OPTIONS", "CONVERT_OUTPUTS"]
 
@@ -94,7 +95,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
             options["black_level"] = black
     sequences, names = [], set()
     for path in clips(inputs):
-        name = path.stem if path.suffix.lower() in VIDEO_SUFFIXES + (".npy", ".aedat4") else path.name
+        name = path.stem if path.is_file() else path.name  # a file's suffix is not part of the sequence's name
         base, i = name, 1
         while name in names:
             i += 1

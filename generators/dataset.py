@@ -50,6 +50,7 @@ from .formats import HOLDS, ExportDropWarning, export
 from .formats.atomic import discard, write_text_atomic
 from .formats.common import json_attr, open_h5
 from .formats.native import FORMAT_VERSION
+from .formats.registry import REGISTRY
 from .runner import check_run_options, raise_failures, run_tasks
 
 if TYPE_CHECKING:
@@ -57,8 +58,8 @@ if TYPE_CHECKING:
 
     from .scenes import Scene
 
-EXPORT_SUFFIX = {"e2vid": "_e2vid.h5", "ijrr": "_ijrr", "akf-mat": ".mat", "e2vid-txt": "_e2vid.zip",
-                 "aedat4": ".aedat4", "aedat2": ".aedat2", "evt3": "_evt3.raw", "evt2": "_evt2.raw", "dat": "_td.dat"}
+#: the name suffix of a sequence's export in each format but native ("<name><suffix>"; generators.formats.registry)
+EXPORT_SUFFIX = {f.name: f.export_suffix for f in REGISTRY if f.exportable and f.name != "native"}
 MANIFEST_SUFFIX = ".manifest.json"
 MANIFEST_VERSION = 1
 _MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one

@@ -23,6 +23,7 @@ from sim import EvsimInputError, OptionError
 from .choices import FORMATS, INDEX_FILE
 from .formats import HOLDS, DatasetFormatError, ExportDropWarning, detect, export
 from .formats.atomic import atomic_path, discard
+from .formats.registry import format_record
 
 __all__ = ["ExportedSequence", "export_path", "folder_sequences", "export_suffix"]
 
@@ -39,10 +40,9 @@ class ExportedSequence:
 
 
 def export_suffix(fmt: str) -> str:
-    """The name suffix of a sequence's export in format fmt ("<name><suffix>"), as `generate --format` names it."""
-    from .dataset import EXPORT_SUFFIX  # (not at the top: `evsim info` needs none of the generation modules)
-
-    return ".h5" if fmt == "native" else EXPORT_SUFFIX.get(fmt, "_exr" if fmt == "exr" else f".{fmt}")
+    """The name suffix of a sequence's export in format fmt ("<name><suffix>"), as `generate --format` names it
+    (generators.formats.registry)."""
+    return format_record(fmt).export_suffix
 
 
 def folder_sequences(folder: str | Path) -> list[tuple[str, Path]] | None:

@@ -47,7 +47,6 @@ from .native import recording_event_chunks
 from .recording import MAX_TIME_US, Recording, validate_recording
 from .time_wrap import WRAP_WINDOW, time_step_ok
 
-SUFFIXES = (".aedat2", ".aedat")  # jAER writes .aedat2 for AEDAT 2.0 and opens .aedat too
 MAGIC = b"#!AER-DAT2.0"
 END_OF_HEADER = "End Of ASCII Header"
 LAYOUT_VERSION = 1

@@ -18,7 +18,7 @@ from sim import EVENT_DTYPE, EvsimInputError
 
 from .atomic import atomic_path
 from .common import fail, quiet_native_output
-from .recording import MAX_TIME_US, Recording
+from .recording import MAX_TIME_US, Recording, missing_part_error
 
 TIMES_FILE = "timestamps.txt"
 
@@ -62,6 +62,23 @@ def read_exr(path: str | Path) -> np.ndarray:
     if name is None:
         raise fail(path, f"expected a single or 'Y' channel, found {sorted(channels)}")
     return np.asarray(channels[name].pixels, dtype=np.float32)
+
+
+def write_exr_recording(rec: Recording, directory: str | Path, *, half: bool = False) -> None:
+    """Write a Recording's reference frames as an EXR folder (write_exr_sequence); the "exr" format's writer.
+
+    Parameters
+    ----------
+    rec : Recording
+        A recording with reference frames (linear radiance) and their times.
+    directory : str or Path
+        The folder to write, atomically.
+    half : bool
+        Write float16 instead of float32 pixels.
+    """
+    if rec.reference is None:
+        raise missing_part_error("exr export needs reference frames: the recording has none", rec, "reference")
+    write_exr_sequence(directory, rec.reference, rec.reference_t_us, half=half)
 
 
 def write_exr_sequence(directory: str | Path, images: np.ndarray, t_us: np.ndarray, *, half: bool = False) -> None:

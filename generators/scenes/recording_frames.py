@@ -30,13 +30,25 @@ def sha256_of(paths: list[Path]) -> str:
     return h.hexdigest()
 
 
-RECORDING_SUFFIXES = (".aedat4", ".h5", ".hdf5")  # files read as recordings (native or E2VID HDF5, AEDAT4)
-
-
 def is_recording(path: Path) -> bool:
-    """True for a hybrid recording evsim reads as scene input: an .aedat4 or HDF5 (native, E2VID) file or an IJRR
-    folder (holding events.txt)."""
-    return path.suffix.lower() in RECORDING_SUFFIXES or (path.is_dir() and (path / "events.txt").is_file())
+    """True for an event recording evsim reads as scene input (its frames): a file or folder that a format of
+    generators.formats.registry holding events recognises (native or E2VID HDF5, AEDAT4, AKF .mat, an IJRR folder,
+    ...; one without frames is then refused by RecordingFrames). Files of other suffixes are not read; a folder no
+    format recognises (images) is not a recording; a file whose suffix a format claims but whose content is wrong
+    raises DatasetFormatError (naming what is wrong)."""
+    from ..formats import DatasetFormatError, detect
+    from ..formats.registry import format_record, suffix_claimed
+
+    if path.is_dir():
+        try:
+            name = detect(path)
+        except DatasetFormatError:
+            return False
+    elif suffix_claimed(path):
+        name = detect(path)
+    else:
+        return False
+    return "events" in format_record(name).holds
 
 
 class RecordingFrames:

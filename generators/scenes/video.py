@@ -74,7 +74,6 @@ from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 from .recording_frames import RecordingFrames, is_recording, sha256_of
 
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv")
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
 TIMESTAMPS_FILE = "timestamps.txt"
