@@ -24,7 +24,7 @@ from generators.choices import DIS_PRESET_NAMES, EXPORT_FORMATS, FLOW_METHODS, O
 from generators.runner import TasksFailed, raise_failures
 from sim.suggest import unknown_name
 
-from . import export_command
+from . import export_command, lab_command
 from .calibrate_command import add_parser as add_calibrate_parser
 from .model_flags import add_model_flags, camera_overrides, dvs_overrides, flag_hint, parse_assignments, sensor_size
 from .plots.cli import add_plot_parser
@@ -720,6 +720,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_plot_parser(sub)
     add_calibrate_parser(sub)
     export_command.add_parser(sub, EPILOG)
+    lab_command.add_parser(sub, EPILOG)
     return parser
 
 
