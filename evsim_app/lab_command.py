@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         serve(port, open_browser=not args.no_browser, recording=args.recording and str(args.recording),
               photo=args.image and str(args.image))
-    except KeyboardInterrupt:
-        print("\nevsim lab: stopped", flush=True)
+    except KeyboardInterrupt:  # Panel's own SIGINT handler usually stops the server first, and serve returns
+        pass
+    print("\nevsim lab: stopped", flush=True)
     return 0

@@ -26,8 +26,8 @@ class RealPanel:
 
     def __init__(self):
         self.path = model.shared_recording()
-        self.sensor = pn.widgets.Select(name="sensor", options=list(model.SENSORS))
-        self.time = pn.widgets.FloatSlider(name="time (s from the first frame)", start=model.WINDOW_S[0],
+        self.sensor = pn.widgets.Select(label="sensor", options=list(model.SENSORS))
+        self.time = pn.widgets.FloatSlider(label="time (s from the first frame)", start=model.WINDOW_S[0],
                                            end=model.WINDOW_S[1] - model.VIEW_WINDOW_US * 1e-6, step=0.02,
                                            value=1.0)
         self.sensor.param.watch(self._changed, "value")

@@ -26,8 +26,8 @@ class ReconstructionPanel:
     """The reconstruction panel; `view` is the Panel layout. The sequence is generated on first display."""
 
     def __init__(self):
-        self.time = pn.widgets.IntSlider(name="time (reference frame index)", start=0, end=1, value=0)
-        self.scale = pn.widgets.FloatSlider(name="contrast the AKF is told / the sensor's (1 = right)", start=0.5,
+        self.time = pn.widgets.IntSlider(label="time (reference frame index)", start=0, end=1, value=0)
+        self.scale = pn.widgets.FloatSlider(label="contrast the AKF is told / the sensor's (1 = right)", start=0.5,
                                             end=2.0, step=0.1, value=1.0)
         for w in (self.time, self.scale):
             w.param.watch(self._changed, "value_throttled")

@@ -30,20 +30,20 @@ class ScenePanel:
     def __init__(self, photo: str | None = None):
         d = SceneSettings()
         self.w = {
-            "scene": pn.widgets.Select(name="scene", options=[*SCENES] + ([photo] if photo else []), value=d.scene),
-            "speed_px_per_s": pn.widgets.FloatSlider(name="motion (px/s, or deg/s for the disk)", start=0.0,
+            "scene": pn.widgets.Select(label="scene", options=[*SCENES] + ([photo] if photo else []), value=d.scene),
+            "speed_px_per_s": pn.widgets.FloatSlider(label="motion (px/s, or deg/s for the disk)", start=0.0,
                                                      end=800.0, step=50.0, value=d.speed_px_per_s),
-            "threshold": pn.widgets.FloatSlider(name="contrast threshold C (log units)", start=0.05, end=1.0,
+            "threshold": pn.widgets.FloatSlider(label="contrast threshold C (log units)", start=0.05, end=1.0,
                                                 step=0.05, value=d.threshold),
-            "refractory_us": pn.widgets.IntSlider(name="refractory period (us)", start=0, end=10_000, step=100,
+            "refractory_us": pn.widgets.IntSlider(label="refractory period (us)", start=0, end=10_000, step=100,
                                                   value=d.refractory_us),
-            "cutoff_hz": pn.widgets.FloatSlider(name="photoreceptor bandwidth at full light (Hz, 0 = ideal)",
+            "cutoff_hz": pn.widgets.FloatSlider(label="photoreceptor bandwidth at full light (Hz, 0 = ideal)",
                                                 start=0.0, end=1000.0, step=50.0, value=d.cutoff_hz),
-            "noise": pn.widgets.CheckButtonGroup(name="noise", options=list(NOISE_TYPES), value=list(d.noise),
+            "noise": pn.widgets.CheckButtonGroup(label="noise", options=list(NOISE_TYPES), value=list(d.noise),
                                                  orientation="vertical"),
-            "exposure_us": pn.widgets.IntSlider(name="LDR exposure (us)", start=500, end=40_000, step=500,
+            "exposure_us": pn.widgets.IntSlider(label="LDR exposure (us)", start=500, end=40_000, step=500,
                                                 value=d.exposure_us),
-            "crf": pn.widgets.Select(name="LDR camera response (CRF)", options=list(CRFS), value=d.crf),
+            "crf": pn.widgets.Select(label="LDR camera response (CRF)", options=list(CRFS), value=d.crf),
         }
         for w in self.w.values():
             w.param.watch(self._changed, "value_throttled" if hasattr(w, "value_throttled") else "value")
