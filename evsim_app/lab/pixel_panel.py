@@ -10,7 +10,7 @@ import panel as pn
 from bokeh.models import ColumnDataSource, Range1d
 from bokeh.plotting import figure
 
-from .pixel_model import CRFS, PixelSettings, simulate_pixel
+from .pixel_model import CRFS, PixelResult, PixelSettings, simulate_pixel
 from .signals import SIGNALS, PixelTrace
 from .widgets import count_html, explanation
 
@@ -95,14 +95,22 @@ class PixelPanel:
         return fig
 
     def update(self) -> None:
-        """Recompute the pixel and refresh the plot and the counts."""
+        """Recompute the pixel and refresh the plot and the counts (one message to the browser)."""
         start = time.perf_counter()
         r = simulate_pixel(self.settings(), self.trace)
+        compute_ms = 1e3 * (time.perf_counter() - start)
+        with pn.io.hold():
+            self._publish(r, compute_ms)
+        self.last_update_ms = 1e3 * (time.perf_counter() - start)
+
+    def _publish(self, r: PixelResult, compute_ms: float) -> None:
+        """Fill the plot's data sources and the counts from a PixelResult."""
         ms = 1e-3
+        s = self.sources
+        if not np.array_equal(s["input"].data.get("v", []), r.log_input):  # the signal, 5001 points: only if new
+            s["input"].data = {"t": r.t_us * ms, "v": r.log_input}
         ref_at = np.interp(r.events["t"], r.trace_t_us, r.reference)
         on = r.events["p"] > 0
-        s = self.sources
-        s["input"].data = {"t": r.t_us * ms, "v": r.log_input}
         s["lf"].data = {"t": r.trace_t_us * ms, "v": r.photoreceptor}
         s["ref"].data = {"t": r.trace_t_us * ms, "v": r.reference}
         s["on"].data = {"t": r.events["t"][on] * ms, "v": ref_at[on]}
@@ -116,9 +124,8 @@ class PixelPanel:
         pad = 0.1 * max(hi - lo, 1.0)
         self.plot.y_range.start, self.plot.y_range.end = lo - pad, hi + pad
         c = r.counts
-        self.last_update_ms = 1e3 * (time.perf_counter() - start)
         self.counts.object = count_html(
             "pixel-events", "events", r.n_events,
             f" (ON {c['ON']}, OFF {c['OFF']}); noise events: <b id='pixel-noise'>{r.n_noise_events}</b> "
             f"(shot {c['shot']}, leak {c['leak']}); frames: {r.frame_dn.size}, clipped {int(r.frame_clipped.sum())}"
-            f" &middot; <span style='color:#888'>computed in {self.last_update_ms:.0f} ms</span>")
+            f" &middot; <span style='color:#888'>computed in {compute_ms:.0f} ms</span>")

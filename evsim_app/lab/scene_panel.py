@@ -11,7 +11,17 @@ from bokeh.plotting import figure
 
 from .images import events_rgba, grey_rgba
 from .pixel_model import CRFS
-from .scene_model import DURATION_US, HEIGHT, NOISE_TYPES, SCENES, WIDTH, WINDOW_US, SceneSettings, simulate_scene
+from .scene_model import (
+    DURATION_US,
+    HEIGHT,
+    NOISE_TYPES,
+    SCENES,
+    WIDTH,
+    WINDOW_US,
+    SceneResult,
+    SceneSettings,
+    simulate_scene,
+)
 from .widgets import count_html, explanation, image_figure
 
 TEXT = ("The same sensor pair over a whole scene: every pixel of a 346x260 DVS runs the model of the one-pixel "
@@ -80,11 +90,16 @@ class ScenePanel:
         """Re-emulate the scene with the widgets' settings and refresh the views."""
         start = time.perf_counter()
         r = simulate_scene(self.settings())
+        with pn.io.hold():  # one message to the browser for all the changes
+            self._publish(r, 1e3 * (time.perf_counter() - start))
+        self.last_update_ms = 1e3 * (time.perf_counter() - start)
+
+    def _publish(self, r: SceneResult, compute_ms: float) -> None:
+        """Fill the images, the rate plot and the counts from a SceneResult."""
         self.events_src.data = {"image": [events_rgba(r.on, r.off)]}
         self.frame_src.data = {"image": [grey_rgba(r.frame / r.max_dn)]}
         self.rate_src.data = {"t": r.rate_t_us * 1e-3, "r": r.rate_hz}
-        self.last_update_ms = 1e3 * (time.perf_counter() - start)
         self.counts.object = count_html(
             "scene-events", f"events in {DURATION_US // 1000} ms", r.n_events,
             f"; noise events: {r.n_noise}; mean rate {r.n_events / (DURATION_US * 1e-6) / 1e6:.2f} M events/s"
-            f" &middot; <span style='color:#888'>computed in {self.last_update_ms:.0f} ms</span>")
+            f" &middot; <span style='color:#888'>computed in {compute_ms:.0f} ms</span>")
