@@ -41,7 +41,8 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
-                    "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.codeobj.json"]
+                    "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.codeobj.json",
+                    "auto_lessons/*.ipynb", "auto_lessons/*.py", "auto_lessons/*.zip", "auto_lessons/*.json"]
 templates_path = ["_templates"]
 # `name` in a docstring is code (the docstrings are plain text; evsim_docs.prose_to_rst keeps their backticks)
 default_role = "literal"
@@ -72,8 +73,9 @@ numpydoc_validation_checks: set[str] = set()
 intersphinx_mapping: dict = {}
 
 sphinx_gallery_conf = {
-    "examples_dirs": str(ROOT / "examples"),
-    "gallery_dirs": "auto_examples",
+    # the examples, and the lessons (lessons/: the teaching lab's computations, with its panels in Jupyter)
+    "examples_dirs": [str(ROOT / "examples"), str(ROOT / "lessons")],
+    "gallery_dirs": ["auto_examples", "auto_lessons"],
     "filename_pattern": r"/\d\d_[^/]*\.py$",  # run every numbered example
     "ignore_pattern": r"(_shared|make_readme_figures)\.py$",
     "within_subsection_order": "FileNameSortKey",  # the teaching order, 01 to 06

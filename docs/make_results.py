@@ -349,7 +349,7 @@ def index_page(m: dict, quick: bool) -> str:
         "which runs the benchmark scripts in `bench/` and `evsim evaluate` and writes these pages; the figures "
         "on another machine will differ (the scores only by floating-point details, the timings by the "
         "machine).", "", *machine_block(m, "a quick run with small sizes: not figures to quote" if quick else ""),
-        "```{toctree}", ":maxdepth: 1", "", "benchmarks", "evaluation", "```", ""])
+        "```{toctree}", ":maxdepth: 1", "", "benchmarks", "evaluation", "lab", "```", ""])
 
 
 def main() -> None:

@@ -27,6 +27,7 @@ from . import (
     export_command,
     generate_command,
     info_command,
+    lab_command,
     reconstruct_command,
 )
 from .flags import EPILOG
@@ -50,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_plot_parser(sub)
     calibrate_command.add_parser(sub)
     export_command.add_parser(sub, EPILOG)
+    lab_command.add_parser(sub, EPILOG)
     return parser
 
 
