@@ -10,7 +10,8 @@ generate_ahdr() streams the scene through both sensor models into a native HDF5 
   reference radiance to the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output), and
   reference_white_radiance: the radiance the evaluation's [0, 1] protocol maps to 1 (98th percentile at t = 0).
 A scene that started before its t = 0 (scene.warm_up_us > 0: a recorded clip) is fed to the DVS mirrored in time
-over its first warm_up_us before t = 0, so that the DVS starts in a running state (warm_up_input).
+over its first warm_up_us before t = 0, so that the DVS starts in a running state (generators.dvs_input, the DVS
+pass that conversion and calibration share).
 Times are written in the scene's own time base: scene time + scene.time_origin_us when the scene has one (a
 recording's frames or a timestamps file: the simulated events carry the times of the input), recorded as
 metadata "time_origin_us".
@@ -39,14 +40,15 @@ from sim import InvalidParameterError
 from sim.seeding import as_seed_sequence, child_seed, seed_record
 
 from .choices import OUTPUTS
+from .dvs_input import MAX_FIXED_SAMPLES, DVSInput
 from .formats.native import NativeWriter, check_compression
-from .sampling import make_sampler
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from sim.source import RadianceSource
 
 __all__ = ["AHDRConfig", "check_outputs", "GenerationResult", "generate_ahdr", "resolve_sensors", "package_versions",
-           "warm_up_input",
            "REFERENCE_WHITE_PERCENTILE", "MAX_RATE_HZ", "MAX_REFERENCE_FRAMES", "MAX_FIXED_SAMPLES"]
 
 _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py", "OpenEXR", "colour-science",
@@ -54,7 +56,6 @@ _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
 MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
 MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
-MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
 _CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
 
 
@@ -259,20 +260,6 @@ def _reference_times(config: AHDRConfig, duration_us: int) -> list[int]:
     return sorted(times)
 
 
-def warm_up_input(images: list, times_us: list[int] | np.ndarray) -> tuple[list, np.ndarray]:
-    """The DVS input that brings a sensor into the running state of t = 0: the samples (images at times_us, the
-    first at t = 0) of the scene's first moments mirrored in time, at times -t (oldest first), t = 0 left out.
-
-    A real sensor recording a clip was running before it: its references sit wherever the last events put them
-    and its leak drifts are phased by them. A sensor initialised at t = 0 instead (reference = the first image,
-    uniform random leak phase) fires a start-up burst as the noise in the input meets references at their
-    initial levels (30x the steady rate of static pixels on a DAVIS346 recording). Feeding the mirrored start
-    first gives the sensor the input's own statistics; its events are dropped.
-    """
-    times = np.asarray(times_us, np.int64)
-    if times.size < 2 or times[0] != 0:
-        raise InvalidParameterError("a warm-up needs at least 2 samples, the first at t = 0")
-    return list(images[:0:-1]), -times[:0:-1]
 def _rates(t_us: int, duration_us: int, frames: int, events: int, bar: tqdm) -> str:
     """The DVS progress text: scene time done, input frames and events per second of wall time."""
     elapsed = max(bar.format_dict["elapsed"], 1e-9)
@@ -285,142 +272,56 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
                   metadata: dict | None = None) -> GenerationResult:
     """Simulate `scene` (a sim.source.RadianceSource) into a native HDF5 file at `path` (written atomically).
 
-    seed: int or numpy SeedSequence; child 0 seeds the DVS, child 1 the camera. The same seed and configuration
-    give bit-identical events and frames. metadata: extra keys stored with the sequence (e.g. its name).
+    Parameters
+    ----------
+    scene : RadianceSource
+        The scene (radiance(t_us) -> (H, W) float32 linear radiance over [0, duration_us]).
+    path : str or Path
+        The native HDF5 file to write.
+    config : AHDRConfig, optional
+        How to turn the scene into a sequence (default AHDRConfig()).
+    seed : int or numpy.random.SeedSequence
+        Child 0 seeds the DVS, child 1 the camera; the same seed and configuration give bit-identical events and
+        frames.
+    progress : bool
+        Show progress bars (scene time for the DVS, frames for the camera).
+    metadata : dict, optional
+        Extra keys stored with the sequence (e.g. its name).
+
+    Returns
+    -------
+    GenerationResult
+        The file, the counts and the time per stage.
     """
     clock = _Clock(("scene", "dvs", "camera", "writing", "total"))
     t_total = clock.now()
     config = config or AHDRConfig()
     ss = as_seed_sequence(seed)
     src = _TimedSource(scene)
-    h, w, duration = scene.height, scene.width, int(scene.duration_us)
+    h, w = scene.height, scene.width
     dvs_params, cam_params, crf = resolve_sensors(scene, config)
-    refs = _reference_times(config, duration)
-    # written times are in the scene's own time base (a recording's or a timestamps file's): scene time + origin
-    origin = int(getattr(scene, "time_origin_us", 0))
+    schedule = cam_params.schedule(h, int(scene.duration_us))
+    refs = _reference_times(config, int(scene.duration_us))
+    # The DVS is sampled at every reference and frame time too, so its input is exact there.
+    dvs_input = DVSInput(scene, config, dvs_params, breakpoints_us=[*refs, *schedule[:, 1].tolist()], source=src)
     dvs = sim.DVSEmulator(h, w, dvs_params, child_seed(ss, 0), return_labels=config.labels)
     camera = sim.LDRCamera(h, w, cam_params, crf, child_seed(ss, 1))
-    # The DVS is sampled at every reference time too, so its input is exact there.
-    schedule = cam_params.schedule(h, duration)
-    breakpoints = sorted(set(refs) | set(schedule[:, 1].tolist()))
-    if config.sampling == "adaptive":
-        threshold = min(dvs_params.pos_threshold, dvs_params.neg_threshold)
-        sampling = {"threshold": threshold, "fraction": config.sampling_fraction,
-                    "quantile": config.sampling_quantile, "min_step_us": config.min_step_us,
-                    "max_step_us": config.max_step_us,
-                    "log_eps": dvs_params.dark_fraction * dvs_params.full_illumination}
-    else:
-        if duration * 1e-6 * config.rate_hz > MAX_FIXED_SAMPLES:
-            raise InvalidParameterError(f"fixed sampling at {config.rate_hz:g} Hz over {duration} us needs more "
-                                        f"than {MAX_FIXED_SAMPLES} DVS input frames")
-        sampling = {"rate_hz": config.rate_hz}
-    sampler = make_sampler(src, config.sampling, breakpoints_us=breakpoints, **sampling)
-    warm_up = min(int(getattr(scene, "warm_up_us", 0)), duration)
-    if warm_up > 0:  # the scene started before its t = 0 (a recorded clip): the DVS enters t = 0 running
-        pre = list(make_sampler(src, config.sampling, t_end_us=warm_up, **sampling))
-        stack, times = warm_up_input([img for _, img in pre], [t for t, _ in pre])
-        dvs.feed(np.stack(stack), times)
-    resolved = config.to_dict()
-    resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))
-    resolved["camera"] = _jsonable(dataclasses.asdict(cam_params))
-    meta = {
-        "generator": "ahdr",
-        "seed": seed_record(ss),
-        "config": resolved,
-        "scene": scene.describe() if hasattr(scene, "describe") else {"type": type(scene).__name__},
-        "duration_us": duration,
-        "time_origin_us": origin,
-        "crf": {"name": crf.name, "params": _jsonable(crf.params)},
-        # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
-        "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
-                               / cam_params.full_well_e) if len(schedule) else None,
-        # the paper's [0, 1] protocol: the radiance that maps to 1 (the AHDR rule: the 98th percentile at t = 0)
-        "reference_white_radiance": float(np.percentile(scene.radiance(0), REFERENCE_WHITE_PERCENTILE)),
-        "packages": package_versions(),
-        **(metadata or {}),
-    }
+    warm_stack, warm_times = dvs_input.warm_up()
+    if warm_stack:  # the scene started before its t = 0 (a recorded clip): the DVS enters t = 0 running
+        dvs.feed(np.stack(warm_stack), warm_times)
+    meta = _metadata(scene, config, ss, dvs_params, cam_params, crf, schedule, dvs_input.time_origin_us, metadata)
     counts = {"events": 0, "frames": 0, "references": 0}
     with NativeWriter(path, h, w, metadata=meta, frame_bit_depth=cam_params.bit_depth,
                       compression=config.compression) as writer:
-
-        def write(method, *args):
-            t0 = clock.now()
-            getattr(writer, method)(*args)
-            clock.add("writing", t0)
-
-        def feed(stack, times):
-            t0 = clock.now()
-            out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
-            clock.add("dvs", t0)
-            events, labels = out if config.labels else (out, None)
-            if warm_up > 0 and events.size and events["t"][0] <= 0:  # the warm-up's last interval ends at t = 0
-                keep = events["t"] > 0
-                events, labels = events[keep], (labels[keep] if labels is not None else None)
-            if origin:
-                events["t"] += origin
-            write("add_events", events, labels)
-            counts["events"] += events.size
-
-        # every reference time is a sampler breakpoint: the DVS pass writes the image it rendered there (once)
-        ref_times = set(refs) | set(schedule[:, 1].tolist())
-
-        def reference(img, t):
-            if "reference" in config.outputs:
-                write("add_reference", img, t + origin)
-                counts["references"] += 1
-
         writer.set_crf(meta["crf"])
         if config.threshold_maps:
             writer.set_threshold_maps(dvs.threshold_map)
-        chunk = max(2, _CHUNK_PIXEL_SAMPLES // (h * w))
-        # over scene time (its ETA is the run's), showing the DVS input frames and events per second of wall time
-        with tqdm(total=duration, desc="events", disable=not progress, leave=False,
-                  bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:
-            # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
-            bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
-            stack, times, n_fed = [], [], 0
-            samples = iter(sampler)
-            while True:
-                t0 = clock.now()
-                item = next(samples, None)
-                clock.add("scene", t0)  # rendering and step control
-                if item is None:
-                    break
-                t, img = item
-                if t in ref_times:
-                    reference(img, t)
-                stack.append(img)
-                times.append(t)
-                if len(stack) == chunk:
-                    feed(stack, times)
-                    n_fed += len(stack)
-                    bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
-                    bar.update(t - bar.n)
-                    stack, times = [], []
-            if stack:
-                feed(stack, times)
-                n_fed += len(stack)
-            bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
-            bar.update(duration - bar.n)
-            bar.refresh()  # the final rates, however soon after the last update
+        sampler = dvs_input.sampler()
+        _run_dvs(writer, dvs, dvs_input, sampler, config, set(refs) | set(schedule[:, 1].tolist()), counts, clock,
+                 progress)
         rendered_for_dvs = src.seconds
-        with tqdm(total=len(schedule) if "frames" in config.outputs else 0, unit="frame", desc="frames",
-                  disable=not progress or "frames" not in config.outputs, leave=False) as bar:
-            bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
-            frames = camera.capture(src, irradiance=False, clean_response=False) if "frames" in config.outputs \
-                else iter(())
-            while True:
-                t0, s0 = clock.now(), src.seconds
-                frame = next(frames, None)
-                clock.add("camera", t0, minus=(src.seconds[0] - s0[0], src.seconds[1] - s0[1]))
-                if frame is None:
-                    break
-                write("add_frame", frame.image, *(int(t) + origin for t in (frame.t_start_us, frame.t_mid_us,
-                                                                          frame.t_end_us)))
-                counts["frames"] += 1
-                if counts["frames"] == 1:
-                    bar.set_postfix_str("", refresh=False)
-                bar.update(1)
+        if "frames" in config.outputs:
+            _run_camera(writer, camera, src, len(schedule), dvs_input.time_origin_us, counts, clock, progress)
         writer.update_metadata({"n_dvs_samples": sampler.n_samples,
                                 "n_dvs_evaluations": getattr(sampler, "n_evaluations", sampler.n_samples),
                                 "n_events": counts["events"], "n_frames": counts["frames"],
@@ -432,3 +333,107 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
     clock.add("total", t_total)
     return GenerationResult(Path(path), counts["events"], counts["frames"], counts["references"],
                             sampler.n_samples, clock.wall, clock.cpu)
+
+
+def _metadata(scene: RadianceSource, config: AHDRConfig, ss: np.random.SeedSequence, dvs_params: sim.DVSParams,
+              cam_params: sim.CameraParams, crf: crf_models.CRF, schedule: np.ndarray, origin: int,
+              extra: dict | None) -> dict:
+    """The sequence's metadata: the resolved configuration, seed, scene, time origin, CRF, unit conversions and
+    package versions, with the caller's extra keys."""
+    resolved = config.to_dict()
+    resolved["dvs"] = _jsonable(dataclasses.asdict(dvs_params))
+    resolved["camera"] = _jsonable(dataclasses.asdict(cam_params))
+    return {
+        "generator": "ahdr",
+        "seed": seed_record(ss),
+        "config": resolved,
+        "scene": scene.describe() if hasattr(scene, "describe") else {"type": type(scene).__name__},
+        "duration_us": int(scene.duration_us),
+        "time_origin_us": origin,
+        "crf": {"name": crf.name, "params": _jsonable(crf.params)},
+        # reference radiance -> the CRF's scaled irradiance x of frame 0's exposure (the units of akf's output)
+        "reference_to_crf_x": (cam_params.electrons_per_radiance_us * int(schedule[0, 2] - schedule[0, 0])
+                               / cam_params.full_well_e) if len(schedule) else None,
+        # the paper's [0, 1] protocol: the radiance that maps to 1 (the AHDR rule: the 98th percentile at t = 0)
+        "reference_white_radiance": float(np.percentile(scene.radiance(0), REFERENCE_WHITE_PERCENTILE)),
+        "packages": package_versions(),
+        **(extra or {}),
+    }
+
+
+def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sampler: Iterator, config: AHDRConfig,
+             ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
+    """The DVS pass: the scene's samples fed to the DVS in chunks (about 16 MB of radiance each), its events and
+    the reference images written as they come (every reference time is a sampler breakpoint: the image the pass
+    rendered there is the reference)."""
+    duration = int(dvs_input.source.duration_us)
+    origin = dvs_input.time_origin_us
+
+    def write(method, *args):
+        t0 = clock.now()
+        getattr(writer, method)(*args)
+        clock.add("writing", t0)
+
+    def feed(stack, times):
+        t0 = clock.now()
+        out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
+        clock.add("dvs", t0)
+        events, labels = dvs_input.scene_events(*(out if config.labels else (out, None)))
+        write("add_events", events, labels)
+        counts["events"] += events.size
+
+    chunk = max(2, _CHUNK_PIXEL_SAMPLES // (writer.height * writer.width))
+    # over scene time (its ETA is the run's), showing the DVS input frames and events per second of wall time
+    with tqdm(total=duration, desc="events", disable=not progress, leave=False,
+              bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:
+        # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
+        bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
+        stack, times, n_fed = [], [], 0
+        samples = iter(sampler)
+        while True:
+            t0 = clock.now()
+            item = next(samples, None)
+            clock.add("scene", t0)  # rendering and step control
+            if item is None:
+                break
+            t, img = item
+            if t in ref_times and "reference" in config.outputs:
+                write("add_reference", img, t + origin)
+                counts["references"] += 1
+            stack.append(img)
+            times.append(t)
+            if len(stack) == chunk:
+                feed(stack, times)
+                n_fed += len(stack)
+                bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
+                bar.update(t - bar.n)
+                stack, times = [], []
+        if stack:
+            feed(stack, times)
+            n_fed += len(stack)
+        bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
+        bar.update(duration - bar.n)
+        bar.refresh()  # the final rates, however soon after the last update
+
+
+def _run_camera(writer: NativeWriter, camera: sim.LDRCamera, src: _TimedSource, n_frames: int, origin: int,
+                counts: dict, clock: _Clock, progress: bool) -> None:
+    """The LDR camera's pass: every frame captured (exposure, noise, CRF) and written with its exposure window in
+    the scene's time base; the camera's time excludes the scene rendering it asks for."""
+    with tqdm(total=n_frames, unit="frame", desc="frames", disable=not progress, leave=False) as bar:
+        bar.set_postfix_str("first frame: loading or compiling the camera kernels (slow on a first run)")
+        frames = camera.capture(src, irradiance=False, clean_response=False)
+        while True:
+            t0, s0 = clock.now(), src.seconds
+            frame = next(frames, None)
+            clock.add("camera", t0, minus=(src.seconds[0] - s0[0], src.seconds[1] - s0[1]))
+            if frame is None:
+                break
+            t0 = clock.now()
+            writer.add_frame(frame.image, *(int(t) + origin for t in (frame.t_start_us, frame.t_mid_us,
+                                                                     frame.t_end_us)))
+            clock.add("writing", t0)
+            counts["frames"] += 1
+            if counts["frames"] == 1:
+                bar.set_postfix_str("", refresh=False)
+            bar.update(1)

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import sim
-from generators.ahdr import AHDRConfig, generate_ahdr, warm_up_input
+from generators.ahdr import AHDRConfig, generate_ahdr
+from generators.dvs_input import warm_up_input
 from generators.scenes.base import Scene
 
 TRUTH = sim.DVSParams(pos_threshold=0.25, neg_threshold=0.3, threshold_sigma=0.02, refractory_us=100,

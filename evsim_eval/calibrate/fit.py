@@ -343,7 +343,7 @@ def prepare(path: Path, rec: Recording, window_s: tuple[float, float], black_lev
     if log is not None:
         log(f"upsampling the {n_frames} frames of {path.name} (flow) ...")
     settings = InputSettings(black_level=black_level, conditioning=conditioning)
-    return real, RecordingSimulation(path, settings)
+    return real, RecordingSimulation(path, settings, recording=rec)
 
 
 _NM_FIELDS = ("pos_threshold", "neg_threshold", "dark_fraction", "refractory_us", "cutoff_hz")

@@ -1,9 +1,10 @@
 """A recording's own frames, upsampled once, as the input of many DVS simulations (the calibration's inner loop).
 
 The frames go through the same path as `evsim convert` (generators.scenes.VideoScene: black level, the frames'
-exposure times, linear input CRF for a hybrid camera's frames, flow upsampling) and are sampled by the same adaptive
-sampler (generators.sampling) once, with convert's DVS warm-up (the clip's start mirrored before it); the samples
-stay in memory, so each simulation with other DVS parameters costs one sim.emulate over them. The full illumination
+exposure times, linear input CRF for a hybrid camera's frames, flow upsampling) and are sampled once by convert's own
+DVS pass (generators.dvs_input.DVSInput: the adaptive sampler with AHDRConfig's settings and the warm-up, the clip's
+start mirrored before it); the samples stay in memory, so each simulation with other DVS parameters costs one
+sim.emulate over them. The full illumination
 is resolved as generate resolves it (generators.ahdr.resolve_sensors: the 99th percentile of the radiance at t = 0),
 so a DVSParams fitted here gives the same events through `evsim convert --sensor`. Event times are in the
 recording's time base.
@@ -17,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 import sim
-from generators.ahdr import AHDRConfig, resolve_sensors, warm_up_input
-from generators.sampling import make_sampler
+from generators.ahdr import AHDRConfig, resolve_sensors
+from generators.dvs_input import DVSInput
+from generators.formats.recording import Recording
 from generators.scenes.video import VideoScene
 
 
@@ -39,42 +41,38 @@ class InputSettings:
 class RecordingSimulation:
     """The upsampled radiance of a recording's frames, ready for repeated DVS simulation.
 
-    path: an AEDAT4 file or IJRR folder with frames. max_pixel_samples bounds the memory (float32 samples x pixels).
-    times_us: sample times in the recording's time base; full_illumination: the resolved radiance of "full
-    illumination" (DVSParams.full_illumination is replaced by it in every simulation).
+    path: an AEDAT4 file or IJRR folder with frames; recording: the Recording at path when the caller has loaded it
+    (not read again). max_pixel_samples bounds the memory (float32 samples x pixels).
+    times_us: sample times in scene time (from the first frame; the warm-up's negative); full_illumination: the
+    resolved radiance of "full illumination" (DVSParams.full_illumination is replaced by it in every simulation).
     """
 
     def __init__(self, path: str | Path, settings: InputSettings | None = None, *,
-                 max_pixel_samples: int = 1 << 29):
+                 recording: Recording | None = None, max_pixel_samples: int = 1 << 29):
         self.path = Path(path)
         self.settings = settings = settings or InputSettings()
         self.scene = scene = VideoScene(self.path, upsample=settings.upsample, flow_preset=settings.flow_preset,
-                                        black_level=settings.black_level, conditioning=settings.conditioning)
+                                        black_level=settings.black_level, conditioning=settings.conditioning,
+                                        recording=recording)
         self.height, self.width = scene.height, scene.width
-        base = sim.DVSParams.preset("davis346")
-        dvs = resolve_sensors(scene, AHDRConfig(dvs=base, auto_exposure=False))[0]
+        config = AHDRConfig(dvs=sim.DVSParams.preset("davis346"), auto_exposure=False)
+        dvs = resolve_sensors(scene, config)[0]
         self.full_illumination = dvs.full_illumination
         # frame DN per unit radiance (integer frames: radiance = (DN - black level) / (full scale - black level))
-        bits = self.scene._input.bit_depth if hasattr(self.scene._input, "bit_depth") else 8
-        self.dn_per_radiance = float((1 << bits) - 1) - settings.black_level
-        sampler = make_sampler(scene, "adaptive", threshold=min(base.pos_threshold, base.neg_threshold),
-                               fraction=0.5, quantile=0.95, min_step_us=10, max_step_us=5000,
-                               log_eps=dvs.dark_fraction * dvs.full_illumination)
-        times, images = [], []
+        self.dn_per_radiance = float((1 << scene.input_bit_depth) - 1) - settings.black_level
+        self._input = DVSInput(scene, config, dvs)
+        images, times = self._input.warm_up()
+        self.n_warm_up = len(images)
         limit = max(2, max_pixel_samples // (self.height * self.width))
-        for t, img in sampler:
+        times = list(times)
+        for t, img in self._input.sampler():
             if len(times) >= limit:
                 raise sim.EvsimInputError(f"{self.path}: more than {limit} DVS input samples; shorten the "
                                           "recording or raise max_pixel_samples")
             times.append(int(t))
             images.append(img)
-        times = np.asarray(times, np.int64)
-        # the DVS warm-up convert does (generators.ahdr.warm_up_input): the clip's start mirrored before t = 0
-        warm = int(np.searchsorted(times, scene.warm_up_us, side="right"))
-        pre, pre_t = warm_up_input(images[:warm], times[:warm]) if warm >= 2 else ([], times[:0])
-        self.n_warm_up = len(pre)
-        self.times_us = np.concatenate([pre_t, times]) + scene.time_origin_us
-        self.radiance = np.stack(pre + images)
+        self.times_us = np.asarray(times, np.int64)  # scene time (the warm-up's negative)
+        self.radiance = np.stack(images)
         self.time_origin_us = scene.time_origin_us
 
     def offset_dn(self, dvs: sim.DVSParams) -> float:
@@ -92,4 +90,4 @@ class RecordingSimulation:
     def simulate(self, dvs: sim.DVSParams, seed: int | np.random.SeedSequence = 0) -> np.ndarray:
         """The events of sensor `dvs` on this input (sim.EVENT_DTYPE, times in the recording's time base)."""
         events = sim.emulate(self.radiance, self.times_us, self.params(dvs), seed)
-        return events[events["t"] > self.time_origin_us] if self.n_warm_up else events
+        return self._input.scene_events(events)[0]

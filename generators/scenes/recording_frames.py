@@ -12,10 +12,14 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..formats.common import fail
+
+if TYPE_CHECKING:
+    from ..formats.recording import Recording
 
 
 def sha256_of(paths: list[Path]) -> str:
@@ -63,11 +67,11 @@ class RecordingFrames:
     kind = "recording"
     counted_to_end = True
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, recording: Recording | None = None):
         from ..formats import load
 
         self.path = path
-        rec = load(path)
+        rec = load(path) if recording is None else recording  # a recording the caller loaded already
         if rec.frames is None or rec.frames.shape[0] < 2:
             n = 0 if rec.frames is None else rec.frames.shape[0]
             raise fail(path, f"the recording holds {n} frame(s): a scene needs at least 2")

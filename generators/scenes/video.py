@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -73,6 +74,9 @@ from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 from .recording_frames import RecordingFrames, is_recording, sha256_of
+
+if TYPE_CHECKING:
+    from ..formats.recording import Recording
 
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 HDR_IMAGE_SUFFIXES = (".exr", ".hdr", ".pic")
@@ -332,14 +336,16 @@ class _NpyStack(_Frames):
 
 
 def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str | Path | None = None,
-                stop_us: int | None = None, slowmo: float | None = None) -> _Frames:
+                stop_us: int | None = None, slowmo: float | None = None, recording: Recording | None = None
+                ) -> _Frames:
     """The frame source for a video file, an image folder or a .npy stack (module docstring). stop_us lets a
-    video be counted only up to where it is used; slowmo (video files only) multiplies the container's rate."""
+    video be counted only up to where it is used; slowmo (video files only) multiplies the container's rate;
+    recording: the recording at `path`, already loaded by the caller (read again otherwise)."""
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
-    if is_recording(path):
-        return RecordingFrames(path)
+    if recording is not None or is_recording(path):
+        return RecordingFrames(path, recording)
     if slowmo is not None and (path.is_dir() or path.suffix.lower() == ".npy"):
         raise EvsimInputError(f"{path}: slowmo applies to video files; give an image folder or a stack its capture "
                               "rate as fps or a timestamps file")
@@ -411,8 +417,10 @@ class VideoScene(Scene):
     black_level: the integer input's value for no light (subtracted before linearising: the normalised value is
         (raw - black_level) / (max - black_level), clipped to [0, 1]).
     warm_up_s: the DVS is warmed up on this much of the clip's start mirrored in time (the camera was running
-        before the first frame; generators.ahdr.warm_up_input), at most the clip's length; default WARM_UP_S for a
-        recording's frames, 0 for other inputs.
+        before the first frame; generators.dvs_input.warm_up_input), at most the clip's length; default WARM_UP_S
+        for a recording's frames, 0 for other inputs.
+    recording: the generators.formats Recording at `path` when the caller has loaded it already (it is not read
+        again).
     Frames whose exposure times the input records (a recording) are scaled to the first frame's exposure. The
     scene's time_origin_us is the time of its t = 0 in the input's own time base (a timestamps file's first time,
     a recording's first mid-exposure): generation writes its times from there.
@@ -425,7 +433,7 @@ class VideoScene(Scene):
                  input_crf: str | None = None, input_crf_params: dict | None = None,
                  channel: str | int | None = None, log_eps: float | None = None, slowmo: float | None = None,
                  resize: str = "crop", conditioning: ConditioningParams | dict | str | None = None,
-                 black_level: float = 0.0, warm_up_s: float | None = None):
+                 black_level: float = 0.0, warm_up_s: float | None = None, recording: Recording | None = None):
         if upsample not in UPSAMPLE_MODES:
             raise InvalidParameterError(f"upsample must be one of {', '.join(UPSAMPLE_MODES)}, got {upsample!r}")
         if resize not in RESIZE_POLICIES:
@@ -435,7 +443,8 @@ class VideoScene(Scene):
         stop_us = None if stop_s is None else int(round(positive("stop_s", stop_s, "VideoScene") * 1e6))
         if stop_us is not None and stop_us <= start_us:
             raise InvalidParameterError(f"VideoScene: start_s={start_s} must come before stop_s={stop_s}")
-        self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us, slowmo=slowmo)
+        self._input = open_frames(path, fps=fps, timestamps=timestamps, stop_us=stop_us, slowmo=slowmo,
+                                  recording=recording)
         self.path = Path(path)
         self._conditioner = InputConditioner(_conditioning_for(conditioning, self._input.kind))
         t = self._input.times_us
@@ -492,6 +501,12 @@ class VideoScene(Scene):
         self._pairs: dict[int, FlowPair] = {}
         self._pair_motion = np.full(self.times.size - 1, np.nan)  # largest displacement per interval (px)
         self._restart()
+
+    @property
+    def input_bit_depth(self) -> int:
+        """The input frames' bit depth: a recording's recorded one, else 8 (videos; images are linearised by their
+        own depth)."""
+        return int(getattr(self._input, "bit_depth", 8))
 
     # ----- geometry and linearisation ------------------------------------------------------------------
     def _crop_box(self, h0: int, w0: int) -> tuple[int, int, int, int]:
