@@ -10,7 +10,7 @@ memory to simulate many sensors over the same input.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -24,11 +24,20 @@ if TYPE_CHECKING:
     import sim
     from sim.source import RadianceSource
 
-    from .ahdr import AHDRConfig
-
 __all__ = ["DVSInput", "warm_up_input", "MAX_FIXED_SAMPLES"]
 
 MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
+
+
+class SamplingSettings(Protocol):
+    """What the DVS pass reads of a generators.ahdr.AHDRConfig: how the scene is sampled."""
+
+    sampling: str
+    sampling_fraction: float
+    sampling_quantile: float
+    min_step_us: int
+    max_step_us: int
+    rate_hz: float
 
 
 def warm_up_input(images: list, times_us: list[int] | np.ndarray) -> tuple[list, np.ndarray]:
@@ -61,13 +70,13 @@ def warm_up_input(images: list, times_us: list[int] | np.ndarray) -> tuple[list,
     return list(images[:0:-1]), -times[:0:-1]
 
 
-def sampling_options(config: AHDRConfig, dvs: sim.DVSParams, duration_us: int) -> dict[str, Any]:
+def sampling_options(config: SamplingSettings, dvs: sim.DVSParams, duration_us: int) -> dict[str, Any]:
     """The sampler's keyword arguments for `config` (generators.sampling.make_sampler): the adaptive sampler's
     threshold (the smaller of the DVS's), fraction, quantile, step bounds and log offset, or the fixed rate.
 
     Parameters
     ----------
-    config : AHDRConfig
+    config : SamplingSettings
         The sampling settings (sampling, sampling_fraction, sampling_quantile, min/max_step_us, rate_hz).
     dvs : sim.DVSParams
         The resolved DVS (its thresholds and dark level set the adaptive step).
@@ -96,7 +105,7 @@ class DVSInput:
     ----------
     scene : RadianceSource
         The scene; its warm_up_us (default 0) and time_origin_us (default 0) are read.
-    config : AHDRConfig
+    config : SamplingSettings
         The sampling settings.
     dvs : sim.DVSParams
         The resolved DVS parameters (after auto illumination).
@@ -106,7 +115,7 @@ class DVSInput:
         What is rendered in the scene's place (a timing proxy of it); default the scene.
     """
 
-    def __init__(self, scene: RadianceSource, config: AHDRConfig, dvs: sim.DVSParams, *,
+    def __init__(self, scene: RadianceSource, config: SamplingSettings, dvs: sim.DVSParams, *,
                  breakpoints_us: Iterable[int] = (), source: RadianceSource | None = None):
         self.source = scene if source is None else source
         duration = int(scene.duration_us)

@@ -15,6 +15,21 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("crf_models", "sim", "akf", "generators", "evsim_eval", "evsim_app")
 LAYERS = ("crf_models", "sim", "akf", "generators.formats", "generators", "evsim_eval", "evsim_app")
+# every package folder and its layer: what each folder is for is part of the design (a new folder takes a place here)
+FOLDERS = {
+    "crf_models": "crf_models",  # camera response curves
+    "sim": "sim",  # sensor emulation: DVS, LDR camera, events, noise, event denoising filters
+    "akf": "akf",  # reconstruction: the AKF, the smoother, baselines, frame augmentation
+    "generators.formats": "generators.formats",  # file formats: the registry, readers, writers, the Recording
+    "generators": "generators",  # generation: AHDR sequences, datasets, sweeps, conversion, the DVS pass
+    "generators.scenes": "generators",  # scenes: procedural, photos in motion, videos and recordings
+    "evsim_eval": "evsim_eval",  # evaluation: metrics, scoring, tuning, protocols, the demo
+    "evsim_eval.calibrate": "evsim_eval",  # fitting a sensor to a real recording
+    "evsim_eval.realism": "evsim_eval",  # how real simulated events are
+    "evsim_app": "evsim_app",  # the command line (a module per subcommand)
+    "evsim_app.plots": "evsim_app",  # figures and videos
+    "evsim_app.lab": "evsim_app",  # the teaching lab
+}
 # import-free name modules a lower layer may read (the choices the CLI lists without loading their implementations)
 SHARED_NAMES = {"generators.choices"}
 
@@ -59,6 +74,13 @@ def test_layers_depend_one_way():
     bad = [(mod, dep) for mod, deps in _graph().items() for dep in deps
            if _layer(dep) > _layer(mod) and dep not in SHARED_NAMES]
     assert not bad, f"imports of a layer above: {bad}"
+
+
+def test_every_package_folder_has_its_place_in_the_layers():
+    folders = {_module_name(p) for pkg in PACKAGES for p in (ROOT / pkg).rglob("__init__.py")}
+    assert folders == set(FOLDERS), f"folders not in FOLDERS: {folders - set(FOLDERS)}; gone: {set(FOLDERS) - folders}"
+    for folder, layer in FOLDERS.items():
+        assert _layer(folder) == LAYERS.index(layer), folder
 
 
 def test_layer_order_is_the_designs():

@@ -46,3 +46,30 @@ def _unannotated(path: Path) -> list[str]:
 def test_public_functions_have_type_hints():
     missing = [m for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py")) for m in _unannotated(p)]
     assert not missing, "public functions without type hints:\n" + "\n".join(missing)
+
+
+MAX_FUNCTION_LINES = 80  # of code (docstring, blank and comment lines aside); numba kernels excepted
+
+
+def _long_functions(path: Path) -> list[str]:
+    text = path.read_text()
+    lines = text.split("\n")
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        if any("jit" in ast.unparse(d) for d in node.decorator_list):
+            continue
+        body = node.body
+        has_doc = isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) and \
+            isinstance(body[0].value.value, str)
+        start = body[0].end_lineno + 1 if has_doc else body[0].lineno
+        code = [line for line in lines[start - 1:node.end_lineno] if line.strip() and not line.strip().startswith("#")]
+        if len(code) > MAX_FUNCTION_LINES:
+            out.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({len(code)} lines)")
+    return out
+
+
+def test_no_function_is_longer_than_80_lines():
+    long = [f for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py")) for f in _long_functions(p)]
+    assert not long, "split these into named steps:\n" + "\n".join(long)

@@ -124,25 +124,8 @@ def _cmd_roc(args) -> int:
     return 0
 
 
-def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
-    plot = subparsers.add_parser("plot", help="figures: one pixel over time, events and DVS videos, method comparison, "
-                                              "sweeps, denoisers' ROC curves, realism",
-                                 epilog=PLOT_EPILOG)
-    psub = plot.add_subparsers(dest="plot_kind", required=True)
-
-    p = psub.add_parser("pixel", epilog=PLOT_EPILOG,
-                        help="one pixel over time in log intensity (right axis in x): truth, DVS reference level and "
-                             "events, LDR samples over the frames' recorded range, augmented frame, AKF +-2 sqrt(P) "
-                             "and complementary filter")
-    p.add_argument("dataset", type=Path, help="a dataset with events, frames and a CRF (native HDF5 from evsim)")
-    p.add_argument("--x", type=int, required=True, help="pixel column (0 .. width-1)")
-    p.add_argument("--y", type=int, required=True, help="pixel row (0 .. height-1)")
-    p.add_argument("--n-times", type=_positive_int, default=1500, help="dense sample times of the estimates "
-                                                                       "(default 1500)")
-    p.add_argument("--out", type=Path, help="figure file (default ./<dataset>_pixel_x<X>_y<Y>.png)")
-    p.set_defaults(func=_cmd_pixel)
-
+def _add_events_parser(psub: argparse._SubParsersAction) -> None:
+    """Register `plot events` (figure, animation and DVS video)."""
     e = psub.add_parser("events", epilog=PLOT_EPILOG,
                         help="event frames (ON red, OFF blue), time surfaces and the event rate over time")
     e.add_argument("dataset", type=Path, help="a dataset (any layout evsim reads)")
@@ -167,6 +150,28 @@ def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.Argument
     e.add_argument("--scale", type=_positive_int, default=1, help="video: pixels per sensor pixel side (default 1)")
     e.add_argument("--no-progress", action="store_true", help="video: no progress bar")
     e.set_defaults(func=_cmd_events)
+
+
+def add_plot_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register `plot` and its subcommands on the evsim subparsers; return the `plot` parser."""
+    plot = subparsers.add_parser("plot", help="figures: one pixel over time, events and DVS videos, method comparison, "
+                                              "sweeps, denoisers' ROC curves, realism",
+                                 epilog=PLOT_EPILOG)
+    psub = plot.add_subparsers(dest="plot_kind", required=True)
+
+    p = psub.add_parser("pixel", epilog=PLOT_EPILOG,
+                        help="one pixel over time in log intensity (right axis in x): truth, DVS reference level and "
+                             "events, LDR samples over the frames' recorded range, augmented frame, AKF +-2 sqrt(P) "
+                             "and complementary filter")
+    p.add_argument("dataset", type=Path, help="a dataset with events, frames and a CRF (native HDF5 from evsim)")
+    p.add_argument("--x", type=int, required=True, help="pixel column (0 .. width-1)")
+    p.add_argument("--y", type=int, required=True, help="pixel row (0 .. height-1)")
+    p.add_argument("--n-times", type=_positive_int, default=1500, help="dense sample times of the estimates "
+                                                                       "(default 1500)")
+    p.add_argument("--out", type=Path, help="figure file (default ./<dataset>_pixel_x<X>_y<Y>.png)")
+    p.set_defaults(func=_cmd_pixel)
+
+    _add_events_parser(psub)
 
     c = psub.add_parser("compare", epilog=PLOT_EPILOG,
                         help="LDR input, each method's reconstruction and the HDR reference through one log tone "
