@@ -56,8 +56,8 @@ def recover_debevec(
     Returns
     -------
     TabulatedCRF
-        y = z / (levels - 1) on x = exp(g(z) - g(levels - 1)), made non-decreasing (x = 1: the irradiance times
-        exposure that just saturates, in the units of the longest... middle-normalised solve).
+        The response y = z / (levels - 1) tabulated on x = exp(g(z) - g(levels - 1)), g made non-decreasing
+        (x = 1: the irradiance times exposure that just saturates).
     """
     times = as_float_array(exposure_times, "exposure_times").ravel()
     stack = [np.asarray(im) for im in images]
