@@ -4,11 +4,7 @@ Times enter the API as int64 microseconds; inside the equations they are seconds
 are per second. "log" means natural log of scaled irradiance plus the offset I0 (L = log(I + I0)); "x" is the
 CRF's scaled-irradiance unit (the argument of crf.forward).
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
+References (docs/models/references.md): Wang et al. 2021 [Wang2021].
 """
 
 from __future__ import annotations
