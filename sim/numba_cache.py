@@ -26,7 +26,13 @@ __all__ = ["user_cache_dir", "use_user_cache"]
 
 
 def user_cache_dir() -> Path:
-    """<the user's cache folder>/evsim/numba: LOCALAPPDATA on Windows, else XDG_CACHE_HOME or ~/.cache."""
+    """<the user's cache folder>/evsim/numba: LOCALAPPDATA on Windows, else XDG_CACHE_HOME or ~/.cache.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (not created).
+    """
     if sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
         base = Path(os.environ["LOCALAPPDATA"])
     else:

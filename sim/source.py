@@ -30,6 +30,27 @@ class RadianceSource(Protocol):
     width: int
     duration_us: int
 
-    def radiance(self, t_us: int) -> np.ndarray: ...
+    def radiance(self, t_us: int) -> np.ndarray:
+        """The radiance at one time.
 
-    def max_speed_px_per_s(self) -> float: ...
+        Parameters
+        ----------
+        t_us : int
+            Time, integer microseconds in [0, duration_us].
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 (height, width) linear radiance (any scale), finite and >= 0.
+        """
+        ...
+
+    def max_speed_px_per_s(self) -> float:
+        """An upper bound of image-plane motion over the whole source.
+
+        Returns
+        -------
+        float
+            Pixels per second (0 for static or flicker-only sources).
+        """
+        ...
