@@ -2,8 +2,7 @@
 sim.camera. numpy is imported where it is used (schedule), so that reading the parameters (`evsim --help`) stays
 light.
 
-Reference: European Machine Vision Association (2021). EMVA Standard 1288: Standard for Characterization of Image
-Sensors and Cameras, Release 4.0.
+References (docs/models/references.md): EMVA 1288 [EMVA1288].
 """
 
 from __future__ import annotations
@@ -127,6 +126,18 @@ class CameraParams:
 
         With fps, frames continue while the last row's exposure ends by duration_us. Raises
         InvalidParameterError when a frame starts before t = 0 or two exposures of a row overlap.
+
+        Parameters
+        ----------
+        height : int
+            Image height (rows), for the rolling shutter's span.
+        duration_us : int, optional
+            Length of the source (us); needed with fps (None: only with frame_times_us).
+
+        Returns
+        -------
+        numpy.ndarray
+            int64 (F, 3) times in us.
         """
         import numpy as np
 
@@ -158,7 +169,20 @@ class CameraParams:
 
     @classmethod
     def preset(cls, name: str, **overrides: Any) -> CameraParams:
-        """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
+        """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden.
+
+        Parameters
+        ----------
+        name : str
+            A PRESETS name.
+        **overrides
+            CameraParams fields to replace (units: FIELD_UNITS).
+
+        Returns
+        -------
+        CameraParams
+            The parameters.
+        """
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
         check_override_names("CameraParams.preset", cls, overrides)
