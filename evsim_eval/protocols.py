@@ -172,8 +172,29 @@ def recording_case(rec: Recording, protocol: str = "reference",
                    method_options: dict[str, dict[str, Any]] | None = None,
                    exposure_matched: bool = True, sensor: str | None = None) -> tuple[Case, list[str]]:
     """The evsim_eval.scoring.Case of a protocol on a recording, and notes on the assumptions it made.
-    exposure_matched (interleave): reconstructions averaged over each held-out frame's exposure window (default),
-    else taken at its mid-exposure time. sensor: see recording_contrast_or_estimate."""
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    protocol : {"reference", "interleave"}, optional
+        Score against the HDR reference frames, or feed every second frame and score on the others (default
+        "reference").
+    method_options : dict, optional
+        {method: {keyword: value}} passed to that method.
+    exposure_matched : bool, optional
+        (interleave) Reconstructions averaged over each held-out frame's exposure window (default True), else taken
+        at its mid-exposure time.
+    sensor : str, optional
+        See recording_contrast_or_estimate.
+
+    Returns
+    -------
+    case : Case
+        The case.
+    notes : list of str
+        The assumptions made.
+    """
     crf, note = recording_crf(rec)
     notes = [note] if note else []
     options = method_options_for(rec, method_options)
