@@ -20,10 +20,7 @@ Time classes (every pixel of a scored time): "at_frames" when t lies inside an i
 Class scores pool every pixel of the class over the scored times (evsim_eval.metrics.score_map, SSIM maps
 SSIM_MARGIN pixels in from the border) and report the class's share of the scored pixels.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Bovik AC, Sheikh HR, Simoncelli EP (2004). Image quality assessment: from error visibility to
-  structural similarity. IEEE Transactions on Image Processing 13(4):600-612. doi:10.1109/TIP.2003.819861
+References (docs/models/references.md): Wang et al. 2004 [Wang2004], SSIM.
 """
 
 from __future__ import annotations

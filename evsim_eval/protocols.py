@@ -34,11 +34,7 @@ leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware even
 unless method_options say otherwise, and the frames' read noise for its frame update: a sensor file's
 [input] read_noise_dn, else estimated from the fed frames (akf.frame_noise); a note says which.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF paper's protocol.
 """
 
 from __future__ import annotations
