@@ -15,12 +15,8 @@ in highlights and in shadows, which is what the figures compare. Global Reinhard
 before, maps everything above about 10 x the reference's log-average into the top few grey levels, so the highlight
 detail the events recover was invisible.
 
-References (full citations also in docs/models/references.md):
-
-- Drago F, Myszkowski K, Annen T, Chiba N (2003). Adaptive logarithmic mapping for displaying high contrast
-  scenes. Computer Graphics Forum 22(3):419-426 (Eurographics 2003).
-- Reinhard E, Stark M, Shirley P, Ferwerda J (2002). Photographic tone reproduction for digital images. ACM
-  Transactions on Graphics 21(3):267-276 (SIGGRAPH 2002).
+References (docs/models/references.md): Drago et al. 2003 [Drago2003], the global log map; Reinhard et al. 2002
+[Reinhard2002], the tone map before issue 33.
 """
 
 from __future__ import annotations

@@ -2,14 +2,11 @@
 
 - Event frame over [t - window, t): per pixel the ON and OFF counts; drawn on white, ON towards red, OFF towards
   blue (pixels with many of both turn dark), saturating at the 99th percentile of the counts.
-- Time surface at t (Lagorce et al. 2017): S = p * exp(-(t - t_last) / tau) with t_last and p the time and polarity
-  of the pixel's latest event before t (0 where none in the last 10 tau); tau = the window length.
+- Time surface at t (Lagorce et al. 2017 [Lagorce2017]): S = p * exp(-(t - t_last) / tau) with t_last and p the
+  time and polarity of the pixel's latest event before t (0 where none in the last 10 tau); tau = the window length.
 - Event rate: ON and OFF events per second (whole sensor) in bins of bin_ms.
 
-References (full citations also in docs/models/references.md):
-
-- Lagorce X, Orchard G, Galluppi F, Shi BE, Benosman RB (2017). HOTS: a hierarchy of event-based time-surfaces
-  for pattern recognition. IEEE Transactions on Pattern Analysis and Machine Intelligence 39(7):1346-1359.
+References (docs/models/references.md): Lagorce et al. 2017 [Lagorce2017], time surfaces.
 """
 
 from __future__ import annotations

@@ -25,10 +25,8 @@ squared log ratio of the quiet static noise counts, ON and OFF together (x 0.5, 
 stage 3 only: a real sensor's static noise may be almost all ON, which the candidates cannot split) and the passage
 median difference (x 0.1).
 
-References (full citations also in docs/models/references.md):
-
-- Nelder JA, Mead R (1965). A simplex method for function minimization. The Computer Journal 7(4):308-313.
-- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. CVPRW. arXiv:2006.07722
+References (docs/models/references.md): Nelder and Mead 1965 [Nelder1965], stage 2's simplex search; Hu et al. 2021
+[Hu2021], v2e.
 """
 
 from __future__ import annotations
