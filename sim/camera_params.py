@@ -22,20 +22,51 @@ if TYPE_CHECKING:
 class CameraParams:
     """Configuration of the LDR camera (frozen; use dataclasses.replace or CameraParams.preset to vary it).
 
-    Timing (microseconds):
-        fps: frame rate used when frame_times_us is None; frame k has mid-exposure first_frame_us + round(k 1e6/fps).
-        first_frame_us: mid-exposure time of frame 0 (default: half the first exposure, so it starts at t = 0).
-        frame_times_us: explicit mid-exposure times, strictly increasing (overrides fps).
-        exposure_us: one exposure time, or a sequence used cyclically over the frames (e.g. (1000, 8000)
-            alternates a short and a long exposure).
-        rolling_shutter_line_us: row r is exposed rolling_shutter_line_us * r later than row 0 (0: global shutter).
-    Exposure scaling: radiance reference_radiance exposed for reference_exposure_us (default: the first exposure)
-        fills reference_fill of the full well (before PRNU).
-    Sensor (EMVA 1288): full_well_e, read_noise_e (std, e-), dark_current_e_per_s, prnu_sigma (relative std of
-        the per-pixel gain), dsnu_e (std of the per-pixel dark offset, e-), bit_depth 8..16.
-        noise=False switches off the temporal noise (shot and read noise); fixed patterns follow prnu_sigma/dsnu_e.
-    Sub-frames: n_subframes per exposure, or None to choose from the source's max_speed_px_per_s so that the
-        image moves at most max_px_per_subframe between sub-frames, within [1, max_subframes].
+    Every field is validated on construction; FIELD_UNITS gives each one's unit.
+
+    Attributes
+    ----------
+    fps : float
+        Timing: frame rate (frames per second, > 0) used when frame_times_us is None; frame k has mid-exposure
+        first_frame_us + round(k 1e6 / fps) us (default 30).
+    first_frame_us : int or None
+        Mid-exposure time of frame 0 (us; default None: half the first exposure, so it starts at t = 0).
+    frame_times_us : tuple of int or None
+        Explicit mid-exposure times (us), strictly increasing (overrides fps).
+    exposure_us : int or tuple of int
+        One exposure time (us, > 0), or a sequence used cyclically over the frames (e.g. (1000, 8000) alternates a
+        short and a long exposure); default 10000.
+    rolling_shutter_line_us : float
+        Row r is exposed rolling_shutter_line_us r later than row 0 (us per row; 0, the default: global shutter).
+    reference_radiance : float
+        Exposure scaling: radiance reference_radiance (radiance units, > 0) exposed for reference_exposure_us fills
+        reference_fill of the full well (before PRNU); default 1.
+    reference_fill : float
+        Fraction of the full well, in (0, 1] (default 0.5).
+    reference_exposure_us : int or None
+        Exposure of the scaling (us; default None: the first exposure).
+    full_well_e : float
+        Sensor (EMVA 1288): full well (electrons, > 0; default 10000).
+    read_noise_e : float
+        Read noise (electrons rms, >= 0; default 3).
+    dark_current_e_per_s : float
+        Dark current (electrons per second, >= 0; default 0).
+    prnu_sigma : float
+        Relative standard deviation of the per-pixel gain (PRNU, >= 0; default 0).
+    dsnu_e : float
+        Standard deviation of the per-pixel dark offset (DSNU, electrons, >= 0; default 0).
+    bit_depth : int
+        Bits of the digital numbers, 8..16 (default 8).
+    noise : bool
+        False switches off the temporal noise (shot and read noise); fixed patterns follow prnu_sigma and dsnu_e
+        (default True).
+    n_subframes : int or None
+        Sub-frames per exposure, or None (default) to choose from the source's max_speed_px_per_s so that the image
+        moves at most max_px_per_subframe between sub-frames, within [1, max_subframes].
+    max_px_per_subframe : float
+        Pixels (> 0; default 1).
+    max_subframes : int
+        Sub-frames at most (>= 1; default 64).
     """
 
     fps: float = 30.0

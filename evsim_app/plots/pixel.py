@@ -43,14 +43,36 @@ if TYPE_CHECKING:
 class PixelSeries:
     """What plot_pixel draws (times int64 us, log values in log(x + I0) units).
 
-    reference_t_us, true_log: the reference frames at the pixel (None when the file has none).
-    event_t_us, event_p: the pixel's events; dvs_level_t_us, dvs_level: the rebuilt DVS reference level (a step
-    function: the level holds from each time to the next).
-    frame_t_start_us, frame_t_end_us, frame_log, frame_clipped: the LDR samples and their exposure windows.
-    frame_range_log: (F, 2) the range each frame records, log(CRF^-1(0) T_0 / T_k + I0) and log(CRF^-1(1) T_0 / T_k
-    + I0). i0: the I0 of every log value.
-    deblurred: (F, 2) EDI-deblurred log at each exposure's start and end.
-    t_us: the dense sample times of augmented, akf, akf_std (sqrt P, log units) and cf.
+    Attributes
+    ----------
+    x, y : int
+        The pixel (column, row).
+    reference_t_us, true_log : numpy.ndarray or None
+        The reference frames' times and log values at the pixel (None when the file has none).
+    event_t_us, event_p : numpy.ndarray
+        The pixel's events: times and polarities.
+    dvs_level_t_us, dvs_level : numpy.ndarray
+        The rebuilt DVS reference level (a step function: the level holds from each time to the next).
+    frame_t_start_us, frame_t_end_us : numpy.ndarray
+        The LDR frames' exposure windows.
+    frame_log, frame_clipped : numpy.ndarray
+        The LDR samples' log values, and whether each is clipped.
+    frame_range_log : numpy.ndarray
+        (F, 2) the range each frame records, log(CRF^-1(0) T_0 / T_k + I0) and log(CRF^-1(1) T_0 / T_k + I0).
+    i0 : float
+        The I0 of every log value (x units).
+    deblurred : numpy.ndarray
+        (F, 2) EDI-deblurred log at each exposure's start and end.
+    t_us : numpy.ndarray
+        The dense sample times of augmented, akf, akf_std and cf.
+    augmented : numpy.ndarray
+        The AKF's augmented frame L^A at t_us.
+    akf : numpy.ndarray
+        The AKF's estimate at t_us.
+    akf_std : numpy.ndarray
+        Its standard deviation sqrt(P) (log units).
+    cf : numpy.ndarray
+        The complementary filter's estimate at t_us.
     """
 
     x: int
@@ -86,7 +108,7 @@ class PixelSeries:
         Returns
         -------
         lo, hi : float
-            log(x + I0), natural log units.
+            Log(x + I0), natural log units.
         """
         parts = [self.dvs_level, self.frame_log, self.frame_range_log, self.deblurred, self.augmented, self.akf,
                  self.cf] + ([] if self.true_log is None else [self.true_log])
