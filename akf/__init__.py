@@ -16,26 +16,9 @@ Submodules with more:
 Scoring, metrics and tuning are in evsim_eval (evsim_eval.metrics, evsim_eval.scoring, evsim_eval.tuning); event
 denoising filters in sim.denoise.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
-  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
-  arXiv:1811.10180
-- Scheerlinck C, Barnes N, Mahony R (2018). Continuous-time intensity estimation using event cameras. Asian
-  Conference on Computer Vision (ACCV), Lecture Notes in Computer Science 11365, 308-324. arXiv:1811.00386
-- Mantiuk RK, Azimi M (2021). PU21: a novel perceptually uniform encoding for adapting existing quality
-  metrics for HDR. Picture Coding Symposium (PCS).
-- Wang Z, Bovik AC, Sheikh HR, Simoncelli EP (2004). Image quality assessment: from error visibility to
-  structural similarity. IEEE Transactions on Image Processing 13(4):600-612. doi:10.1109/TIP.2003.819861
-- Delbruck T (2008). Frame-free dynamic digital vision. Proceedings of the International Symposium on
-  Secure-Life Electronics, Advanced Electronics for Quality Life and Society, University of Tokyo, 21-26.
-  (The background-activity filter.)
-- Guo S, Delbruck T (2022). Low cost and latency event camera background activity denoising (STCF). IEEE
-  Transactions on Pattern Analysis and Machine Intelligence 45(1):785-795 (2023 issue).
-  doi:10.1109/TPAMI.2022.3152999
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF; Pan et al. 2019 [Pan2019], EDI;
+Scheerlinck et al. 2018 [Scheerlinck2018], the complementary and high-pass filters. Metrics (evsim_eval.metrics) and
+denoising filters (sim.denoise) cite theirs.
 """
 
 from .baselines import complementary_filter, direct_integration, frames_only, high_pass_filter

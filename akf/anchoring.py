@@ -7,15 +7,12 @@ their log intensities differ little on average, and a neighbour that a frame did
 at every time (the smoother carries it there with its events). The offsets of the never-measured pixels are chosen
 to make each pixel agree, on average over the published times, with its 4-neighbours: the harmonic extension of
 the measured pixels' levels into the never-measured region (a discrete Poisson equation, as in gradient-domain
-image editing: Perez, Gangnet and Blake 2003), with the time-mean differences of their own event curves as the
-guidance field. A weak pull (ANCHOR_PRIOR_WEIGHT, relative to one neighbour) toward a prior offset keeps every
+image editing: Perez, Gangnet and Blake 2003 [Perez2003]), with the time-mean differences of their own event curves as
+the guidance field. A weak pull (ANCHOR_PRIOR_WEIGHT, relative to one neighbour) toward a prior offset keeps every
 component solvable: where no measured pixel touches a region, the prior (the clip prior's level, akf.clip_prior)
 stands. The offset never takes a pixel past its clip bound: a pixel clipped high stays at or above the clip level.
 
-References (full citations also in docs/models/references.md):
-
-- Perez P, Gangnet M, Blake A (2003). Poisson image editing. ACM Transactions on Graphics 22(3):313-318.
-  doi:10.1145/882262.882269
+References (docs/models/references.md): Perez et al. 2003 [Perez2003].
 """
 
 from __future__ import annotations
@@ -42,8 +39,19 @@ def anchor_offsets(log: npt.NDArray[np.floating], unknown: npt.NDArray[np.bool_]
     with its 4-neighbours plus ANCHOR_PRIOR_WEIGHT times the squared distance to its prior offset, then clipped to
     [lowest, highest] (the offsets that keep it on its side of the clip bound).
 
-    log: (T, H, W) log intensities at the published times (the unknown pixels' own curves, the others' levels);
-    unknown: (H, W) the pixels to solve for; prior, lowest, highest: (H, W) log offsets (read at unknown pixels).
+    Parameters
+    ----------
+    log : numpy.ndarray
+        (T, H, W) log intensities at the published times (the unknown pixels' own curves, the others' levels).
+    unknown : numpy.ndarray
+        (H, W) bool, the pixels to solve for.
+    prior, lowest, highest : numpy.ndarray
+        (H, W) log offsets (read at unknown pixels): the prior and the bounds.
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 (H, W) log offsets (log units), 0 outside unknown.
     """
     t, h, w = log.shape
     idx = np.full((h, w), -1, np.int64)

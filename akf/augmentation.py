@@ -2,13 +2,8 @@
 
 All log images are flat float64 (H*W,) arrays in L = log(I + I0). Events are assumed to report changes of this L.
 
-References (full citations also in docs/models/references.md): Wang et al. (2021), An asynchronous Kalman filter
-for hybrid event cameras (its section numbers above), and Pan et al. (2019), Bringing a blurry frame alive at high
-frame-rate with an event camera (EDI), cited in full in the akf package docstring; and
-
-- Pan L, Hartley R, Scheerlinck C, Liu M, Yu X, Dai Y (2022). High frame rate video reconstruction based on an
-  event camera. IEEE Transactions on Pattern Analysis and Machine Intelligence 44(5):2519-2533 (online 2020).
-  doi:10.1109/TPAMI.2020.3036667
+References (docs/models/references.md): Wang et al. 2021 [Wang2021] (its section numbers above); Pan et al. 2019
+[Pan2019], EDI; Pan et al. 2022 [Pan2022].
 """
 
 from __future__ import annotations

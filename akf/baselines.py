@@ -7,13 +7,8 @@ Output images at t include the events with timestamps < t; output is float32
 (T, H, W) linear intensity in the CRF's scaled-irradiance units (max(exp(log) - I0, 0) for the log-domain filters:
 never negative). crf is a crf_models curve or its registered name.
 
-References (full citations also in docs/models/references.md):
-
-- Scheerlinck C, Barnes N, Mahony R (2018). Continuous-time intensity estimation using event cameras. Asian
-  Conference on Computer Vision (ACCV), Lecture Notes in Computer Science 11365, 308-324. arXiv:1811.00386
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
+References (docs/models/references.md): Scheerlinck et al. 2018 [Scheerlinck2018], the complementary and
+high-pass filters; Wang et al. 2021 [Wang2021].
 """
 
 from __future__ import annotations
@@ -84,23 +79,47 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
                          adaptive_gain: bool = False, adaptive_factor: float = 0.1, adaptive_margin: float = 0.05,
                          max_intensity: float | None = 1.0, i0: float = _I0,
                          bit_depth: int = 8) -> npt.NDArray[np.float32]:
-    """Complementary filter (Scheerlinck, Barnes and Mahony, Continuous-time Intensity Estimation Using Event
-    Cameras, ACCV 2018) on the log image L = log(I + I0).
+    """Complementary filter (Scheerlinck et al. 2018 [Scheerlinck2018]) on the log image L = log(I + I0).
 
     dL/dt = E(t) - alpha (L - L^F): events E are high-passed, the latest frame's log L^F low-passed; per event
     L <- L^F + (L - L^F) exp(-alpha dt) + sigma c, with crossover alpha (rad/s) = 2 pi crossover_hz (default
     0.5 Hz, the original ROS default). The filter starts at tau_0 from L^F of frame 0.
 
-    Bounded output: the state is kept in [log(I0), log(max_intensity + I0)], i.e. I in [0, max_intensity] (x
-    units; default 1, the top of the CRF's input range: the full well), and L^F likewise; None: unbounded (the
-    textbook filter, whose event integration at a mismatched threshold can run far above anything the sensor
-    saw where frames are clipped).
+    Bounded output: the state is kept in [log(I0), log(max_intensity + I0)], i.e. I in [0, max_intensity], and L^F
+    likewise; max_intensity None: unbounded (the textbook filter, whose event integration at a mismatched threshold
+    can run far above anything the sensor saw where frames are clipped).
     adaptive_gain (the paper's adaptive crossover): alpha(p) = alpha for frame logs in [L_low, L_high], falling
     linearly to adaptive_factor * alpha (lambda) at the ends L_min, L_max of what the frame can represent
     (log of CRF^-1(0) and CRF^-1(1) in frame 0's exposure units); L_low / L_high lie adaptive_margin * (L_max -
     L_min) inside them. Events thus dominate where the frame is (nearly) clipped; the bound keeps the state
     finite even for lambda = 0 (an integrator there).
-    Returns float32 (T, H, W) intensity max(exp(L) - I0, 0) in the CRF's scaled-irradiance units.
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, contrast, bit_depth
+        As akf.reconstruct's: events (sim.EVENT_DTYPE, time-sorted), (N, H, W) raw frames of bit_depth bits, their
+        exposures (int64 us), the CRF (a curve or its name), output times (int64 us) and the nominal log contrast
+        threshold(s).
+    crossover_hz : float, optional
+        Crossover frequency (Hz), >= 0; default 0.5 when alpha is not given either. Give at most one of crossover_hz
+        and alpha.
+    alpha : float, optional
+        Crossover gain (rad/s), >= 0, instead of crossover_hz.
+    adaptive_gain : bool, optional
+        The paper's adaptive crossover (default False).
+    adaptive_factor : float, optional
+        lambda as a fraction of alpha at the ends of the frame's range, in [0, 1] (default 0.1).
+    adaptive_margin : float, optional
+        Where the ramp starts, as a fraction of L_max - L_min inside the ends, in [0, 0.5] (default 0.05).
+    max_intensity : float, optional
+        Bound of the output (x units; default 1, the top of the CRF's input range: the full well); None: unbounded.
+    i0 : float, optional
+        The log offset I0 (x units), > 0 (default AKFParams().i0).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (T, H, W) intensity max(exp(L) - I0, 0) in the CRF's scaled-irradiance units (x units).
     """
     if crossover_hz is None and alpha is None:
         crossover_hz = 0.5
@@ -167,9 +186,29 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
 def high_pass_filter(events: np.ndarray, shape: tuple[int, int], output_times_us: npt.ArrayLike, *,
                      contrast: npt.ArrayLike = 0.2, crossover_hz: float | None = None, alpha: float | None = None,
                      t0_us: int = 0) -> npt.NDArray[np.float32]:
-    """Events-only high-pass filter (Scheerlinck, Barnes and Mahony, ACCV 2018): the complementary filter with zero
-    frame input (L^F = 0), started at t0_us with a zero log image. Returns float32 (T, H, W) log intensity x
-    (relative, log units)."""
+    """Events-only high-pass filter (Scheerlinck et al. 2018 [Scheerlinck2018]): the complementary filter with zero
+    frame input (L^F = 0), started at t0_us with a zero log image.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE, time-sorted.
+    shape : tuple of int
+        (H, W), pixels.
+    output_times_us : array_like
+        Non-decreasing int64 us, none before t0_us; the image at t includes the events with timestamps < t.
+    contrast : array_like, optional
+        Nominal log contrast threshold(s), as akf.reconstruct's (default 0.2).
+    crossover_hz, alpha : float, optional
+        The crossover, in Hz or rad/s (at most one; default 0.5 Hz), as complementary_filter's.
+    t0_us : int, optional
+        Start time (int64 us; default 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (T, H, W) log intensity (relative, log units).
+    """
     if crossover_hz is None and alpha is None:
         crossover_hz = 0.5
     a = _crossover_alpha(crossover_hz, alpha)
@@ -184,7 +223,20 @@ def frames_only(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
                 frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                 contrast: npt.ArrayLike = 0.2, mode: str = "nearest", bit_depth: int = 8) -> npt.NDArray[np.float32]:
     """CRF^-1 of the frame nearest in time (mode="nearest", by mid-exposure time) or the linear blend in intensity
-    of the two frames around t (mode="linear", clamped to the first / last frame). Events are ignored."""
+    of the two frames around t (mode="linear", clamped to the first / last frame). Events are ignored.
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, contrast, bit_depth
+        As akf.reconstruct's (the events and contrast are validated, not used).
+    mode : {"nearest", "linear"}, optional
+        Nearest frame (default) or linear blend.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (T, H, W) intensity in the CRF's scaled-irradiance units (x units, frame 0's exposure time).
+    """
     if mode not in ("nearest", "linear"):
         raise InvalidParameterError(f"frames_only mode must be 'nearest' or 'linear', got {mode!r}")
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
@@ -218,7 +270,20 @@ def frames_only(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
 def direct_integration(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                        frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                        contrast: npt.ArrayLike = 0.2, i0: float = _I0, bit_depth: int = 8) -> npt.NDArray[np.float32]:
-    """The log of the first frame at tau_0 plus the contrast times the signed event count since then."""
+    """The log of the first frame at tau_0 plus the contrast times the signed event count since then.
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us, contrast, bit_depth
+        As akf.reconstruct's.
+    i0 : float, optional
+        The log offset I0 (x units), > 0 (default AKFParams().i0).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (T, H, W) intensity max(exp(L) - I0, 0) in the CRF's scaled-irradiance units (x units).
+    """
     check_number("i0", i0, positive=True)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     crf = as_crf(crf)

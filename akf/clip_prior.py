@@ -11,16 +11,11 @@ bound (the conditional median of the truth given the bound, under the sample's d
 level lies beyond its bound, or the sample is smaller than MIN_SAMPLE pixels, it keeps its bound. The order of the
 never-measured pixels' estimates is kept (the conditional median is non-decreasing in the bound).
 
-This treats the clipped response as a censored observation (Tobit: Tobin 1958; in Kalman filtering Allik et al.
-2016), with the prior of the censored values taken from the measured ones of the same picture instead of a
-parametric one.
+This treats the clipped response as a censored observation (Tobit: Tobin 1958 [Tobin1958]; in Kalman filtering
+Allik et al. 2016 [Allik2016]), with the prior of the censored values taken from the measured ones of the same
+picture instead of a parametric one.
 
-References (full citations also in docs/models/references.md):
-
-- Tobin J (1958). Estimation of relationships for limited dependent variables. Econometrica 26(1):24-36.
-  doi:10.2307/1907382
-- Allik B, Miller C, Piovoso MJ, Zurakowski R (2016). The Tobit Kalman filter: an estimator for censored
-  measurements. IEEE Transactions on Control Systems Technology 24(1):365-371.
+References (docs/models/references.md): Tobin 1958 [Tobin1958]; Allik et al. 2016 [Allik2016].
 """
 
 from __future__ import annotations
@@ -42,7 +37,20 @@ MIN_SAMPLE = 25
 
 def conditional_median(bounds: npt.ArrayLike, sample: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """For each lower bound b, the median of the sample values >= b (the upper median of an even count), or b itself
-    where no sample value reaches it. Non-decreasing in b, and never below b."""
+    where no sample value reaches it. Non-decreasing in b, and never below b.
+
+    Parameters
+    ----------
+    bounds : array_like
+        Lower bounds (any shape; log units where the clip prior uses it).
+    sample : array_like
+        The sample values, same units (any shape).
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 conditional medians of bounds' shape.
+    """
     bounds = np.asarray(bounds, np.float64)
     s = np.sort(np.asarray(sample, np.float64).ravel())
     i = np.searchsorted(s, bounds, side="left")
@@ -59,7 +67,19 @@ def fill_unmeasured(intensity: npt.NDArray[np.float32], i0: float, side: npt.NDA
     both frames of its interval clipped high, -1: low, 0 otherwise) that no frame has measured (measured False) takes
     the conditional median (conditional_median) of the log levels of the pixels on the same side that a frame has
     measured, beyond its own bound (above it for +1, below for -1); nothing changes where fewer than MIN_SAMPLE
-    such measured pixels exist."""
+    such measured pixels exist.
+
+    Parameters
+    ----------
+    intensity : numpy.ndarray
+        float32 image I (x units, any shape), changed in place.
+    i0 : float
+        The log offset (x units).
+    side : numpy.ndarray
+        The pixels' clip side (+1, -1 or 0), of intensity's shape.
+    measured : numpy.ndarray
+        bool, of intensity's shape: a frame has measured the pixel.
+    """
     for s in (1.0, -1.0):
         on = side == s
         sample = on & measured

@@ -10,10 +10,7 @@ responses inside [margin, 1 - margin] (unclipped) and |dL| >= min_change (frame 
 the slope toward 0). ON and OFF are estimated separately (pixels with dL > 0 give c_on, dL < 0 c_off). Robust: the
 slope is refitted on the pixels whose residual lies within 3 scaled MADs, twice.
 
-References (full citations also in docs/models/references.md):
-
-- Brandli C, Muller L, Delbruck T (2014). Real-time, high-speed video decompression using a frame- and
-  event-based DAVIS sensor. IEEE International Symposium on Circuits and Systems (ISCAS), 686-689.
+References (docs/models/references.md): Brandli et al. 2014 [Brandli2014b].
 """
 
 from __future__ import annotations
@@ -39,8 +36,17 @@ _I0 = 1e-3
 
 @dataclass(frozen=True)
 class ContrastEstimate:
-    """c_on, c_off: estimated thresholds (log units, OFF as a magnitude); n_on, n_off: pixel-intervals used;
-    i0: the log offset used (x units)."""
+    """The contrast thresholds estimated by estimate_contrast.
+
+    Attributes
+    ----------
+    c_on, c_off : float
+        Estimated thresholds (log units, OFF as a magnitude).
+    n_on, n_off : int
+        Pixel-intervals used.
+    i0 : float
+        The log offset used (x units).
+    """
 
     c_on: float
     c_off: float
@@ -119,10 +125,30 @@ def estimate_contrast(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_u
                       frame_t_end_us: npt.ArrayLike, crf: CRF | str, *, bit_depth: int = 8, margin: float = 0.05,
                       min_change: float = 0.1, min_pixels: int = 50, i0: float | None = _I0) -> ContrastEstimate:
     """Estimate (c_on, c_off) from events against the log change between consecutive unclipped frames (see the
-    module docstring). Inputs as akf.reconstruct. i0: the pixel's log offset (dark level) in the frames' x units
-    (the DVS model's I_d: sim.DVSParams.dark_fraction x full_illumination, in x units); None estimates it
-    (estimate_log_offset). Raises EvsimInputError when fewer than min_pixels usable pixel intervals exist for a
-    polarity (static scene, clipped frames or no events)."""
+    module docstring). Raises EvsimInputError when fewer than min_pixels usable pixel intervals exist for a
+    polarity (static scene, clipped frames or no events).
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, bit_depth
+        As akf.reconstruct's: events (sim.EVENT_DTYPE, time-sorted), at least 2 (N, H, W) raw frames of bit_depth
+        bits, their exposures (int64 us) and the CRF (a curve or its name).
+    margin : float, optional
+        Pixels count only with both responses inside [margin, 1 - margin], 0 <= margin < 0.5 (default 0.05).
+    min_change : float, optional
+        Least abs(dL) of a pixel interval (log units), > 0 (default 0.1).
+    min_pixels : int, optional
+        Least number of pixel intervals per polarity, >= 1 (default 50).
+    i0 : float, optional
+        The pixel's log offset (dark level) in the frames' x units (the DVS model's I_d:
+        sim.DVSParams.dark_fraction x full_illumination, in x units; default 1e-3); None estimates it
+        (estimate_log_offset).
+
+    Returns
+    -------
+    ContrastEstimate
+        The thresholds, the pixel intervals used and the offset.
+    """
     if not (0 <= margin < 0.5 and min_change > 0 and min_pixels >= 1):
         raise InvalidParameterError("need 0 <= margin < 0.5, min_change > 0 and min_pixels >= 1")
     x0, x1, net = _pixel_intervals(events, frames, frame_t_start_us, frame_t_end_us, crf, bit_depth, margin)
@@ -171,6 +197,17 @@ def estimate_log_offset(events: np.ndarray, frames: npt.ArrayLike, frame_t_start
     A DVS pixel responds to log(I + I_d): with too small an offset, dim pixels seem to fire too few events per
     log change (their log change is overstated) and the estimate grows with darkness. The offset of OFFSET_GRID
     that minimises the spread of the estimates over BRIGHTNESS_BINS brightness quantiles is returned (on the
-    DAVIS346 road recording: about 0.1, i.e. 25 DN, where evsim calibrate fits 20-35 DN)."""
+    DAVIS346 road recording: about 0.1, i.e. 25 DN, where evsim calibrate fits 20-35 DN).
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, bit_depth, margin, min_change, min_pixels
+        As estimate_contrast's.
+
+    Returns
+    -------
+    float
+        The offset (x units), one of OFFSET_GRID (1e-3 when no candidate has enough pixel intervals in every bin).
+    """
     x0, x1, net = _pixel_intervals(events, frames, frame_t_start_us, frame_t_end_us, crf, bit_depth, margin)
     return _offset_of(x0, x1, net, min_change, min_pixels)

@@ -1,11 +1,7 @@
 """akf.reconstruct: HDR video from LDR frames and events with the Asynchronous Kalman Filter (Wang et al. 2021).
 
-References (full citations also in docs/models/references.md): Wang et al. (2021), An asynchronous Kalman filter
-for hybrid event cameras, and Pan et al. (2019), Bringing a blurry frame alive at high frame-rate with an event
-camera (EDI), cited in full in the akf package docstring; and
-
-- Kalman RE, Bucy RS (1961). New results in linear filtering and prediction theory. Journal of Basic
-  Engineering 83(1):95-108.
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF; Pan et al. 2019 [Pan2019], EDI;
+Kalman and Bucy 1961 [Kalman1961].
 """
 
 from __future__ import annotations
@@ -178,9 +174,16 @@ class _Frames:
 class AugmentedMeasurement:
     """The AKF's frame augmentation at a few pixels (log(I + I0) units; pixels flat, y * W + x).
 
-    log: (T, n) augmented frame L^A at the requested times (eq. 13), exactly the measurement the filter tracks.
-    deblurred: (N, 2, n) EDI-deblurred log at each exposure's start and end. intensity: (N, n) frame k's
-    CRF^-1 in frame 0's exposure units. clipped: (N, n) bool, frame k saturated (its variance at the cap).
+    Attributes
+    ----------
+    log : numpy.ndarray
+        (T, n) augmented frame L^A at the requested times (eq. 13), exactly the measurement the filter tracks.
+    deblurred : numpy.ndarray
+        (N, 2, n) EDI-deblurred log at each exposure's start and end.
+    intensity : numpy.ndarray
+        (N, n) frame k's CRF^-1 in frame 0's exposure units.
+    clipped : numpy.ndarray
+        (N, n) bool, frame k saturated (its variance at the cap).
     """
 
     log: np.ndarray
@@ -199,6 +202,22 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
     part of those events, see reconstruct; 0 when leak_rate_hz = 0) (m_j: its value at the exposure start s_j,
     scale_j: its contrast calibration); in frame window k = [s_k, s_k+1) L^A blends M_{k-1} into M_k across the
     exposure [s_k, e_k] (the first window uses M_0 alone).
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf
+        As reconstruct's.
+    times_us : array_like
+        Non-decreasing int64 us, none before the first exposure starts (as reconstruct's output_times_us).
+    pixels : array_like
+        Flat pixel indices y * W + x, in [0, H W).
+    contrast, leak_rate_hz, params, bit_depth
+        As reconstruct's.
+
+    Returns
+    -------
+    AugmentedMeasurement
+        L^A at (times_us, pixels), with the EDI-deblurred logs, the frames' intensities and clipping at the pixels.
     """
     if not isinstance(params, AKFParams):
         raise InvalidParameterError(f"params must be an akf.AKFParams, got {type(params).__name__}")
@@ -266,37 +285,24 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
                 bit_depth: int = 8, max_intensity: float | None = None, return_variance: bool = False,
                 return_gain: bool = False
                 ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], ...]:
-    """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter (Wang, Ng,
-    Scheerlinck and Mahony, An Asynchronous Kalman Filter for Hybrid Event Cameras, ICCV 2021; the model,
-    equation by equation, is docs/models/akf.md).
+    """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter (Wang et al. 2021
+    [Wang2021]; the model, equation by equation, is docs/models/akf.md).
 
-    events: sim.EVENT_DTYPE, time-sorted. frames: (N, H, W) unsigned raw responses of bit_depth bits, exposed over
-    [frame_t_start_us[k], frame_t_end_us[k]) (int64 us, non-overlapping). crf: a crf_models curve or its name
-    (e.g. "window": crf_models.get(name) with default parameters).
-    output_times_us: non-decreasing int64 us, none before the first exposure starts; the image at t includes the
-    events with timestamps < t. contrast: nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W)
-    per-pixel maps (c_off as a magnitude). leak_rate_hz: the sensor's mean leak rate (Hz: ON events per second of a
-    static pixel, whose reference drifts down by leak_rate_hz * c_on log units per second); 0 (unknown or none)
-    gives the paper's filter. Where it is > 0, the leak part of each crossing is removed from the event's change:
-    the drift since the pixel's previous event (at most c_on), and at its first event also the drift from before
-    the start, unknown but uniform on [0, c_on) for a pixel that has been leaking (its mean is removed and its
-    variance c_on^2 / 12 added to Q). In clipped regions, where frames cannot correct it, that pre-start drift
-    otherwise leaves every pixel's estimate high by c_on / 2 on average. The event-interpolated frame curves the
-    state is pulled toward take the same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the
-    nominal contrasts, as in the paper.
+    Where leak_rate_hz > 0, the leak part of each crossing is removed from the event's change: the drift since the
+    pixel's previous event (at most c_on), and at its first event also the drift from before the start, unknown but
+    uniform on [0, c_on) for a pixel that has been leaking (its mean is removed and its variance c_on^2 / 12 added to
+    Q). In clipped regions, where frames cannot correct it, that pre-start drift otherwise leaves every pixel's
+    estimate high by c_on / 2 on average. The event-interpolated frame curves the state is pulled toward take the
+    same leak-aware changes; EDI deblurring and the eq. 12 calibration keep the nominal contrasts, as in the paper.
 
-    max_intensity: an output bound (x units), or None (default): unbounded, as high as the events carry a pixel
-    above the frames' clip (HDR is the point). What keeps pixels no frame measures from running off is evidence,
-    not a constant: their thresholds are flat-fielded from the event counts (params.flat_field; akf.flat_field),
-    the one-sided rule keeps them on their side of the clip level, and the clip prior and the output smoothing
-    average their speckle. On the AHDR pan of the real HDR photo Desk (davis346 sensor) the largest output is
-    5.2 x the truth's largest (2e9 x with the nominal thresholds). An estimate run out of float32's range (events
-    integrated with a far too large threshold) is published as akf.smoothing.LARGEST, a finite number.
+    No max_intensity (the default) leaves the output unbounded, as high as the events carry a pixel above the frames'
+    clip (HDR is the point). What keeps pixels no frame measures from running off is evidence, not a constant: their
+    thresholds are flat-fielded from the event counts (params.flat_field; akf.flat_field), the one-sided rule keeps
+    them on their side of the clip level, and the clip prior and the output smoothing average their speckle. On the
+    AHDR pan of the real HDR photo Desk (davis346 sensor) the largest output is 5.2 x the truth's largest (2e9 x with
+    the nominal thresholds). An estimate run out of float32's range (events integrated with a far too large
+    threshold) is published as akf.smoothing.LARGEST, a finite number.
 
-    Returns float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative)
-    in the CRF's scaled-irradiance units (of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k),
-    followed, when
-    requested, by the state variance P (log^2) and the Kalman gain K = P / R (1/s) at the same times.
     P is the variance under the paper's noise model, not a calibrated error bar: the model has no term for the
     events' quantisation (between events the true level may sit up to a threshold from the reported one), so on
     noise-free data (tests/test_akf_filter.py's moving scene) 2 sqrt(P) covers 51 % of the log errors with
@@ -328,6 +334,46 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     Publishing is a pure read: each pixel is brought to t with the exact between-event solution (the one-sided
     clipped-frame rule switching at the exact time the estimate crosses the clip level, not at sub-segment starts)
     without storing the result, so the image at t is the same, bit for bit, whatever other times are requested.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE, time-sorted (t in int64 us).
+    frames : array_like
+        (N, H, W) unsigned raw responses of bit_depth bits.
+    frame_t_start_us, frame_t_end_us : array_like
+        (N,) int64 us: frame k is exposed over [frame_t_start_us[k], frame_t_end_us[k]) (non-overlapping).
+    crf : CRF or str
+        A crf_models curve or its name (e.g. "window": crf_models.get(name) with default parameters).
+    output_times_us : array_like
+        (T,) non-decreasing int64 us, none before the first exposure starts; the image at t includes the events
+        with timestamps < t.
+    contrast : array_like, optional
+        Nominal log contrast threshold(s) (log units): a scalar, (c_on, c_off) or (2, H, W) per-pixel maps (c_off as
+        a magnitude); default 0.2.
+    leak_rate_hz : float, optional
+        The sensor's mean leak rate (Hz: ON events per second of a static pixel, whose reference drifts down by
+        leak_rate_hz c_on log units per second); 0 (default: unknown or none) gives the paper's filter.
+    params : AKFParams, optional
+        The filter's parameters (default AKFParams()).
+    bit_depth : int, optional
+        Bits of the frames' responses (default 8).
+    max_intensity : float, optional
+        An output bound (x units), or None (default): unbounded.
+    return_variance : bool, optional
+        Also return the state variance P (default False).
+    return_gain : bool, optional
+        Also return the Kalman gain K (default False).
+
+    Returns
+    -------
+    intensity : numpy.ndarray
+        float32 (T, H, W) intensity I = clip(exp(L_hat) - I0, 0, max_intensity) (radiance is never negative) in the
+        CRF's scaled-irradiance units (x units, of frame 0's exposure time: frame k's CRF^-1 is scaled by T_0 / T_k).
+    variance : numpy.ndarray
+        Only with return_variance: float32 (T, H, W) state variance P (log^2) at the same times.
+    gain : numpy.ndarray
+        Only with return_gain: float32 (T, H, W) Kalman gain K = P / R (1/s) at the same times.
     """
     check_filter_options(params, leak_rate_hz, max_intensity)
     crf = as_crf(crf)

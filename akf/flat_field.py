@@ -49,7 +49,22 @@ MOSTLY_CLIPPED = 0.5
 def count_scales(events: np.ndarray, shape: tuple[int, int], scale_range: tuple[float, float]
                  ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(ON, OFF) threshold scale of every pixel (flat, y * W + x): (m + PRIOR_COUNT) / (n + PRIOR_COUNT) of its own
-    count n and its neighbourhood's mean m (see the module), clipped to scale_range; 1 everywhere without events."""
+    count n and its neighbourhood's mean m (see the module), clipped to scale_range; 1 everywhere without events.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE events (the whole input).
+    shape : tuple of int
+        (H, W), pixels.
+    scale_range : tuple of float
+        (lowest, highest) scale (AKFParams.calib_scale_range).
+
+    Returns
+    -------
+    on, off : numpy.ndarray
+        float64 (H W,) threshold scales (dimensionless), flat.
+    """
     h, w = shape
     scales = []
     for on in (True, False):
@@ -64,7 +79,26 @@ def flat_field_scales(events: np.ndarray, frames: npt.ArrayLike, full_scale: int
                       scale_range: tuple[float, float]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(ON, OFF) threshold scale of every pixel (flat): count_scales where the pixel is clipped (its response at or
     beyond an end of the CRF's invertible range [crf.y_lo, crf.y_hi], within one DN) in at least MOSTLY_CLIPPED of
-    the frames (N, H, W; raw responses up to full_scale), 1 elsewhere."""
+    the frames, 1 elsewhere.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE events (the whole input).
+    frames : array_like
+        (N, H, W) raw responses, up to full_scale.
+    full_scale : int
+        The frames' largest raw value (2^bits - 1).
+    crf : CRF
+        The frames' response curve.
+    scale_range : tuple of float
+        (lowest, highest) scale (AKFParams.calib_scale_range).
+
+    Returns
+    -------
+    on, off : numpy.ndarray
+        float64 (H W,) threshold scales (dimensionless), flat.
+    """
     frames = np.asarray(frames)
     step = 1.0 / float(full_scale)
     count = np.zeros(frames.shape[1] * frames.shape[2], np.int64)
@@ -80,7 +114,22 @@ def thresholds(contrast: npt.ArrayLike, events: np.ndarray, frames: npt.ArrayLik
                params: AKFParams) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """The (ON, OFF) thresholds (log, flat maps) the AKF integrates a sensor's events with: the contrast as given
     (akf.inputs.contrast_maps), scaled by flat_field_scales when params.flat_field and the contrast is a scalar or an
-    (ON, OFF) pair (per-pixel maps are taken as they are)."""
+    (ON, OFF) pair (per-pixel maps are taken as they are).
+
+    Parameters
+    ----------
+    contrast : array_like
+        Nominal log contrast threshold(s): a scalar, (c_on, c_off) or (2, H, W) maps (c_off as a magnitude).
+    events, frames, full_scale, crf
+        As flat_field_scales'.
+    params : AKFParams
+        The filter's parameters (flat_field, calib_scale_range).
+
+    Returns
+    -------
+    c_on, c_off : numpy.ndarray
+        float64 (H W,) thresholds (log units, OFF as a magnitude), flat.
+    """
     frames = np.asarray(frames)
     c_on, c_off = contrast_maps(contrast, frames.shape[1:])
     if params.flat_field and np.ndim(contrast) < 2:

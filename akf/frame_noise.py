@@ -6,24 +6,18 @@ n_i ~ N(0, sigma^2) (sigma: the read noise in DN, before quantisation). Each pai
 aligned by the integer shift that makes it most alike (a panning camera), and only the flattest quarter of its
 unclipped pixels are used, ranked by the slope of their 3 x 3 box mean, from which the pixel's own value cancels
 (a moving edge changes a flat pixel least; the ranking does not select the noise). Pixels that still moved add a
-heavy tail, so the scale is read from the median of |d| (Hampel 1974), not from its variance. At the read noise of
-8-bit frames (about 1 DN) the median of the integers |d| is 0, 1 or 2, so the median is taken of the grouped
+heavy tail, so the scale is read from the median of |d| (Hampel 1974 [Hampel1974]), not from its variance. At the read
+noise of 8-bit frames (about 1 DN) the median of the integers |d| is 0, 1 or 2, so the median is taken of the grouped
 distribution (the counts of |d| = k spread over [k - 1/2, k + 1/2), |d| = 0 over [0, 1/2)) and inverted through the
 same statistic of the quantised model: the distribution of d averaged over a uniform phase of mu (the pixels'
-means spread over many levels; Widrow and Kollar 2008). The continuous MAD / 0.6745 / sqrt(2) of a quantised |d|
-gives 1.05 DN for every sigma from about 0.9 to 1.6 DN.
+means spread over many levels; Widrow and Kollar 2008 [Widrow2008]). The continuous MAD / 0.6745 / sqrt(2) of a
+quantised |d| gives 1.05 DN for every sigma from about 0.9 to 1.6 DN.
 
 Used by `evsim calibrate` (the sensor file's [input] read_noise_dn, evsim_eval.realism's static threshold) and by
 the AKF's frame update (AKFParams.read_noise_dn; None: estimated; `evsim evaluate` notes which it used).
 
-References (full citations also in docs/models/references.md):
-
-- Hampel FR (1974). The influence curve and its role in robust estimation. Journal of the American Statistical
-  Association 69(346):383-393.
-- Widrow B, Kollar I (2008). Quantization Noise: Roundoff Error in Digital Computation, Signal Processing, Control,
-  and Communications. Cambridge University Press.
-- European Machine Vision Association (2021). EMVA Standard 1288, Release 4.0 (temporal noise from the difference
-  of two frames).
+References (docs/models/references.md): Hampel 1974 [Hampel1974], the median of abs(d); Widrow and Kollar
+2008 [Widrow2008], quantisation noise; EMVA 1288 [EMVA1288] (temporal noise from the difference of two frames).
 """
 
 from __future__ import annotations
@@ -61,9 +55,16 @@ _CONTINUOUS_DN = 20.0  # above this read noise quantisation is negligible: the c
 class FrameNoise:
     """A frame noise estimate.
 
-    read_noise_dn: the temporal noise of a frame pixel before quantisation (DN rms of the frames' bit depth).
-    bit_depth: the frames' bits. pixels: how many pixel pairs it was read from. source: how it was obtained
-    (e.g. "estimated from 16 frame pairs (321331 flat pixel pairs)").
+    Attributes
+    ----------
+    read_noise_dn : float
+        The temporal noise of a frame pixel before quantisation (DN rms of the frames' bit depth).
+    bit_depth : int
+        The frames' bits.
+    pixels : int
+        How many pixel pairs it was read from.
+    source : str
+        How it was obtained (e.g. "estimated from 16 frame pairs (321331 flat pixel pairs)").
     """
 
     read_noise_dn: float
@@ -83,7 +84,26 @@ def estimate_read_noise(frames: npt.ArrayLike, bit_depth: int = 8, *, flat_fract
     module): each pair aligned by the integer shift (up to max_shift pixels each way, and a quarter of the
     frame) that makes it most alike, over the flat_fraction flattest of its pixels where neither value is clipped
     (0 or 2^bit_depth - 1). At most max_pairs evenly spaced pairs are used. EvsimInputError with fewer than 2
-    frames or no usable pixel."""
+    frames or no usable pixel.
+
+    Parameters
+    ----------
+    frames : array_like
+        (F, H, W) integer frames (DN), F >= 2, at least 3 x 3 pixels.
+    bit_depth : int, optional
+        The frames' bits (default 8).
+    flat_fraction : float, optional
+        The fraction of each pair's unclipped pixels used, the flattest (default FLAT_FRACTION, 0.25).
+    max_shift : int, optional
+        Largest alignment shift, pixels each way (default MAX_SHIFT_PX, 6; at most a quarter of the frame).
+    max_pairs : int, optional
+        Frame pairs used at most, evenly spaced (default MAX_PAIRS, 16).
+
+    Returns
+    -------
+    FrameNoise
+        The read noise (DN rms), the bit depth, the pixel pairs used and how it was obtained.
+    """
     frames = np.asarray(frames)
     if frames.ndim != 3 or frames.shape[0] < 2 or min(frames.shape[1:]) < 3:
         raise EvsimInputError(f"the read noise needs at least 2 frames (F, H, W) of at least 3 x 3 pixels, got "
@@ -118,7 +138,22 @@ def frame_noise_variance(read_noise_dn: float, crf: CRF, bit_depth: int = 8) -> 
     """The variance (x^2) of a frame pixel at the response of largest f^w, what eq. 6's sigma_im2 stands for (Rbar =
     sigma_im2 / f^w), from its temporal noise in DN, quantisation included:
     (read_noise_dn^2 + 1/12) / (2^bit_depth - 1)^2 / CRF'(x*)^2 with x* = CRF^-1(y*), y* the response of largest
-    weight."""
+    weight.
+
+    Parameters
+    ----------
+    read_noise_dn : float
+        The frames' read noise before quantisation (DN rms).
+    crf : CRF
+        The frames' response curve.
+    bit_depth : int, optional
+        The frames' bits (default 8).
+
+    Returns
+    -------
+    float
+        The variance (x units squared).
+    """
     full = float((1 << int(bit_depth)) - 1)
     y = (np.arange(1, 1024) / 1024.0)
     y_star = float(y[int(np.argmax(crf.weight(y)))])
@@ -128,7 +163,20 @@ def frame_noise_variance(read_noise_dn: float, crf: CRF, bit_depth: int = 8) -> 
 
 def frame_read_noise(frames: npt.ArrayLike, bit_depth: int = 8) -> float:
     """estimate_read_noise's read noise (DN), or 0 (quantisation only) where the frames cannot tell it: one frame,
-    frames smaller than 3 x 3 pixels, every pixel clipped (where no frame update happens anyway)."""
+    frames smaller than 3 x 3 pixels, every pixel clipped (where no frame update happens anyway).
+
+    Parameters
+    ----------
+    frames : array_like
+        (F, H, W) integer frames (DN).
+    bit_depth : int, optional
+        The frames' bits (default 8).
+
+    Returns
+    -------
+    float
+        The read noise (DN rms), >= 0.
+    """
     try:
         return estimate_read_noise(frames, bit_depth).read_noise_dn
     except EvsimInputError:
@@ -140,7 +188,28 @@ def frame_log_variance(y: npt.ArrayLike, crf: CRF, read_noise_dn: float, bit_dep
     """The variance (log^2) of L = log(I + i0), I = gain CRF^-1(y), of a frame pixel of normalised response y whose
     raw value carries read_noise_dn of noise and the quantisation of bit_depth bits: the response variance
     (read_noise_dn^2 + 1/12) / (2^bit_depth - 1)^2 through the CRF's slope, gain^2 var_y / (CRF'(x) (I + i0))^2
-    (first order; inf where the CRF is flat: a clipped response). The frame update's variance."""
+    (first order; inf where the CRF is flat: a clipped response). The frame update's variance.
+
+    Parameters
+    ----------
+    y : array_like
+        Normalised responses in [0, 1].
+    crf : CRF
+        The frames' response curve.
+    read_noise_dn : float
+        The read noise before quantisation (DN rms).
+    bit_depth : int, optional
+        The frames' bits (default 8).
+    gain : float, optional
+        The frame's exposure gain T_0 / T_k (default 1).
+    i0 : float, optional
+        The log offset (x units; default 1e-3).
+
+    Returns
+    -------
+    numpy.ndarray
+        The variance (log units squared) of y's shape; inf where the CRF is flat.
+    """
     full = float((1 << int(bit_depth)) - 1)
     var_y = (read_noise_dn**2 + 1.0 / 12.0) / full**2
     x = np.asarray(crf.inverse(np.asarray(y, np.float64)), np.float64)

@@ -17,25 +17,10 @@ Threads: the per-event and per-pixel kernels release the GIL and take a range of
 callers run disjoint ranges on numba's thread count with sim.parallel.in_parallel (plain threads: numba's
 parallel=True loops cost seconds of compilation each). Events are read in place from the sim.EVENT_DTYPE array.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Kalman RE, Bucy RS (1961). New results in linear filtering and prediction theory. Journal of Basic
-  Engineering 83(1):95-108.
-- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
-  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
-  arXiv:1811.10180
-- Scheerlinck C, Barnes N, Mahony R (2018). Continuous-time intensity estimation using event cameras. Asian
-  Conference on Computer Vision (ACCV), Lecture Notes in Computer Science 11365, 308-324. arXiv:1811.00386
-- Mehra RK (1972). Approaches to adaptive filtering. IEEE Transactions on Automatic Control 17(5):693-698.
-  (Covariance matching of the frame update's prior.)
-- Kalman RE (1960). A new approach to linear filtering and prediction problems. Journal of Basic Engineering
-  82(1):35-45.
-- Allik B, Miller C, Piovoso MJ, Zurakowski R (2016). The Tobit Kalman filter: an estimator for censored
-  measurements. IEEE Transactions on Control Systems Technology 24(1):365-371. (Related; evsim's one-sided
-  rule is simpler.)
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF; Kalman and Bucy 1961 [Kalman1961]; Pan et
+al. 2019 [Pan2019], EDI; Scheerlinck et al. 2018 [Scheerlinck2018], the complementary filter; Mehra 1972 [Mehra1972]
+(covariance matching of the frame update's prior); Kalman 1960 [Kalman1960], the discrete update; Allik et al. 2016
+[Allik2016] (related; evsim's one-sided rule is simpler).
 """
 
 from __future__ import annotations

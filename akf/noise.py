@@ -1,12 +1,6 @@
 """Frame uncertainty (eqs. 6, 8, 9). The event noise Q (eq. 2) is realised per event inside akf.kernels.akf_events.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Robertson MA, Borman S, Stevenson RL (2003). Estimation-theoretic approach to dynamic range enhancement
-  using multiple exposures. Journal of Electronic Imaging 12(2):219-228. doi:10.1117/1.1557695
+References (docs/models/references.md): Wang et al. 2021 [Wang2021]; Robertson et al. 2003 [Robertson2003].
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 (offline use: evaluation, `evsim reconstruct`, datasets; not in the paper).
 
 A causal filter cannot anchor a pixel that starts clipped: a frame that measures it later reveals its absolute
-level only in the future. The two-filter smoother (Fraser and Potter 1969) runs the filter a second time over the
-time-reversed inputs (frames and exposures in reverse order, every event's time mirrored and its polarity flipped,
-so the ON and OFF thresholds swap), and fuses the two estimates of each pixel at each published time:
+level only in the future. The two-filter smoother (Fraser and Potter 1969 [Fraser1969]) runs the filter a second time
+over the time-reversed inputs (frames and exposures in reverse order, every event's time mirrored and its polarity
+flipped, so the ON and OFF thresholds swap), and fuses the two estimates of each pixel at each published time:
 
 - each pass's estimate has a variance: where a frame measured the pixel (before t for the forward pass, after
   t for the backward one), the filter's P plus AKFParams.smoother_drift2 times the time since (until) that frame,
@@ -20,12 +20,8 @@ Then the output smoothing of the filter (akf.smoothing) on the fused estimate. W
 filter knows nothing, so after the last frame's mid-exposure the smoother equals the filter. The backward pass uses
 the paper's event model (no leak correction: in reversed time the leak's ON events are OFF events).
 
-References (full citations also in docs/models/references.md):
-
-- Fraser DC, Potter JE (1969). The optimum linear smoother as a combination of two optimum linear filters. IEEE
-  Transactions on Automatic Control 14(4):387-390. doi:10.1109/TAC.1969.1099196
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457. arXiv:2012.05590
+References (docs/models/references.md): Fraser and Potter 1969 [Fraser1969], the two-filter smoother; Wang et
+al. 2021 [Wang2021], the AKF.
 """
 
 from __future__ import annotations
@@ -129,10 +125,27 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     """Reconstruct linear HDR intensity at output_times_us with the asynchronous Kalman smoother (see the module):
     the same inputs, parameters and units as akf.reconstruct, every event and frame of the input used at every time.
 
-    Returns float32 (T, H, W) intensity in x units (frame 0's exposure), clipped to [0, max_intensity] (None:
-    unbounded), and with return_variance the fused variance P (log^2). Memory: the two passes keep their (T, H, W)
-    estimates, variances and masks (26 bytes per pixel and time each: 413 MiB for 30 images of 346 x 260 with the
-    fusion's temporaries) until they are fused.
+    Memory: the two passes keep their (T, H, W) estimates, variances and masks (26 bytes per pixel and time each:
+    413 MiB for 30 images of 346 x 260 with the fusion's temporaries) until they are fused.
+
+    Parameters
+    ----------
+    events, frames, frame_t_start_us, frame_t_end_us, crf, output_times_us
+        As akf.reconstruct's: events (sim.EVENT_DTYPE, time-sorted), (N, H, W) raw frames, their exposures (int64
+        us), the CRF (a curve or its name) and the output times (non-decreasing int64 us).
+    contrast, leak_rate_hz, params, bit_depth
+        As akf.reconstruct's (log contrast threshold(s), leak rate in Hz, AKFParams, bits of the frames).
+    max_intensity : float, optional
+        Output bound (x units); None (default): unbounded.
+    return_variance : bool, optional
+        Also return the fused variance P (default False).
+
+    Returns
+    -------
+    intensity : numpy.ndarray
+        float32 (T, H, W) intensity in x units (frame 0's exposure), clipped to [0, max_intensity].
+    variance : numpy.ndarray
+        Only with return_variance: float32 (T, H, W) fused variance P (log^2).
     """
     check_filter_options(params, leak_rate_hz, max_intensity)
     crf = as_crf(crf)

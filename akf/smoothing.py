@@ -9,11 +9,8 @@ max(0, 1 - floor / P), P its state variance (log^2), the floor infinite where th
 (akf.reconstruct): a pixel a well-exposed frame has measured keeps its value exactly, an uncertain pixel no frame
 measures takes its neighbourhood's, never crossing the level of the clipped frame (the truth lies beyond it).
 
-References (full citations also in docs/models/references.md):
-
-- Tomasi C, Manduchi R (1998). Bilateral filtering for gray and color images. IEEE International Conference on
-  Computer Vision (ICCV), 839-846. doi:10.1109/ICCV.1998.710815
-- Bradski G (2000). The OpenCV library. Dr. Dobb's Journal of Software Tools (cv2.bilateralFilter).
+References (docs/models/references.md): Tomasi and Manduchi 1998 [Tomasi1998], the bilateral filter; Bradski 2000
+[Bradski2000], OpenCV (cv2.bilateralFilter).
 """
 
 from __future__ import annotations

@@ -12,19 +12,9 @@ Exports:
   SLog3CRF (colour-science transfer curves); WindowCRF (the AKF paper's AHDR window); TabulatedCRF (a LUT);
 - measured curves: load_dorf (DoRF), load_emor (EMoR), break_ties, recover_debevec (from an exposure stack).
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Robertson MA, Borman S, Stevenson RL (2003). Estimation-theoretic approach to dynamic range enhancement
-  using multiple exposures. Journal of Electronic Imaging 12(2):219-228. doi:10.1117/1.1557695
-- Debevec PE, Malik J (1997). Recovering high dynamic range radiance maps from photographs. Proceedings of
-  ACM SIGGRAPH 97, 369-378. doi:10.1145/258734.258884
-- Grossberg MD, Nayar SK (2003). What is the space of camera response functions? IEEE Computer Society
-  Conference on Computer Vision and Pattern Recognition (CVPR), vol. 2. (DoRF, EMoR.)
-- Grossberg MD, Nayar SK (2004). Modeling the space of camera response functions. IEEE Transactions on
-  Pattern Analysis and Machine Intelligence 26(10):1272-1282.
+References (docs/models/references.md): Wang et al. 2021 [Wang2021]; Robertson et al. 2003 [Robertson2003];
+Debevec and Malik 1997 [Debevec1997]; Grossberg and Nayar 2003 [Grossberg2003] (DoRF, EMoR) and 2004
+[Grossberg2004].
 """
 
 from __future__ import annotations
@@ -58,12 +48,32 @@ _ALIASES = {"lut": "tabulated"}
 
 
 def available() -> list[str]:
-    """Names accepted by get() (aliases included), sorted."""
+    """Names accepted by get() (aliases included), sorted.
+
+    Returns
+    -------
+    list of str
+        The curve names and aliases (e.g. "lut" for "tabulated").
+    """
     return sorted([*_REGISTRY, *_ALIASES])
 
 
 def get(name: str, **params: Any) -> CRF:
-    """The curve `name` built with `params` (keyword arguments of its class); raises CRFError when unknown."""
+    """The curve `name` built with `params` (keyword arguments of its class); raises CRFError when unknown.
+
+    Parameters
+    ----------
+    name : str
+        A name of available() (a curve's ``name``, or an alias).
+    **params
+        Keyword arguments of the curve's class (e.g. ``gamma=2.2`` for "gamma", ``weighting`` for every curve);
+        bad or missing ones raise CRFError.
+
+    Returns
+    -------
+    CRF
+        The curve.
+    """
     key = _ALIASES.get(name, name)
     if key not in _REGISTRY:
         raise CRFError(f"unknown CRF {name!r}; available: {', '.join(available())}")

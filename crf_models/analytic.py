@@ -1,10 +1,7 @@
 """Closed-form curves with analytic inverse and derivative: linear (black level, clipping), gamma, sigmoid and
 Hable's filmic curve.
 
-References (full citations also in docs/models/references.md):
-
-- Hable J (2010). Uncharted 2: HDR lighting. Game Developers Conference (GDC); the curve and its constants
-  also in "Filmic tonemapping operators", filmicworlds.com, 2010.
+References (docs/models/references.md): Hable 2010 [Hable2010], the filmic curve.
 """
 
 from __future__ import annotations
@@ -18,7 +15,17 @@ from .base import CRF, CRFError, real_param
 
 class LinearCRF(CRF):
     """y = black_level + (1 - black_level) * min(x / x_clip, 1): linear ADC counts with an offset, clipped at
-    x_clip (the DAVIS APS is close to this). x_clip in (0, 1]; below x_clip nothing is clipped."""
+    x_clip (the DAVIS APS is close to this). Below x_clip nothing is clipped.
+
+    Parameters
+    ----------
+    black_level : float, optional
+        Response at x = 0, in [0, 1) (default 0).
+    x_clip : float, optional
+        Normalised irradiance at which the response reaches 1, in (0, 1] (default 1).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "linear"
 
@@ -46,7 +53,15 @@ class LinearCRF(CRF):
 
 
 class GammaCRF(CRF):
-    """y = min(x, 1) ** (1 / gamma). The slope is unbounded at x = 0 when gamma > 1 (see CRF._max_slope)."""
+    """y = min(x, 1) ** (1 / gamma). The slope is unbounded at x = 0 when gamma > 1 (see CRF._max_slope).
+
+    Parameters
+    ----------
+    gamma : float, optional
+        The exponent's reciprocal, > 0 (default 2.2).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "gamma"
 
@@ -74,7 +89,16 @@ class GammaCRF(CRF):
 class SigmoidCRF(CRF):
     """A smooth S-curve in linear irradiance: the logistic s(x) = 1 / (1 + exp(-k (x - x0))) rescaled so that
     x = 0 -> 0 and x = 1 -> 1; flat toe and shoulder like the measured CRFs the AKF authors show (their Fig. 2).
-    steepness k > 0 (larger: more compressed ends), midpoint x0 in (0, 1)."""
+
+    Parameters
+    ----------
+    steepness : float, optional
+        k > 0 (larger: more compressed ends), per unit of x (default 10).
+    midpoint : float, optional
+        x0 in (0, 1), the normalised irradiance of the steepest slope (default 0.5).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "sigmoid"
 
@@ -110,7 +134,15 @@ class SigmoidCRF(CRF):
 class FilmicCRF(CRF):
     """Hable's filmic tone curve ("Uncharted 2"), a rational S-curve with a toe and a shoulder:
     h(v) = (v (A v + C B) + D E) / (v (A v + B) + D F) - E / F, y = h(x W) / h(W) for x in [0, 1],
-    with the published constants A..F and white point W = 11.2 (x = 1 maps to W)."""
+    with the published constants A..F and white point W (x = 1 maps to W).
+
+    Parameters
+    ----------
+    white_point : float, optional
+        W > 0, the curve's input that x = 1 stands for (default 11.2, Hable's).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "filmic"
     _A, _B, _C, _D, _E, _F = 0.15, 0.50, 0.10, 0.20, 0.02, 0.30

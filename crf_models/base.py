@@ -6,15 +6,8 @@ Conventions (shared by every curve):
 - y: normalised response in [0, 1]; a camera's digital number is DN = round(y * (2**bits - 1)).
 - The invertible range is [x_lo, x_hi] with responses [y_lo, y_hi]; forward() is strictly increasing on it.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Robertson MA, Borman S, Stevenson RL (1999). Dynamic range improvement through multiple exposures. IEEE
-  International Conference on Image Processing (ICIP), vol. 3, 159-163.
-- Robertson MA, Borman S, Stevenson RL (2003). Estimation-theoretic approach to dynamic range enhancement
-  using multiple exposures. Journal of Electronic Imaging 12(2):219-228. doi:10.1117/1.1557695
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF paper (equations 4-6); Robertson
+et al. 1999 [Robertson1999] and 2003 [Robertson2003], the "robertson" weighting.
 """
 
 from __future__ import annotations
@@ -49,14 +42,40 @@ class CRFError(ValueError):
 
 def real_param(name: str, value: object) -> float:
     """A curve parameter as a float; CRFError naming it unless it is a finite real number (an int, float or numpy
-    number; not a bool, a string or complex). Ranges are each curve's to check."""
+    number; not a bool, a string or complex). Ranges are each curve's to check.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the error message.
+    value : object
+        Its value.
+
+    Returns
+    -------
+    float
+        The value as a float.
+    """
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise CRFError(f"{name} must be a finite number, got {type(value).__name__} {value!r:.60}")
     return float(value)
 
 
 def as_float_array(values: npt.ArrayLike, name: str) -> npt.NDArray[np.float64]:
-    """values as a float64 array; raises CRFError on NaN or infinity."""
+    """values as a float64 array; raises CRFError on NaN or infinity.
+
+    Parameters
+    ----------
+    values : array_like
+        The values.
+    name : str
+        Their name, for the error message.
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 array of the values' shape.
+    """
     arr = np.asarray(values, dtype=np.float64)
     if not np.all(np.isfinite(arr)):
         raise CRFError(f"{name} contains NaN or infinite values")
@@ -65,7 +84,24 @@ def as_float_array(values: npt.ArrayLike, name: str) -> npt.NDArray[np.float64]:
 
 def numerical_derivative(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, lo: float, hi: float,
                          step: float = 1e-6) -> np.ndarray:
-    """Central difference of f at x with absolute step `step` times the range width, one-sided at the ends."""
+    """Central difference of f at x with absolute step `step` times the range width, one-sided at the ends.
+
+    Parameters
+    ----------
+    f : callable
+        Elementwise function of a float64 array, defined on [lo, hi].
+    x : numpy.ndarray
+        Where to differentiate, in [lo, hi].
+    lo, hi : float
+        The domain of f; the difference points are clipped to it.
+    step : float, optional
+        Step as a fraction of hi - lo (default 1e-6).
+
+    Returns
+    -------
+    numpy.ndarray
+        df/dx at x, of x's shape.
+    """
     h = step * (hi - lo)
     a = np.clip(x - h, lo, hi)
     b = np.clip(x + h, lo, hi)
@@ -79,9 +115,13 @@ class CRF(ABC):
     end of __init__, and return their constructor arguments from _own_params() (JSON-serialisable) so that
     crf_models.get(crf.name, **crf.params) rebuilds the same curve.
 
-    weighting: "derivative" (default, f^w = certainty o inverse, eq. 5 of Wang et al., ICCV 2021) or "robertson"
-    (w = exp(-4 (z - 127.5)^2 / 127.5^2) with z = 255 y, the Gaussian-shaped weight of Robertson, Borman and
-    Stevenson 1999/2003, the classic weight used by the AKF authors' code).
+    Parameters
+    ----------
+    weighting : {"derivative", "robertson"}, optional
+        The weighting rule f^w (WEIGHTINGS). "derivative" (default): f^w = certainty o inverse, eq. 5 of Wang et
+        al. 2021 [Wang2021]. "robertson": w = exp(-4 (z - 127.5)^2 / 127.5^2) with z = 255 y, the Gaussian-shaped
+        weight of Robertson, Borman and Stevenson 1999/2003 [Robertson1999] [Robertson2003], the classic weight
+        used by the AKF authors' code.
     """
 
     name: str = ""
@@ -143,7 +183,18 @@ class CRF(ABC):
         return {**self._own_params(), "weighting": self.weighting}
 
     def forward(self, x: npt.ArrayLike) -> FloatValues:
-        """Response y in [0, 1] of normalised scaled irradiance x >= 0 (clipped outside [x_lo, x_hi])."""
+        """Response y in [0, 1] of normalised scaled irradiance x >= 0 (clipped outside [x_lo, x_hi]).
+
+        Parameters
+        ----------
+        x : array_like
+            Normalised scaled irradiance, >= 0 (x = 1: the top of the curve's input range); NaN raises CRFError.
+
+        Returns
+        -------
+        numpy.ndarray or numpy.float64
+            Normalised response y in [0, 1], float64 of x's shape (a numpy scalar for a scalar x).
+        """
         x = np.asarray(x, dtype=np.float64)
         if not np.all(x >= 0):
             raise CRFError("forward: x must be >= 0 and not NaN")
@@ -151,14 +202,36 @@ class CRF(ABC):
 
     def inverse(self, y: npt.ArrayLike) -> FloatValues:
         """Scaled irradiance x of response y in [0, 1]; responses in a clipped range give the range's edge
-        (y <= y_lo -> x_lo, y >= y_hi -> x_hi)."""
+        (y <= y_lo -> x_lo, y >= y_hi -> x_hi).
+
+        Parameters
+        ----------
+        y : array_like
+            Normalised response in [0, 1]; values outside (or NaN) raise CRFError.
+
+        Returns
+        -------
+        numpy.ndarray or numpy.float64
+            Normalised scaled irradiance x in [x_lo, x_hi], float64 of y's shape.
+        """
         y = np.asarray(y, dtype=np.float64)
         if not np.all((y >= 0) & (y <= 1)):
             raise CRFError("inverse: y must lie in [0, 1] and not be NaN")
         return self._finv(np.clip(y, self.y_lo, self.y_hi))
 
     def derivative(self, x: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """dCRF/dx; 0 where the curve is clipped (x < x_lo with clip_low, x > x_hi)."""
+        """dCRF/dx; 0 where the curve is clipped (x < x_lo with clip_low, x > x_hi).
+
+        Parameters
+        ----------
+        x : array_like
+            Normalised scaled irradiance, >= 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            dy/dx (response per unit of x), float64 of x's shape.
+        """
         x = np.asarray(x, dtype=np.float64)
         if not np.all(x >= 0):
             raise CRFError("derivative: x must be >= 0 and not NaN")
@@ -166,7 +239,18 @@ class CRF(ABC):
         return np.where(inside, self._df(np.clip(x, self.x_lo, self.x_hi)), 0.0)
 
     def certainty(self, x: npt.ArrayLike) -> FloatValues:
-        """f^c (eq. 4): dCRF/dx normalised to a maximum of 1 (capped at 1, see _max_slope)."""
+        """f^c (eq. 4): dCRF/dx normalised to a maximum of 1 (capped at 1, see _max_slope).
+
+        Parameters
+        ----------
+        x : array_like
+            Normalised scaled irradiance, >= 0.
+
+        Returns
+        -------
+        numpy.ndarray or numpy.float64
+            Certainty in [0, 1], float64 of x's shape.
+        """
         return np.minimum(self.derivative(x) / self._slope_max, 1.0)
 
     def weight(self, y: npt.ArrayLike) -> FloatValues:
@@ -175,6 +259,16 @@ class CRF(ABC):
         "derivative": certainty(inverse(y)), and exactly 0 at a clipped level (y <= y_lo when clip_low,
         y >= y_hi when clip_high) because such a response stands for a whole range of irradiance.
         "robertson": exp(-4 (z - 127.5)^2 / 127.5^2), z = 255 y.
+
+        Parameters
+        ----------
+        y : array_like
+            Normalised response in [0, 1]; values outside (or NaN) raise CRFError.
+
+        Returns
+        -------
+        numpy.ndarray or numpy.float64
+            Weight in [0, 1], float64 of y's shape.
         """
         y = np.asarray(y, dtype=np.float64)
         if not np.all((y >= 0) & (y <= 1)):
@@ -190,7 +284,22 @@ class CRF(ABC):
         return np.where(clipped, 0.0, w)
 
     def variance(self, y: npt.ArrayLike, sigma_im2: float, max_variance: float) -> npt.NDArray[np.float64]:
-        """Frame variance Rbar (eq. 6) = sigma_im2 / f^w(y), saturated at max_variance (also where f^w = 0)."""
+        """Frame variance Rbar (eq. 6) = sigma_im2 / f^w(y), saturated at max_variance (also where f^w = 0).
+
+        Parameters
+        ----------
+        y : array_like
+            Normalised response in [0, 1].
+        sigma_im2 : float
+            The base variance sigma_im^2 of eq. 6, > 0.
+        max_variance : float
+            The saturation value, > 0 (same units).
+
+        Returns
+        -------
+        numpy.ndarray
+            Rbar, float64 of y's shape, in (0, max_variance].
+        """
         if not (np.isfinite(sigma_im2) and sigma_im2 > 0):
             raise CRFError(f"sigma_im2 must be a positive finite number, got {sigma_im2}")
         if not (np.isfinite(max_variance) and max_variance > 0):

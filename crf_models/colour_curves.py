@@ -6,17 +6,9 @@ and HLG in_max = 1 and the normalisation is the identity; for the camera log cur
 encoded as code value 1.0, so the whole code range is used. Inverses are colour-science's decodings; derivatives
 are central differences of the exact curve (relative step 1e-6, one-sided at the ends).
 
-References (full citations also in docs/models/references.md):
-
-- Mansencal T, Mauderer M, Parsons M, et al. Colour (colour-science), colour science for Python. Zenodo;
-  https://www.colour-science.org
-- International Electrotechnical Commission (1999). IEC 61966-2-1:1999, default RGB colour space, sRGB.
-- International Telecommunication Union (2015). Recommendation ITU-R BT.709-6, parameter values for the HDTV
-  standards for production and international programme exchange.
-- International Telecommunication Union (2018). Recommendation ITU-R BT.2100-2, image parameter values for
-  high dynamic range television (hybrid log-gamma).
-- ARRI (2012). ALEXA Log C curve: usage in VFX. Technical note, Arnold and Richter Cine Technik.
-- Sony Corporation. Technical summary for S-Gamut3.Cine/S-Log3 and S-Gamut3/S-Log3.
+References (docs/models/references.md): colour-science [Colour]; IEC 61966-2-1 [IEC61966], sRGB; ITU-R
+BT.709-6 [BT709]; ITU-R BT.2100-2 [BT2100], hybrid log-gamma; ARRI 2012 [ARRI2012], LogC3; Sony S-Log3
+[SLog3].
 """
 
 from __future__ import annotations
@@ -65,7 +57,13 @@ class _ColourCurve(CRF):
 
 
 class SRGBCRF(_ColourCurve):
-    """IEC 61966-2-1 sRGB encoding (linear toe of slope 12.92, then 1.055 x^(1/2.4) - 0.055)."""
+    """IEC 61966-2-1 sRGB encoding (linear toe of slope 12.92, then 1.055 x^(1/2.4) - 0.055).
+
+    Parameters
+    ----------
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "srgb"
     def _encode(self, v):
@@ -83,7 +81,13 @@ class SRGBCRF(_ColourCurve):
 
 
 class BT709CRF(_ColourCurve):
-    """ITU-R BT.709 OETF (linear toe of slope 4.5, then 1.099 x^0.45 - 0.099)."""
+    """ITU-R BT.709 OETF (linear toe of slope 4.5, then 1.099 x^0.45 - 0.099).
+
+    Parameters
+    ----------
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "bt709"
     def _encode(self, v):
@@ -101,7 +105,13 @@ class BT709CRF(_ColourCurve):
 
 
 class HLGCRF(_ColourCurve):
-    """ITU-R BT.2100 Hybrid Log-Gamma OETF (square root below 1/12, logarithmic above)."""
+    """ITU-R BT.2100 Hybrid Log-Gamma OETF (square root below 1/12, logarithmic above).
+
+    Parameters
+    ----------
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "hlg"
     def _encode(self, v):
@@ -120,7 +130,16 @@ class HLGCRF(_ColourCurve):
 
 class LogC3CRF(_ColourCurve):
     """ARRI LogC3 (ALEXA, SUP 3.x, linear scene exposure factor) at exposure index EI.
-    in_max: scene-linear value at x = 1 (default: the value coded as 1.0, about 55.08 at EI 800)."""
+
+    Parameters
+    ----------
+    EI : int, optional
+        Exposure index, one of 160, 200, 250, 320, 400, 500, 640, 800, 1000, 1280, 1600 (default 800).
+    in_max : float, optional
+        Scene-linear value at x = 1 (default: the value coded as 1.0, about 55.08 at EI 800).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "logc3"
     _EIS = (160, 200, 250, 320, 400, 500, 640, 800, 1000, 1280, 1600)
@@ -143,8 +162,15 @@ class LogC3CRF(_ColourCurve):
 
 
 class SLog3CRF(_ColourCurve):
-    """Sony S-Log3 (normalised code values). in_max: scene-linear reflectance at x = 1 (default: the value
-    coded as 1.0, about 38.42)."""
+    """Sony S-Log3 (normalised code values).
+
+    Parameters
+    ----------
+    in_max : float, optional
+        Scene-linear reflectance at x = 1 (default: the value coded as 1.0, about 38.42).
+    **kw
+        ``weighting`` (see CRF).
+    """
 
     name = "slog3"
     def _encode(self, v):

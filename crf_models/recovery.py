@@ -1,13 +1,10 @@
-"""CRF recovery from an exposure stack (Debevec and Malik, SIGGRAPH 1997), on grey levels.
+"""CRF recovery from an exposure stack (Debevec and Malik 1997 [Debevec1997]), on grey levels.
 
 Solves for g(z) = ln(scaled irradiance x exposure) at every level z by weighted least squares on sampled pixels
 with a second-difference smoothness penalty and g(mid) = 0, then tabulates the response y = z / (levels - 1)
 against x = exp(g(z) - g(levels - 1)) (so x = 1 is the irradiance x exposure that just saturates).
 
-References (full citations also in docs/models/references.md):
-
-- Debevec PE, Malik J (1997). Recovering high dynamic range radiance maps from photographs. Proceedings of
-  ACM SIGGRAPH 97, 369-378. doi:10.1145/258734.258884
+References (docs/models/references.md): Debevec and Malik 1997 [Debevec1997].
 """
 
 from __future__ import annotations
@@ -37,14 +34,30 @@ def recover_debevec(
     channel: int | None = None,
 ) -> TabulatedCRF:
     """Recover a tabulated CRF from images of a static scene taken with different exposure times (Debevec and
-    Malik, Recovering High Dynamic Range Radiance Maps from Photographs, SIGGRAPH 1997).
+    Malik 1997 [Debevec1997]).
 
-    images: sequence of P >= 2 integer arrays (H, W) or (H, W, C) with values in [0, levels).
-    channel: for colour images, the channel to use; None averages the channels (fine when all channels share
+    Parameters
+    ----------
+    images : iterable of array_like
+        P >= 2 integer arrays (H, W) or (H, W, C) of one shape, with values in [0, levels).
+    exposure_times : array_like
+        P positive exposure times (any unit, only ratios matter).
+    smoothness : float, optional
+        Debevec's lambda (weight of the second-difference penalty, in units of the data weights; default 100).
+    n_samples : int, optional
+        Pixels used, taken deterministically at evenly spaced grey-level quantiles of the middle exposure
+        (default 1000).
+    levels : int, optional
+        Number of grey levels, >= 2 (default 256).
+    channel : int, optional
+        For colour images, the channel to use; None (default) averages the channels (fine when all channels share
         one curve, as in a digital camera's JPEGs; film scans have per-channel curves: pick one channel).
-    exposure_times: P positive exposure times (any unit, only ratios matter).
-    smoothness: Debevec's lambda (weight of the second-difference penalty, in units of the data weights).
-    n_samples: pixels used, taken deterministically at evenly spaced grey-level quantiles of the middle exposure.
+
+    Returns
+    -------
+    TabulatedCRF
+        The response y = z / (levels - 1) tabulated on x = exp(g(z) - g(levels - 1)), g made non-decreasing
+        (x = 1: the irradiance times exposure that just saturates).
     """
     times = as_float_array(exposure_times, "exposure_times").ravel()
     stack = [np.asarray(im) for im in images]

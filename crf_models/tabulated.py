@@ -4,12 +4,8 @@ A TabulatedCRF is piecewise linear between its knots (as colour.LUT1D's default 
 inverse is exact and its derivative is the slope of the knot interval (right-hand slope at a knot). Its params
 hold the table itself, so a curve loaded from a file is rebuilt without the file; `source` is a free label.
 
-References (full citations also in docs/models/references.md):
-
-- Grossberg MD, Nayar SK (2003). What is the space of camera response functions? IEEE Computer Society
-  Conference on Computer Vision and Pattern Recognition (CVPR), vol. 2. (DoRF, EMoR.)
-- Grossberg MD, Nayar SK (2004). Modeling the space of camera response functions. IEEE Transactions on
-  Pattern Analysis and Machine Intelligence 26(10):1272-1282.
+References (docs/models/references.md): Grossberg and Nayar 2003 [Grossberg2003] (DoRF, EMoR) and 2004
+[Grossberg2004].
 """
 
 from __future__ import annotations
@@ -32,9 +28,20 @@ if TYPE_CHECKING:
 class TabulatedCRF(CRF):
     """y = LUT(x) through knots (x[i], y[i]).
 
-    x: strictly increasing, >= 0 (default: linspace(0, 1, len(y))). y: in [0, 1], non-decreasing, strictly
-    increasing except for a flat run at either end, which is a clipped range. Beyond x[-1] the curve holds y[-1]
-    (clipped); below x[0] it holds y[0], clipped when x[0] > 0.
+    Beyond x[-1] the curve holds y[-1] (clipped); below x[0] it holds y[0], clipped when x[0] > 0.
+
+    Parameters
+    ----------
+    y : array_like
+        1-D table of normalised responses in [0, 1], at least 2 knots; non-decreasing, strictly increasing except
+        for a flat run at either end, which is a clipped range (break_ties() removes interior ties).
+    x : array_like, optional
+        Normalised scaled irradiance of the knots, strictly increasing, >= 0, as long as y (default:
+        linspace(0, 1, len(y))).
+    source : str, optional
+        A free label (where the table came from).
+    **kw
+        ``weighting`` (see CRF).
     """
 
     name = "tabulated"
@@ -81,7 +88,18 @@ class TabulatedCRF(CRF):
 def break_ties(y: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Make interior flat runs of a non-decreasing table strictly increasing by linear interpolation from the
     run's value towards the next larger value (measured tables such as DoRF have float32 ties; the change is
-    smaller than that gap). Flat runs at either end (clipped ranges) are kept."""
+    smaller than that gap). Flat runs at either end (clipped ranges) are kept.
+
+    Parameters
+    ----------
+    y : array_like
+        A non-decreasing 1-D table of responses.
+
+    Returns
+    -------
+    numpy.ndarray
+        A float64 copy with its interior ties broken.
+    """
     y = np.array(y, dtype=np.float64)
     start = 0
     for i in range(1, y.size + 1):
@@ -95,11 +113,23 @@ def break_ties(y: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 def load_dorf(path: str | os.PathLike[str], index: int) -> TabulatedCRF:
     """Curve `index` (0-based) of the DoRF database (Columbia CAVE, 201 measured curves, B(I) on 1024 samples;
-    Grossberg and Nayar, What is the Space of Camera Response Functions?, CVPR 2003).
+    Grossberg and Nayar 2003 [Grossberg2003]).
 
     Reads the MATLAB layout (.mat with arrays I and B, one curve per row, e.g. 201_CRF_data.mat) or the
     original text layout (dorfCurves.txt: per curve a name line, a channel line, "I =" then 1024 numbers,
     "B =" then 1024 numbers). Interior float ties are removed with break_ties().
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The DoRF file (.mat, or the text layout).
+    index : int
+        The curve, 0-based; out of range raises CRFError.
+
+    Returns
+    -------
+    TabulatedCRF
+        The curve B(I), its source naming the file, the index and the curve's name.
     """
     path = Path(path)
     if not path.is_file():
@@ -153,9 +183,22 @@ def _parse_dorf_text(path: Path):
 
 
 def load_emor(path: str | os.PathLike[str], coeffs: npt.ArrayLike = ()) -> TabulatedCRF:
-    """The EMoR model f = f0 + sum_n coeffs[n] h_n (Grossberg and Nayar, What is the Space of Camera Response
-    Functions?, CVPR 2003; Modeling the Space of Camera Response Functions, TPAMI 2004) from emor.txt (blocks "E =",
-    "f0 =", "h(1)=", ... of 1024 values), tabulated on E. At most as many coefficients as basis curves."""
+    """The EMoR model f = f0 + sum_n coeffs[n] h_n (Grossberg and Nayar 2003 [Grossberg2003], 2004
+    [Grossberg2004]) from emor.txt (blocks "E =", "f0 =", "h(1)=", ... of 1024 values), tabulated on E.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The emor.txt file.
+    coeffs : array_like, optional
+        The coefficients of the basis curves h(1), h(2), ...; at most as many as the file holds (default: none,
+        the mean curve f0).
+
+    Returns
+    -------
+    TabulatedCRF
+        f clipped to [0, 1] with its ties broken, on the knots E.
+    """
     path = Path(path)
     if not path.is_file():
         raise CRFError(f"EMoR file not found: {path}")

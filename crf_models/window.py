@@ -1,4 +1,4 @@
-"""The AHDR "window" response of the AKF paper (Wang et al. 2021, Sec. 6 and supplementary Sec. 4.2).
+"""The AHDR "window" response of the AKF paper (Wang et al. 2021 [Wang2021], Sec. 6 and supplementary Sec. 4.2).
 
 The authors made their artificial-HDR (AHDR) dataset by taking well-exposed frames of an ordinary RGB camera
 and clipping "pixel values higher than 160 or lower than 100 of an 8-bit image". The input to the window is
@@ -8,11 +8,7 @@ standing in for the camera's display encoding (use base="linear" to window raw l
 y = clip((levels * base(x) - low) / (high - low), 0, 1): the band [low, high] of the base response is stretched
 to the full range and everything else is clipped, so f^w vanishes at y = 0 and y = 1 and Rbar saturates there.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
+References (docs/models/references.md): Wang et al. 2021 [Wang2021].
 """
 
 from __future__ import annotations
@@ -27,7 +23,19 @@ from .base import CRF, CRFError, real_param
 class WindowCRF(CRF):
     """Band [low, high] (on a 0..levels scale of the base response) stretched to [0, 1], the rest clipped.
 
-    base / base_params: the underlying curve (any registered name except "window") and its parameters.
+    Parameters
+    ----------
+    low, high : float, optional
+        The band, 0 <= low < high <= levels, on the base response's 0..levels scale (default 100 and 160, the
+        AKF paper's); it must lie within the base curve's responses.
+    levels : float, optional
+        The scale's top, > 0 (default 255: 8-bit values).
+    base : str, optional
+        The underlying curve: any registered name except "window" (default "gamma").
+    base_params : dict, optional
+        Its parameters (default: its defaults).
+    **kw
+        ``weighting`` (see CRF).
     """
 
     name = "window"

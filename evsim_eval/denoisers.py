@@ -14,12 +14,8 @@ Denoise-then-reconstruct: every filter at its default parameter (what a user wit
 events, and evsim_eval.evaluate.evaluate_recording scores the AKF and the baselines on what remains, in the same
 table as on the raw events.
 
-References (full citations also in docs/models/references.md): the filters' sources, Delbruck (2008), Frame-free
-dynamic digital vision, and Guo and Delbruck (2022), Low cost and latency event camera background activity
-denoising (STCF), cited in full in the akf package docstring; and
-
-- Fawcett T (2006). An introduction to ROC analysis. Pattern Recognition Letters 27(8):861-874.
-  doi:10.1016/j.patrec.2005.10.010
+References (docs/models/references.md): Fawcett 2006 [Fawcett2006], ROC analysis; the filters' sources: Delbruck 2008
+[Delbruck2008], Guo and Delbruck 2022 [Guo2022] (sim.denoise).
 """
 
 from __future__ import annotations
@@ -150,7 +146,20 @@ def score_recording(rec: Recording, filters: Sequence[str] | None = None,
 
 
 def denoised(rec: Recording, keep: np.ndarray) -> Recording:
-    """The recording with only the kept events (and their labels)."""
+    """The recording with only the kept events (and their labels).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    keep : numpy.ndarray
+        bool keep-mask, one per event.
+
+    Returns
+    -------
+    Recording
+        A copy with the kept events.
+    """
     labels = None if rec.event_labels is None else rec.event_labels[keep]
     return dataclasses.replace(rec, events=rec.events[keep], event_labels=labels)
 
@@ -159,7 +168,28 @@ def reconstruct_denoised(rec: Recording, filters: Sequence[str] | None = None, *
                          methods: Iterable[str] = ("akf", "cf"), metrics: Iterable[str] = DEFAULT_RECONSTRUCT_METRICS,
                          method_options: dict[str, dict[str, Any]] | None = None) -> dict:
     """{row: {method: {metric: value}}}: row "raw" on all events, then "<filter>(<param>=<default>)" on the
-    events each filter keeps at its default parameter (evsim_eval.evaluate.evaluate_recording, same protocol)."""
+    events each filter keeps at its default parameter (evsim_eval.evaluate.evaluate_recording, same protocol).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    filters : sequence of str, optional
+        sim.denoise.FILTERS names (None: every filter whose library is installed, see resolve_filters).
+    protocol : {"reference", "interleave"}, optional
+        The evaluation protocol (default "reference").
+    methods : iterable of str, optional
+        akf.METHODS names (default "akf", "cf").
+    metrics : iterable of str, optional
+        Metric names (default DEFAULT_RECONSTRUCT_METRICS).
+    method_options : dict, optional
+        {method: {keyword: value}} passed to that method.
+
+    Returns
+    -------
+    dict
+        {row: {method: {metric: value}}}.
+    """
     names, _ = resolve_filters(filters)
     kw = {"protocol": protocol, "methods": tuple(methods), "metrics": tuple(metrics), "method_options": method_options}
     rows = {"raw": evaluate_recording(rec, **kw)[0]}
@@ -178,10 +208,30 @@ def evaluate_denoise_dataset(path: str | Path, *, filters: Sequence[str] | None 
                              progress: bool = False) -> tuple[dict, list[str]]:
     """Score filters on every sequence of a dataset (and, with reconstruct, the methods on denoised events).
 
-    Returns ({"filters": {name: {"param", "unit", "default", "library", "summary"}},
-              "sequences": {sequence: {"events": rates of keeping all, "roc": {filter: filter_roc},
-                                       "reconstruction": {row: {method: {metric}}}}},
-              "mean_auc": {filter: {"all"|noise type: mean AUC over the sequences}}}, notes)."""
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset (its events need noise labels).
+    filters : sequence of str, optional
+        sim.denoise.FILTERS names (None: every filter whose library is installed).
+    values : dict, optional
+        {filter: main-parameter values} to sweep instead of each filter's grid.
+    reconstruct : bool, optional
+        Also score the methods on the events each filter keeps (default True).
+    protocol, methods, metrics, method_options
+        As reconstruct_denoised's.
+    progress : bool, optional
+        Print progress to stderr (default False).
+
+    Returns
+    -------
+    result : dict
+        {"filters": {name: {"param", "unit", "default", "library", "summary"}}, "sequences": {sequence: {"events":
+        rates of keeping all, "roc": {filter: filter_roc}, "reconstruction": {row: {method: {metric}}}}},
+        "mean_auc": {filter: {"all" or a noise type: mean AUC over the sequences}}}.
+    notes : list of str
+        Notes on the filters used.
+    """
     names, notes = resolve_filters(filters)
     result = {"filters": {n: {"param": FILTERS[n].param, "unit": FILTERS[n].unit, "default": FILTERS[n].default,
                               "library": FILTERS[n].library, "summary": FILTERS[n].summary} for n in names},

@@ -41,9 +41,19 @@ from .tuning import describe_setting, tune_cases
 
 
 class DatasetScores(NamedTuple):
-    """What evaluate_dataset gives: table {method: {sequence: {metric: value}, "mean": {metric: value}}} (the
-    mean over the sequences scored), notes on the assumptions made, tuning {method: setting} (empty without
-    tuning) and the sequences that failed (empty unless strict=False)."""
+    """What evaluate_dataset gives.
+
+    Attributes
+    ----------
+    table : dict
+        {method: {sequence: {metric: value}, "mean": {metric: value}}} (the mean over the sequences scored).
+    notes : list of str
+        Notes on the assumptions made.
+    tuning : dict
+        {method: setting} (empty without tuning).
+    failures : list of TaskOutcome
+        The sequences that failed (empty unless strict=False).
+    """
 
     table: dict
     notes: list
@@ -88,13 +98,43 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: 
                        method_options: dict[str, dict[str, Any]] | None = None, tuning: dict | None = None,
                        tune_fraction: float = TUNE_FRACTION, exposure_matched: bool = True,
                        by_class: bool = False, sensor: str | None = None) -> tuple[dict, str]:
-    """Score methods on one recording: ({method: {metric: value}}, notes joined by "; "). sensor: a sensor file or
-    preset whose thresholds a recording without recorded ones gets (protocols.recording_contrast_or_estimate).
-    metrics: None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS).
+    """Score methods on one recording.
 
     Every scored time, or, with tuning ({method: setting} from the tuning search), each method with its setting
-    on the times after the tuning split only. exposure_matched: see recording_case; by_class: also the per-class
-    scores "metric@class" and shares "share@class" (evsim_eval.scoring.Case.scores).
+    on the times after the tuning split only.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording (generators.formats.load).
+    protocol : {"reference", "interleave"}, optional
+        Score against the HDR reference frames, or feed every second frame and score on the others (default
+        "reference").
+    methods : sequence of str, optional
+        akf.METHODS names (default DEFAULT_METHODS).
+    metrics : sequence of str, optional
+        Metric names; None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS).
+    method_options : dict, optional
+        {method: {keyword: value}} passed to that method.
+    tuning : dict, optional
+        {method: setting} from the tuning search; None: no tuning, every scored time.
+    tune_fraction : float, optional
+        The tuning split's share of the scored times (default TUNE_FRACTION, 1/3).
+    exposure_matched : bool, optional
+        See recording_case (default True).
+    by_class : bool, optional
+        Also the per-class scores "metric@class" and shares "share@class" (evsim_eval.scoring.Case.scores; default
+        False).
+    sensor : str, optional
+        A sensor file or preset whose thresholds a recording without recorded ones gets
+        (protocols.recording_contrast_or_estimate).
+
+    Returns
+    -------
+    table : dict
+        {method: {metric: value}}.
+    notes : str
+        Notes joined by "; ".
     """
     metrics = request_defaults(protocol, metrics)[0]
     check_request(protocol, methods, metrics, tune_fraction=tune_fraction)
@@ -105,7 +145,22 @@ def evaluate_recording(rec: Recording, *, protocol: str = "reference", methods: 
 
 
 def evaluate_sequence_file(file: str | Path, **options: Any) -> tuple[dict, str]:
-    """One sequence as a task: evaluate_recording(load(file), **options)."""
+    """One sequence as a task: evaluate_recording(load(file), **options).
+
+    Parameters
+    ----------
+    file : str or pathlib.Path
+        A recording file.
+    **options
+        evaluate_recording's keyword arguments.
+
+    Returns
+    -------
+    table : dict
+        {method: {metric: value}}.
+    notes : str
+        Notes joined by "; ".
+    """
     return evaluate_recording(load(file), **options)
 
 
@@ -114,7 +169,18 @@ def add_means(result: dict) -> dict:
     scored any sequence (NaN values, empty pixel classes, left out; NaN when every one is); returns result.
     A root-mean metric (evsim_eval.metrics.ROOT_MEAN: log_rmse, and its per-class keys "log_rmse@class") has the root
     mean square over the sequences as its mean, the RMSE of sequences of one size pooled, as its per-sequence
-    values pool their frames."""
+    values pool their frames.
+
+    Parameters
+    ----------
+    result : dict
+        {method: {sequence: {key: value}}}, changed in place.
+
+    Returns
+    -------
+    dict
+        result.
+    """
     for rows in result.values():
         if rows:
             keys = list(next(iter(rows.values())))
@@ -158,16 +224,50 @@ def evaluate_dataset(path: str | Path, *, protocol: str = "reference", methods: 
                      strict: bool = True, exposure_matched: bool = True, by_class: bool = True,
                      sensor: str | None = None) -> DatasetScores:
     """Score every sequence of a dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5
-    files), one task per sequence on generators.runner (workers=N local processes, scheduler=ADDRESS a Dask
-    cluster, neither: this process); with tune, the methods' parameters are searched first (see the module).
-    metrics and tune_metric: None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS, TUNE_METRIC).
+    files), one task per sequence on generators.runner; with tune, the methods' parameters are searched first (see the
+    module).
 
-    progress: the tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None
-    the messages and, on a terminal only, the bar. exposure_matched: with protocol "interleave", reconstructions
-    averaged over each held-out frame's exposure window (else at its mid-exposure time); by_class: also the
-    per-class scores (evaluate_recording). strict: raise when sequences fail (EvsimInputError when every
-    one failed on the same bad input, else generators.runner.TasksFailed); with strict=False they come back in
-    DatasetScores.failures and the table holds the others. sensor: see evaluate_recording.
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset.
+    protocol : {"reference", "interleave"}, optional
+        As evaluate_recording's (default "reference").
+    methods : iterable of str, optional
+        akf.METHODS names (default DEFAULT_METHODS).
+    metrics : iterable of str, optional
+        Metric names; None gives the protocol's (evsim_eval.choices.DEFAULT_METRICS).
+    method_options : dict, optional
+        {method: {keyword: value}} passed to that method.
+    tune : bool, optional
+        Search the methods' parameters first (default False).
+    tune_fraction : float, optional
+        The tuning split's share of every sequence's scored times (default TUNE_FRACTION, 1/3).
+    tune_metric : str, optional
+        The tuning objective; None gives the protocol's (evsim_eval.choices.TUNE_METRIC).
+    workers : int, optional
+        N local processes (None: see scheduler).
+    scheduler : str, optional
+        ADDRESS of a Dask cluster; with neither, this process.
+    progress : bool, optional
+        The tuning's messages and the tasks' progress bar, on stderr: True shows both, False neither, None the
+        messages and, on a terminal only, the bar.
+    strict : bool, optional
+        Raise when sequences fail (default True; EvsimInputError when every one failed on the same bad input, else
+        generators.runner.TasksFailed); with strict=False they come back in DatasetScores.failures and the table holds
+        the others.
+    exposure_matched : bool, optional
+        With protocol "interleave", reconstructions averaged over each held-out frame's exposure window (default
+        True; else at its mid-exposure time).
+    by_class : bool, optional
+        Also the per-class scores (evaluate_recording; default True).
+    sensor : str, optional
+        See evaluate_recording.
+
+    Returns
+    -------
+    DatasetScores
+        The table with its means, the notes, the tuning and the failures.
     """
     methods = tuple(methods)
     metrics, tune_metric = request_defaults(protocol, metrics, tune_metric)

@@ -39,7 +39,22 @@ _CHUNK_BYTES = 1 << 28  # reconstructions per method call: about 256 MB of float
 def sample_count(events: np.ndarray, t_start_us: int, t_end_us: int, shape: tuple[int, int]) -> int:
     """The number of midpoint samples for the window [t_start_us, t_end_us) (see the module): 1 for an empty
     window, else clip(SAMPLES_PER_EVENT k, MIN_SAMPLES, MAX_SAMPLES) for k the 99th-percentile event count of the
-    pixels with events in the window, and at most one sample per microsecond."""
+    pixels with events in the window, and at most one sample per microsecond.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    t_start_us, t_end_us : int
+        The window (int64 us).
+    shape : tuple of int
+        (H, W), pixels.
+
+    Returns
+    -------
+    int
+        The number of samples, >= 1.
+    """
     length = int(t_end_us) - int(t_start_us)
     if length <= 0:
         return 1
@@ -55,17 +70,49 @@ def sample_count(events: np.ndarray, t_start_us: int, t_end_us: int, shape: tupl
 
 def sample_times(t_start_us: int, t_end_us: int, n: int) -> npt.NDArray[np.int64]:
     """n midpoint times of [t_start_us, t_end_us): t_start + (j + 1/2) (t_end - t_start) / n, rounded to the
-    microsecond (int64, non-decreasing)."""
+    microsecond (int64, non-decreasing).
+
+    Parameters
+    ----------
+    t_start_us, t_end_us : int
+        The window (int64 us).
+    n : int
+        Number of samples.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) int64 times (us).
+    """
     j = np.arange(n, dtype=np.float64)
     return np.rint(t_start_us + (j + 0.5) * (int(t_end_us) - int(t_start_us)) / n).astype(np.int64)
 
 
 def exposure_average(reconstruct: Callable[[np.ndarray], np.ndarray], events: np.ndarray,
                      windows: npt.ArrayLike, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """(images, counts): the mean linear reconstruction over each window (K, 2) of int64 [t_start, t_end] us (in
-    time order, not overlapping), float32 (K, H, W), and the number of samples of each. reconstruct(times) is the
-    method at int64 times, returning (T, H, W) linear intensity; it is called on groups of consecutive windows
-    whose samples fit in about 256 MB of float32 images (each call runs the method from its start)."""
+    """The mean linear reconstruction over each exposure window, and the number of samples of each.
+
+    reconstruct is called on groups of consecutive windows whose samples fit in about 256 MB of float32 images (each
+    call runs the method from its start).
+
+    Parameters
+    ----------
+    reconstruct : callable
+        reconstruct(times) is the method at int64 times (us), returning (T, H, W) linear intensity (x units).
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events (for sample_count).
+    windows : array_like
+        (K, 2) int64 [t_start, t_end] us, in time order, not overlapping.
+    shape : tuple of int
+        (H, W), pixels.
+
+    Returns
+    -------
+    images : numpy.ndarray
+        float32 (K, H, W) mean linear intensity (x units) of each window.
+    counts : numpy.ndarray
+        int64 (K,) samples of each window.
+    """
     windows = np.asarray(windows, np.int64).reshape(-1, 2)
     counts = np.array([sample_count(events, a, b, shape) for a, b in windows], np.int64)
     budget = max(MAX_SAMPLES, _CHUNK_BYTES // (4 * shape[0] * shape[1]))

@@ -28,20 +28,9 @@ white (NEEDS_WHITE) or the frames' top (NEEDS_TOP) it needs. Every metric takes 
 one shape, finite and >= 0 (linear intensities; anything else raises EvsimInputError naming the image), and its
 parameters (data_range, white, top, luminance_scale) finite and > 0.
 
-References (full citations also in docs/models/references.md):
-
-- Mantiuk RK, Azimi M (2021). PU21: a novel perceptually uniform encoding for adapting existing quality
-  metrics for HDR. Picture Coding Symposium (PCS).
-- Wang Z, Bovik AC, Sheikh HR, Simoncelli EP (2004). Image quality assessment: from error visibility to
-  structural similarity. IEEE Transactions on Image Processing 13(4):600-612. doi:10.1109/TIP.2003.819861
-- van der Walt S, Schoenberger JL, Nunez-Iglesias J, Boulogne F, Warner JD, Yager N, Gouillart E, Yu T, and
-  the scikit-image contributors (2014). scikit-image: image processing in Python. PeerJ 2:e453.
-  doi:10.7717/peerj.453
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
-- Narwaria M, Mantiuk RK, Da Silva MP, Le Callet P (2015). HDR-VDP-2.2: a calibrated method for objective
-  quality prediction of high-dynamic range and standard images. Journal of Electronic Imaging 24(1):010501.
+References (docs/models/references.md): Mantiuk and Azimi 2021 [Mantiuk2021], PU21; Wang et al. 2004 [Wang2004], SSIM;
+van der Walt et al. 2014 [vanderWalt2014], scikit-image; Wang et al. 2021 [Wang2021], the AKF paper's protocol; Narwaria
+et al. 2015 [Narwaria2015], HDR-VDP-2.2.
 """
 
 from __future__ import annotations
@@ -82,13 +71,37 @@ def _pair(x: npt.ArrayLike, ref: npt.ArrayLike) -> tuple[npt.NDArray[np.float64]
 
 
 def mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
-    """Mean squared error of the raw intensities."""
+    """Mean squared error of the raw intensities.
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+
+    Returns
+    -------
+    float
+        The MSE (x units squared).
+    """
     x, ref = _pair(x, ref)
     return float(np.mean((x - ref) ** 2))
 
 
 def psnr(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
-    """PSNR (dB) = 10 log10(data_range^2 / MSE); data_range defaults to the reference's max."""
+    """PSNR (dB) = 10 log10(data_range^2 / MSE); data_range defaults to the reference's max.
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+    data_range : float, optional
+        The peak (x units), > 0; default the reference's max.
+
+    Returns
+    -------
+    float
+        PSNR in dB (inf for identical images).
+    """
     x, ref = _pair(x, ref)
     peak = float(ref.max()) if data_range is None else check_number("data_range", data_range, positive=True)
     err = mse(x, ref)
@@ -96,7 +109,20 @@ def psnr(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) 
 
 
 def ssim(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) -> float:
-    """SSIM (Wang et al. 2004) with data_range defaulting to the reference's max - min."""
+    """SSIM (Wang et al. 2004 [Wang2004]) with data_range defaulting to the reference's max - min.
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+    data_range : float, optional
+        The range (x units), > 0; default the reference's max - min (a constant reference raises EvsimInputError).
+
+    Returns
+    -------
+    float
+        Mean SSIM, 1 for identical images.
+    """
     x, ref = _pair(x, ref)
     rng = (float(ref.max() - ref.min()) if data_range is None
            else check_number("data_range", data_range, positive=True))
@@ -107,7 +133,18 @@ def ssim(x: npt.ArrayLike, ref: npt.ArrayLike, data_range: float | None = None) 
 
 def pu21_encode(luminance: npt.ArrayLike) -> npt.NDArray[np.float64] | np.float64:
     """PU21 encoding of absolute luminance (cd/m^2): V = p7 * (((p1 + p2 Y^p4) / (1 + p3 Y^p4))^p5 - p6), with Y
-    clamped to [0.005, 10000] and V clipped at 0."""
+    clamped to [0.005, 10000] and V clipped at 0.
+
+    Parameters
+    ----------
+    luminance : array_like
+        Absolute luminance Y (cd/m^2).
+
+    Returns
+    -------
+    numpy.ndarray or numpy.float64
+        PU21 values V of luminance's shape (100 cd/m^2 encodes to about 256).
+    """
     p1, p2, p3, p4, p5, p6, p7 = PU21_PARAMS
     y = np.clip(np.asarray(luminance, np.float64), PU21_Y_MIN, PU21_Y_MAX)
     yp = y**p4
@@ -188,19 +225,56 @@ def to_unit_range(x: npt.ArrayLike, white: float) -> npt.NDArray[np.float64] | n
 
 
 def mse01(x: npt.ArrayLike, ref: npt.ArrayLike, white: float = 1.0) -> float:
-    """MSE after clip(I / white, 0, 1) of both images."""
+    """MSE after clip(I / white, 0, 1) of both images.
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+    white : float, optional
+        The intensity that maps to 1 (x units), > 0 (default 1).
+
+    Returns
+    -------
+    float
+        The MSE of the [0, 1] images.
+    """
     x, ref = _pair(x, ref)
     return mse(to_unit_range(x, white), to_unit_range(ref, white))
 
 
 def ssim01(x: npt.ArrayLike, ref: npt.ArrayLike, white: float = 1.0) -> float:
-    """SSIM (data_range 1) after clip(I / white, 0, 1) of both images."""
+    """SSIM (data_range 1) after clip(I / white, 0, 1) of both images.
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+    white : float, optional
+        The intensity that maps to 1 (x units), > 0 (default 1).
+
+    Returns
+    -------
+    float
+        Mean SSIM of the [0, 1] images.
+    """
     x, ref = _pair(x, ref)
     return ssim(to_unit_range(x, white), to_unit_range(ref, white), data_range=1.0)
 
 
 def log_mse(x: npt.ArrayLike, ref: npt.ArrayLike) -> float:
-    """Mean squared difference of log(I + LOG_EPS)."""
+    """Mean squared difference of log(I + LOG_EPS).
+
+    Parameters
+    ----------
+    x, ref : array_like
+        Reconstruction and reference, (H, W) linear intensity (x units), >= 0.
+
+    Returns
+    -------
+    float
+        The mean squared log difference (natural-log units squared).
+    """
     x, ref = _pair(x, ref)
     return float(np.mean((np.log(x + LOG_EPS) - np.log(ref + LOG_EPS)) ** 2))
 

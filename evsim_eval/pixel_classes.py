@@ -20,10 +20,7 @@ Time classes (every pixel of a scored time): "at_frames" when t lies inside an i
 Class scores pool every pixel of the class over the scored times (evsim_eval.metrics.score_map, SSIM maps
 SSIM_MARGIN pixels in from the border) and report the class's share of the scored pixels.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Bovik AC, Sheikh HR, Simoncelli EP (2004). Image quality assessment: from error visibility to
-  structural similarity. IEEE Transactions on Image Processing 13(4):600-612. doi:10.1109/TIP.2003.819861
+References (docs/models/references.md): Wang et al. 2004 [Wang2004], SSIM.
 """
 
 from __future__ import annotations
@@ -53,7 +50,20 @@ FLAT_STD = 0.02  # local standard deviation of the [0, 1] truth below which it i
 
 def nearest_frames(frame_mid_us: npt.ArrayLike, t_us: int) -> tuple[int, int]:
     """Indices (before, after) of the frames nearest to t_us by mid-exposure time: the last at or before t and the
-    first at or after (the same frame at t, and the end frame beyond either end)."""
+    first at or after (the same frame at t, and the end frame beyond either end).
+
+    Parameters
+    ----------
+    frame_mid_us : array_like
+        The frames' mid-exposure times, ascending int64 us.
+    t_us : int
+        The scored time (us).
+
+    Returns
+    -------
+    before, after : int
+        The frame indices.
+    """
     mid = np.asarray(frame_mid_us, np.int64)
     after = int(np.searchsorted(mid, t_us, side="left"))
     before = int(np.searchsorted(mid, t_us, side="right")) - 1
@@ -63,8 +73,26 @@ def nearest_frames(frame_mid_us: npt.ArrayLike, t_us: int) -> tuple[int, int]:
 
 def pixel_classes(before: npt.ArrayLike, after: npt.ArrayLike, crf: CRF, bit_depth: int, truth: npt.ArrayLike,
                   white: float) -> dict[str, npt.NDArray[np.bool_]]:
-    """{class: (H, W) bool mask} of PIXEL_CLASSES for one scored time: before/after the nearest input frames
-    (digital numbers), truth the reference (linear, x units) and white its [0, 1] white (see the module)."""
+    """{class: (H, W) bool mask} of PIXEL_CLASSES for one scored time (see the module).
+
+    Parameters
+    ----------
+    before, after : array_like
+        (H, W) the nearest input frames (digital numbers).
+    crf : CRF
+        The frames' response curve.
+    bit_depth : int
+        The frames' bits.
+    truth : array_like
+        (H, W) the reference, linear intensity (x units).
+    white : float
+        Its [0, 1] white (x units).
+
+    Returns
+    -------
+    dict
+        {class: (H, W) bool mask} for "well", "high", "low" (a partition) and "flat", "textured" (another).
+    """
     full = float((1 << bit_depth) - 1)
     margin = CLIP_MARGIN_DN / full
     y = [np.asarray(f, np.float64) / full for f in (before, after)]
@@ -99,13 +127,39 @@ def range_classes(truth: npt.ArrayLike, lo: float, hi: float) -> dict[str, npt.N
 
 
 def time_classes(t_us: int, frame_t_start_us: npt.ArrayLike, frame_t_end_us: npt.ArrayLike) -> str:
-    """The time class of t_us: at_frames when it lies inside an input frame's exposure window, else between."""
+    """The time class of t_us: at_frames when it lies inside an input frame's exposure window, else between.
+
+    Parameters
+    ----------
+    t_us : int
+        The scored time (us).
+    frame_t_start_us, frame_t_end_us : array_like
+        The input frames' exposure windows (int64 us).
+
+    Returns
+    -------
+    str
+        "at_frames" or "between".
+    """
     inside = (np.asarray(frame_t_start_us) <= t_us) & (t_us <= np.asarray(frame_t_end_us))
     return "at_frames" if inside.any() else "between"
 
 
 def valid_region(shape: tuple[int, int], ssim: bool) -> npt.NDArray[np.bool_]:
-    """Where a score map counts: everywhere, or SSIM_MARGIN pixels in from the border for an SSIM map."""
+    """Where a score map counts: everywhere, or SSIM_MARGIN pixels in from the border for an SSIM map.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W), pixels.
+    ssim : bool
+        An SSIM map (its border is left out).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) bool mask.
+    """
     valid = np.zeros(shape, bool)
     m = SSIM_MARGIN if ssim else 0
     valid[m:shape[0] - m, m:shape[1] - m] = True

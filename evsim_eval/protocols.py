@@ -34,11 +34,7 @@ leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware even
 unless method_options say otherwise, and the frames' read noise for its frame update: a sensor file's
 [input] read_noise_dn, else estimated from the fed frames (akf.frame_noise); a note says which.
 
-References (full citations also in docs/models/references.md):
-
-- Wang Z, Ng Y, Scheerlinck C, Mahony R (2021). An asynchronous Kalman filter for hybrid event cameras.
-  IEEE/CVF International Conference on Computer Vision (ICCV), 448-457, and its supplementary material.
-  arXiv:2012.05590
+References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF paper's protocol.
 """
 
 from __future__ import annotations
@@ -172,8 +168,29 @@ def recording_case(rec: Recording, protocol: str = "reference",
                    method_options: dict[str, dict[str, Any]] | None = None,
                    exposure_matched: bool = True, sensor: str | None = None) -> tuple[Case, list[str]]:
     """The evsim_eval.scoring.Case of a protocol on a recording, and notes on the assumptions it made.
-    exposure_matched (interleave): reconstructions averaged over each held-out frame's exposure window (default),
-    else taken at its mid-exposure time. sensor: see recording_contrast_or_estimate."""
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    protocol : {"reference", "interleave"}, optional
+        Score against the HDR reference frames, or feed every second frame and score on the others (default
+        "reference").
+    method_options : dict, optional
+        {method: {keyword: value}} passed to that method.
+    exposure_matched : bool, optional
+        (interleave) Reconstructions averaged over each held-out frame's exposure window (default True), else taken
+        at its mid-exposure time.
+    sensor : str, optional
+        See recording_contrast_or_estimate.
+
+    Returns
+    -------
+    case : Case
+        The case.
+    notes : list of str
+        The assumptions made.
+    """
     crf, note = recording_crf(rec)
     notes = [note] if note else []
     options = method_options_for(rec, method_options)

@@ -1,5 +1,6 @@
 """Reconstruction of every sequence of a dataset to files: linear float32 EXR frames with their timestamps
-(`evsim reconstruct`), each method given what the evaluation protocols give it (evsim_eval.protocols)."""
+(`evsim reconstruct`), each method given what the evaluation protocols give it (evsim_eval.protocols).
+"""
 
 from __future__ import annotations
 
@@ -20,9 +21,21 @@ from .protocols import check_frames, dataset_sequences, method_options_for, reco
 
 
 def output_times(rec: Recording, times: str) -> np.ndarray:
-    """int64 us output times for `times` (`evsim reconstruct --times`): "reference" (the reference times from the
-    first exposure start on), "frames" (every frame's mid-exposure) or "fps:N" (N per second from the first
-    exposure start to the last frame's exposure end)."""
+    """int64 us output times for `times` (`evsim reconstruct --times`).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    times : str
+        "reference" (the reference times from the first exposure start on), "frames" (every frame's mid-exposure) or
+        "fps:N" (N per second from the first exposure start to the last frame's exposure end).
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 times (us).
+    """
     check_frames(rec, 1, "reconstruction")
     start, end = int(rec.frame_t_start_us[0]), int(rec.frame_t_end_us[-1])
     if times == "reference":
@@ -50,9 +63,29 @@ def reconstruct_dataset(path: str | Path, out_dir: str | Path, *, method: str = 
                         variance: bool = False) -> list[tuple[str, Path, int]]:
     """Reconstruct every sequence of a dataset with `method` and write float32 EXR folders (frame_NNNNNN.exr and
     timestamps.txt, see generators.formats.exr; values in x units, unclipped for the AKF and the smoother, see
-    evsim_eval.protocols), atomically. With variance (akf and aks only) also the state variance P (log^2 of
-    log(I + I0)) as an EXR folder `variance` inside each sequence's folder.
-    One sequence: out_dir is its folder; several: out_dir/<name>/. Returns (name, folder, number of frames)."""
+    evsim_eval.protocols), atomically. One sequence: out_dir is its folder; several: out_dir/<name>/.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset (a file, an IJRR folder, a generated dataset folder or a folder of .h5 files).
+    out_dir : str or pathlib.Path
+        Where to write.
+    method : str, optional
+        An akf.METHODS name (default "akf").
+    times : str, optional
+        The output times, as output_times takes them (default "reference").
+    method_options : dict, optional
+        Keyword arguments of the method.
+    variance : bool, optional
+        Also write the state variance P (log^2 of log(I + I0)) as an EXR folder `variance` inside each sequence's
+        folder (akf and aks only; default False).
+
+    Returns
+    -------
+    list of tuple
+        (name, folder, number of frames) of every sequence.
+    """
     if method not in akf.METHODS:
         raise EvsimInputError(f"unknown method {method!r}; one of {', '.join(sorted(akf.METHODS))}")
     if variance and method not in KALMAN_METHODS:

@@ -59,7 +59,24 @@ def format_table(result: dict, protocol: str = "reference", notes: Iterable[str]
     """The paper's Table 1 layout: one block per metric, a row per sequence and the mean, a column per method (the
     header of a metric clipped at the [0, 1] protocol's white says "(clipped)"); then, when the scores have them,
     one block per CLASS_BLOCKS metric scored (else per per-pixel metric) with a row per sequence and
-    pixel/range/time class (the class's share of the scored pixels in brackets)."""
+    pixel/range/time class (the class's share of the scored pixels in brackets).
+
+    Parameters
+    ----------
+    result : dict
+        {method: {sequence: {metric: value, "metric@class": value, "share@class": share}, "mean": {...}}}.
+    protocol : str, optional
+        The evaluation protocol, a key of UNITS (default "reference"): it sets the units line and the white rule.
+    notes : iterable of str, optional
+        Lines printed as "note: ..." under the header.
+    exposure_matched : bool, optional
+        Whether held-out frames were scored exposure-matched (default True), for the scoring line.
+
+    Returns
+    -------
+    str
+        The table, lines joined by newlines.
+    """
     methods = list(result)
     sequences = list(result[methods[0]])
     metrics, by_class, classes = _split(result[methods[0]][sequences[0]])
@@ -99,7 +116,18 @@ def _percent(share: float) -> str:
 
 def format_scores(table: dict) -> str:
     """One sequence's {method: {metric: value}} as a method-by-metric table (evsim demo's metrics.txt); per-class
-    entries are left out."""
+    entries are left out.
+
+    Parameters
+    ----------
+    table : dict
+        {method: {metric: value}}.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     metrics = _split(next(iter(table.values())))[0]
     lines = ["method    " + "".join(f"{m:>12}" for m in metrics)]
     for method, row in table.items():
@@ -117,9 +145,19 @@ def _json_value(v: float) -> float | str | None:
 
 def write_json(result: dict, path: str | Path, tuning: dict | None = None, scoring: dict | None = None) -> None:
     """{method: {sequence: {metric: value, "metric@class": value, "share@class": share}, "mean": {...}}} as JSON,
-    atomically (inf as the string "inf", an empty class's NaN as null); with tuning ({method: setting},
-    DatasetScores.tuning of evsim_eval.evaluate) also a top-level "tuning" entry, with scoring (what the scores
-    compare: scoring_record) a top-level "scoring" entry."""
+    atomically (inf as the string "inf", an empty class's NaN as null).
+
+    Parameters
+    ----------
+    result : dict
+        The scores, as format_table takes them.
+    path : str or pathlib.Path
+        The file to write.
+    tuning : dict, optional
+        {method: setting} (DatasetScores.tuning of evsim_eval.evaluate): a top-level "tuning" entry.
+    scoring : dict, optional
+        What the scores compare (scoring_record): a top-level "scoring" entry.
+    """
     clean = {m: {s: {k: _json_value(v) for k, v in row.items()} for s, row in seqs.items()}
              for m, seqs in result.items()}
     if tuning:
@@ -132,7 +170,22 @@ def write_json(result: dict, path: str | Path, tuning: dict | None = None, scori
 def scoring_record(protocol: str, exposure_matched: bool = True, notes: Iterable[str] = ()) -> dict:
     """The JSON's "scoring" entry: protocol, scoring mode (scoring_mode), units, the [0, 1] metrics' white rule,
     the frames' top rule (log_rmse's floor), what each class holds, and the notes (each sequence's white and
-    frames' range among them)."""
+    frames' range among them).
+
+    Parameters
+    ----------
+    protocol : str
+        The evaluation protocol, a key of UNITS.
+    exposure_matched : bool, optional
+        Whether held-out frames were scored exposure-matched (default True).
+    notes : iterable of str, optional
+        The notes.
+
+    Returns
+    -------
+    dict
+        The entry.
+    """
     return {"protocol": protocol, "mode": scoring_mode(protocol, exposure_matched),
             "exposure_matched": bool(exposure_matched and protocol == "interleave"), "units": UNITS[protocol],
             "white": WHITE[protocol].strip(" ()"), "frames_top": FRAMES_TOP.strip(" ()"), "classes": CLASS_MEANING,

@@ -93,7 +93,17 @@ METHOD_DEFAULTS = {"akf": {"max_intensity": None}, "aks": {"max_intensity": None
 
 @dataclass(frozen=True)
 class Tuned:
-    """The chosen setting, its objective, and every (setting, objective) tried, in order."""
+    """The chosen setting, its objective, and every (setting, objective) tried, in order.
+
+    Attributes
+    ----------
+    setting : dict
+        {parameter: value} chosen.
+    objective : float
+        Its objective (lower is better).
+    trials : tuple
+        Every (setting, objective) tried, in order.
+    """
 
     setting: Setting
     objective: float
@@ -102,8 +112,27 @@ class Tuned:
 
 def setting_options(method: str, setting: Setting, contrast: npt.ArrayLike, options: dict[str, Any] | None = None
                     ) -> tuple[float | tuple[float, ...] | npt.NDArray[np.float64], dict[str, Any]]:
-    """(contrast, keyword options) of `method` for a setting; options are the method's other keywords (an AKF
-    "params" there is the base the noise scales multiply)."""
+    """(contrast, keyword options) of `method` for a setting.
+
+    Parameters
+    ----------
+    method : str
+        An akf.METHODS name.
+    setting : dict
+        {parameter: value} (DEFAULTS names: contrast_scale, alpha in rad/s, max_intensity in x units, noise scales,
+        smooth_range in log units, smoother_drift2 in log^2/s, clip_prior_variance in log^2).
+    contrast : array_like
+        The method's contrast threshold(s) (log units) before the setting.
+    options : dict, optional
+        The method's other keywords (an AKF "params" there is the base the noise scales multiply).
+
+    Returns
+    -------
+    contrast : float, tuple or numpy.ndarray
+        The scaled contrast threshold(s), in contrast's form.
+    options : dict
+        The keyword options with the setting applied.
+    """
     options = dict(options or {})
     c = np.asarray(contrast, np.float64) * setting.get("contrast_scale", 1.0)
     if "alpha" in setting:
@@ -132,14 +161,39 @@ def _untuned(method: str, parameters) -> Setting:
 
 
 def default_setting(method: str) -> Setting:
-    """The untuned setting of a method (its defaults for the searched parameters)."""
+    """The untuned setting of a method (its defaults for the searched parameters).
+
+    Parameters
+    ----------
+    method : str
+        An akf.METHODS name.
+
+    Returns
+    -------
+    dict
+        {parameter: value} (empty for a method with nothing to search).
+    """
     return _untuned(method, SEARCH_SPACES.get(method, {}))
 
 
 def tune(method: str, objective: Callable[[Setting], float],
          space: dict[str, Sequence[float | None]] | None = None) -> Tuned:
-    """Coordinate search of `method`'s SEARCH_SPACES entry (or `space`: {parameter: grid}); objective(setting) ->
-    float, lower is better. Every setting is evaluated once."""
+    """Coordinate search of `method`'s SEARCH_SPACES entry (or `space`). Every setting is evaluated once.
+
+    Parameters
+    ----------
+    method : str
+        An akf.METHODS name.
+    objective : callable
+        objective(setting) -> float, lower is better (a non-finite value counts as inf).
+    space : dict, optional
+        {parameter: grid} instead of SEARCH_SPACES[method].
+
+    Returns
+    -------
+    Tuned
+        The best setting, its objective and every trial.
+    """
     space = SEARCH_SPACES.get(method, {}) if space is None else space
     unknown = [k for k in space if k not in DEFAULTS]
     if unknown:
@@ -168,7 +222,26 @@ def tune(method: str, objective: Callable[[Setting], float],
 def tune_cases(method: str, cases: Sequence[_Case], selections: Sequence[slice | np.ndarray], metric: str,
                space: dict[str, Sequence[float | None]] | None = None) -> Tuned:
     """tune() of `method` on the mean of `metric` over cases[i] (evsim_eval.scoring.Case) scored at its times
-    [selections[i]]; the Tuned objective is that mean (negated where higher is better)."""
+    [selections[i]]; the Tuned objective is that mean (negated where higher is better).
+
+    Parameters
+    ----------
+    method : str
+        An akf.METHODS name.
+    cases : sequence of Case
+        The cases.
+    selections : sequence of slice or numpy.ndarray
+        The scored times of each case to tune on.
+    metric : str
+        The objective's metric.
+    space : dict, optional
+        {parameter: grid} instead of SEARCH_SPACES[method].
+
+    Returns
+    -------
+    Tuned
+        The best setting, its objective and every trial.
+    """
     sign = -1.0 if metric in HIGHER_IS_BETTER else 1.0
 
     def objective(setting):
@@ -180,7 +253,18 @@ def tune_cases(method: str, cases: Sequence[_Case], selections: Sequence[slice |
 
 
 def describe_setting(setting: Setting) -> str:
-    """A setting in one line, e.g. 'alpha=50 rad/s, contrast x1.25' ('defaults' when empty)."""
+    """A setting in one line, e.g. 'alpha=50 rad/s, contrast x1.25' ('no parameters' when empty).
+
+    Parameters
+    ----------
+    setting : dict
+        {parameter: value}.
+
+    Returns
+    -------
+    str
+        The description.
+    """
     parts = []
     for k, v in setting.items():
         parts.append(f"alpha={v:.3g} rad/s" if k == "alpha" else

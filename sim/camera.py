@@ -8,15 +8,8 @@ Image formation per frame (units in brackets):
 3. with noise: electrons = Poisson(mean) + Normal(0, read_noise_e^2), clipped to [0, full_well_e];
 4. x = electrons / full_well_e (so x = 1 is full well), y = crf.forward(x), DN = round(y * (2**bit_depth - 1)).
 
-References (full citations also in docs/models/references.md):
-
-- European Machine Vision Association (2021). EMVA Standard 1288: Standard for Characterization of Image
-  Sensors and Cameras, Release 4.0.
-- Foi A, Trimeche M, Katkovnik V, Egiazarian K (2008). Practical Poissonian-Gaussian noise modeling and fitting
-  for single-image raw-data. IEEE Transactions on Image Processing 17(10):1737-1754. doi:10.1109/TIP.2008.2001399
-- Pan L, Scheerlinck C, Yu X, Hartley R, Liu M, Dai Y (2019). Bringing a blurry frame alive at high frame-rate
-  with an event camera (EDI). IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR), 6820-6829.
-  arXiv:1811.10180
+References (docs/models/references.md): EMVA 1288 [EMVA1288], the sensor noise; Foi et al. 2008 [Foi2008],
+Poissonian-Gaussian noise; Pan et al. 2019 [Pan2019], EDI (blurred frames).
 """
 
 from __future__ import annotations
@@ -48,12 +41,26 @@ SUBFRAMES_PER_PERIOD = 8
 class LDRFrame:
     """One captured frame.
 
-    image: (H, W) uint8 (bit_depth 8) or uint16 digital numbers in [0, 2**bit_depth - 1].
-    t_start_us, t_mid_us, t_end_us: exposure window of row 0 (row r is shifted by r * line_us).
-    exposure_us: exposure time; n_subframes: radiance samples per row window.
-    clean_response: float32 (H, W) noise-free response crf(x) of the scene without sensor noise, fixed pattern,
-        dark signal or quantisation (x = E * electrons_per_radiance_us * exposure_us / full_well_e), or None.
-    irradiance: float32 (H, W) mean linear radiance over each row's exposure (the motion-blurred truth), or None.
+    Attributes
+    ----------
+    index : int
+        The frame's index k.
+    image : numpy.ndarray
+        (H, W) uint8 (bit_depth 8) or uint16 digital numbers in [0, 2**bit_depth - 1].
+    t_start_us, t_mid_us, t_end_us : numpy.int64
+        Exposure window of row 0, int64 us (row r is shifted by r line_us).
+    exposure_us : int
+        Exposure time (us).
+    line_us : float
+        Rolling-shutter line delay (us per row; 0 for a global shutter).
+    n_subframes : int
+        Radiance samples per row window.
+    clean_response : numpy.ndarray or None
+        float32 (H, W) noise-free response crf(x) of the scene without sensor noise, fixed pattern, dark signal or
+        quantisation (x = E electrons_per_radiance_us exposure_us / full_well_e), or None.
+    irradiance : numpy.ndarray or None
+        float32 (H, W) mean linear radiance over each row's exposure (the motion-blurred truth, radiance units), or
+        None.
     """
 
     index: int
@@ -71,8 +78,19 @@ class LDRFrame:
 class LDRCamera:
     """A frame camera of size (height, width) with parameters `params` and response `crf` (a crf_models CRF).
 
-    seed: int or numpy SeedSequence; the fixed patterns come from child (0,) of it and the temporal noise of
-    frame k from child (1, k), so any frame can be regenerated on its own. seed_entropy records the entropy.
+    The fixed patterns come from child (0,) of the seed and the temporal noise of frame k from child (1, k), so any
+    frame can be regenerated on its own. seed_entropy records the entropy.
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    params : CameraParams
+        The camera's parameters.
+    crf : CRF
+        Its response curve (a crf_models CRF).
+    seed : int or numpy.random.SeedSequence, optional
+        The camera's seed (default 0).
     """
 
     def __init__(self, height: int, width: int, params: CameraParams, crf: CRF,
@@ -102,6 +120,20 @@ class LDRCamera:
 
         The configuration is checked here, before the first frame. Frames follow params.schedule(height,
         source.duration_us); with explicit frame_times_us every exposure must lie within [0, duration_us].
+
+        Parameters
+        ----------
+        source : RadianceSource
+            The scene, of the camera's size.
+        irradiance : bool, optional
+            Keep each frame's irradiance (default True).
+        clean_response : bool, optional
+            Keep each frame's noise-free response (default True).
+
+        Returns
+        -------
+        iterator of LDRFrame
+            The frames, in order.
         """
         if not isinstance(source, RadianceSource):
             raise EvsimInputError(f"source must implement sim.source.RadianceSource, got {type(source).__name__}")
@@ -133,7 +165,24 @@ class LDRCamera:
     def expose(self, radiance: npt.ArrayLike, exposure_us: int, *, frame_index: int = 0,
                t_start_us: int = 0) -> LDRFrame:
         """Sensor model without a source: `radiance` is either the mean radiance over the exposure (H, W) or
-        equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`."""
+        equally weighted sub-frames (S, H, W) (global shutter). The noise is that of frame `frame_index`.
+
+        Parameters
+        ----------
+        radiance : array_like
+            (H, W) mean linear radiance, or (S, H, W) sub-frames (radiance units), finite and >= 0.
+        exposure_us : int
+            Exposure time (us), >= 1.
+        frame_index : int, optional
+            Whose temporal noise (default 0).
+        t_start_us : int, optional
+            Exposure start, int64 us (default 0).
+
+        Returns
+        -------
+        LDRFrame
+            The frame.
+        """
         check_int("exposure_us", exposure_us, minimum=1, unit="microseconds")
         rad = check_real_array("radiance", radiance)
         if rad.ndim == 3:
@@ -155,7 +204,22 @@ class LDRCamera:
     def subframes_for(self, exposure_us: int, speed_px_per_s: float, frequency_hz: float = 0.0) -> int:
         """Sub-frames per exposure: params.n_subframes, or enough that motion between them is at most
         max_px_per_subframe and a flicker of frequency_hz gets SUBFRAMES_PER_PERIOD per period, within
-        [1, max_subframes] and at most one per microsecond."""
+        [1, max_subframes] and at most one per microsecond.
+
+        Parameters
+        ----------
+        exposure_us : int
+            Exposure time (us).
+        speed_px_per_s : float
+            Bound of image-plane motion (pixels per second).
+        frequency_hz : float, optional
+            Highest flicker frequency (Hz; default 0).
+
+        Returns
+        -------
+        int
+            The number of sub-frames, >= 1.
+        """
         p = self.params
         if p.n_subframes is not None:
             n = p.n_subframes

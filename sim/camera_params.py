@@ -2,8 +2,7 @@
 sim.camera. numpy is imported where it is used (schedule), so that reading the parameters (`evsim --help`) stays
 light.
 
-Reference: European Machine Vision Association (2021). EMVA Standard 1288: Standard for Characterization of Image
-Sensors and Cameras, Release 4.0.
+References (docs/models/references.md): EMVA 1288 [EMVA1288].
 """
 
 from __future__ import annotations
@@ -23,20 +22,51 @@ if TYPE_CHECKING:
 class CameraParams:
     """Configuration of the LDR camera (frozen; use dataclasses.replace or CameraParams.preset to vary it).
 
-    Timing (microseconds):
-        fps: frame rate used when frame_times_us is None; frame k has mid-exposure first_frame_us + round(k 1e6/fps).
-        first_frame_us: mid-exposure time of frame 0 (default: half the first exposure, so it starts at t = 0).
-        frame_times_us: explicit mid-exposure times, strictly increasing (overrides fps).
-        exposure_us: one exposure time, or a sequence used cyclically over the frames (e.g. (1000, 8000)
-            alternates a short and a long exposure).
-        rolling_shutter_line_us: row r is exposed rolling_shutter_line_us * r later than row 0 (0: global shutter).
-    Exposure scaling: radiance reference_radiance exposed for reference_exposure_us (default: the first exposure)
-        fills reference_fill of the full well (before PRNU).
-    Sensor (EMVA 1288): full_well_e, read_noise_e (std, e-), dark_current_e_per_s, prnu_sigma (relative std of
-        the per-pixel gain), dsnu_e (std of the per-pixel dark offset, e-), bit_depth 8..16.
-        noise=False switches off the temporal noise (shot and read noise); fixed patterns follow prnu_sigma/dsnu_e.
-    Sub-frames: n_subframes per exposure, or None to choose from the source's max_speed_px_per_s so that the
-        image moves at most max_px_per_subframe between sub-frames, within [1, max_subframes].
+    Every field is validated on construction; FIELD_UNITS gives each one's unit.
+
+    Attributes
+    ----------
+    fps : float
+        Timing: frame rate (frames per second, > 0) used when frame_times_us is None; frame k has mid-exposure
+        first_frame_us + round(k 1e6 / fps) us (default 30).
+    first_frame_us : int or None
+        Mid-exposure time of frame 0 (us; default None: half the first exposure, so it starts at t = 0).
+    frame_times_us : tuple of int or None
+        Explicit mid-exposure times (us), strictly increasing (overrides fps).
+    exposure_us : int or tuple of int
+        One exposure time (us, > 0), or a sequence used cyclically over the frames (e.g. (1000, 8000) alternates a
+        short and a long exposure); default 10000.
+    rolling_shutter_line_us : float
+        Row r is exposed rolling_shutter_line_us r later than row 0 (us per row; 0, the default: global shutter).
+    reference_radiance : float
+        Exposure scaling: radiance reference_radiance (radiance units, > 0) exposed for reference_exposure_us fills
+        reference_fill of the full well (before PRNU); default 1.
+    reference_fill : float
+        Fraction of the full well, in (0, 1] (default 0.5).
+    reference_exposure_us : int or None
+        Exposure of the scaling (us; default None: the first exposure).
+    full_well_e : float
+        Sensor (EMVA 1288): full well (electrons, > 0; default 10000).
+    read_noise_e : float
+        Read noise (electrons rms, >= 0; default 3).
+    dark_current_e_per_s : float
+        Dark current (electrons per second, >= 0; default 0).
+    prnu_sigma : float
+        Relative standard deviation of the per-pixel gain (PRNU, >= 0; default 0).
+    dsnu_e : float
+        Standard deviation of the per-pixel dark offset (DSNU, electrons, >= 0; default 0).
+    bit_depth : int
+        Bits of the digital numbers, 8..16 (default 8).
+    noise : bool
+        False switches off the temporal noise (shot and read noise); fixed patterns follow prnu_sigma and dsnu_e
+        (default True).
+    n_subframes : int or None
+        Sub-frames per exposure, or None (default) to choose from the source's max_speed_px_per_s so that the image
+        moves at most max_px_per_subframe between sub-frames, within [1, max_subframes].
+    max_px_per_subframe : float
+        Pixels (> 0; default 1).
+    max_subframes : int
+        Sub-frames at most (>= 1; default 64).
     """
 
     fps: float = 30.0
@@ -127,6 +157,18 @@ class CameraParams:
 
         With fps, frames continue while the last row's exposure ends by duration_us. Raises
         InvalidParameterError when a frame starts before t = 0 or two exposures of a row overlap.
+
+        Parameters
+        ----------
+        height : int
+            Image height (rows), for the rolling shutter's span.
+        duration_us : int, optional
+            Length of the source (us); needed with fps (None: only with frame_times_us).
+
+        Returns
+        -------
+        numpy.ndarray
+            int64 (F, 3) times in us.
         """
         import numpy as np
 
@@ -158,7 +200,20 @@ class CameraParams:
 
     @classmethod
     def preset(cls, name: str, **overrides: Any) -> CameraParams:
-        """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden."""
+        """A named configuration ("ideal", "davis346_aps", "machine_vision") with fields overridden.
+
+        Parameters
+        ----------
+        name : str
+            A PRESETS name.
+        **overrides
+            CameraParams fields to replace (units: FIELD_UNITS).
+
+        Returns
+        -------
+        CameraParams
+            The parameters.
+        """
         if name not in PRESETS:
             raise InvalidParameterError(f"unknown camera preset {name!r}; available: {', '.join(PRESETS)}")
         check_override_names("CameraParams.preset", cls, overrides)

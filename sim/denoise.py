@@ -1,10 +1,11 @@
 """Event denoising filters: each returns a boolean keep-mask over a time-sorted sim.EVENT_DTYPE array.
 
 evsim's own reference filters (no library has them in this form):
-- "correlation": the spatio-temporal correlation filter (the background-activity filter of Delbruck 2008 with
-  support = 1, the STCF of Guo and Delbruck 2022 with support >= 2). An event is kept when at least `support` of
-  its 8 neighbouring pixels fired within window_us before it (t - t_neighbour <= window_us); the pixel's own past
-  events never support it. Every event, kept or not, updates its pixel's last time. O(1) per event (numba).
+- "correlation": the spatio-temporal correlation filter (the background-activity filter of Delbruck 2008
+  [Delbruck2008] with support = 1, the STCF of Guo and Delbruck 2022 [Guo2022] with support >= 2). An event is kept when
+  at least `support` of its 8 neighbouring pixels fired within window_us before it (t - t_neighbour <= window_us); the
+  pixel's own past events never support it. Every event, kept or not, updates its pixel's last time. O(1) per event
+  (numba).
 - "hot_pixel": the hot-pixel rate filter. A pixel is hot when its event rate over the stream (events / the
   stream's span) exceeds the mean rate of its neighbouring pixels by more than threshold_hz and is more than
   `ratio` times it (a hot pixel fires alone; an edge makes its neighbours fire too, and background noise raises
@@ -26,13 +27,8 @@ Every filter's main parameter (FILTERS[name].param) makes it more permissive as 
 window, a higher hot-pixel rate threshold): sweeping it from FILTERS[name].grid traces an ROC curve.
 Times are int64 microseconds; rates in Hz.
 
-References (full citations also in docs/models/references.md): Delbruck (2008), Frame-free dynamic digital
-vision (the background-activity filter), and Guo and Delbruck (2022), Low cost and latency event camera background
-activity denoising (STCF), cited in full in the akf package docstring; and
-
-- iniVation. dv-processing: generic algorithms for event cameras. https://gitlab.com/inivation/dv/dv-processing
-- Lenz G, Chaney K, Shrestha SB, Oubari O, Picaud S, Zarrella G (2021). Tonic: event-based datasets and
-  transformations. Zenodo. doi:10.5281/zenodo.5079802
+References (docs/models/references.md): Delbruck 2008 [Delbruck2008], the background-activity filter; Guo and Delbruck
+2022 [Guo2022], the STCF; dv-processing [DvProcessing]; Lenz et al. 2021 [Lenz2021], Tonic.
 """
 
 from __future__ import annotations
@@ -95,7 +91,17 @@ def _correlation_kernel(t, x, y, last, window_us, support, keep):
 
 class CorrelationFilter:
     """The spatio-temporal correlation filter with its state (each pixel's last event time), for streams fed in
-    chunks: filter(events) -> keep-mask; chunks must follow each other in time. See the module docstring."""
+    chunks: filter(events) -> keep-mask; chunks must follow each other in time. See the module docstring.
+
+    Parameters
+    ----------
+    height, width : int
+        Sensor size (pixels), > 0.
+    window_us : float, optional
+        The correlation window (us), >= 0, rounded to whole microseconds (default 2000).
+    support : int, optional
+        How many of the 8 neighbours must have fired within it, 1..8 (default 1).
+    """
 
     def __init__(self, height: int, width: int, window_us: float = 2000, support: int = 1) -> None:
         check_number("window_us", window_us, positive=False)
@@ -114,10 +120,25 @@ class CorrelationFilter:
 
 def correlation_filter(events: np.ndarray, height: int, width: int, window_us: float = 2000, *,
                        support: int = 1) -> KeepMask:
-    """Keep-mask of the spatio-temporal correlation filter (window_us: microseconds; support: how many of the 8
-    neighbours must have fired within it). support = 1 is the background-activity filter (Delbruck, Frame-free
-    Dynamic Digital Vision, 2008), support >= 2 the STCF (Guo and Delbruck, Low Cost and Latency Event Camera
-    Background Activity Denoising, TPAMI 2022)."""
+    """Keep-mask of the spatio-temporal correlation filter. support = 1 is the background-activity filter (Delbruck
+    2008 [Delbruck2008]), support >= 2 the STCF (Guo and Delbruck 2022 [Guo2022]).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    window_us : float, optional
+        The correlation window (us; default 2000).
+    support : int, optional
+        How many of the 8 neighbours must have fired within it, 1..8 (default 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     return CorrelationFilter(height, width, window_us, support)(events)
 
 
@@ -125,7 +146,24 @@ def hot_pixel_map(events: np.ndarray, height: int, width: int, threshold_hz: flo
                   ratio: float = 2.0) -> npt.NDArray[np.bool_]:
     """(H, W) bool: the pixels whose event rate r exceeds the mean rate m of their neighbours (8, fewer at the
     border) by more than threshold_hz (r - m > threshold_hz) and r > ratio * m; rates (Hz) are event counts over
-    the span of the events (first to last)."""
+    the span of the events (first to last).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    threshold_hz : float, optional
+        Least excess rate over the neighbours' mean (Hz), >= 0 (default 20).
+    ratio : float, optional
+        Least ratio of the rate to the neighbours' mean, >= 0 (default 2).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) bool, True at hot pixels.
+    """
     events = _check(events, height, width)
     check_number("threshold_hz", threshold_hz, positive=False)
     check_number("ratio", ratio, positive=False)
@@ -145,7 +183,18 @@ def hot_pixel_map(events: np.ndarray, height: int, width: int, threshold_hz: flo
 
 def hot_pixel_filter(events: np.ndarray, height: int, width: int, threshold_hz: float = 20.0, *,
                      ratio: float = 2.0) -> KeepMask:
-    """Keep-mask of the hot-pixel rate filter: every event of a pixel of hot_pixel_map(...) is dropped."""
+    """Keep-mask of the hot-pixel rate filter: every event of a pixel of hot_pixel_map(...) is dropped.
+
+    Parameters
+    ----------
+    events, height, width, threshold_hz, ratio
+        As hot_pixel_map's.
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     hot = hot_pixel_map(events, height, width, threshold_hz, ratio=ratio)
     return ~hot[events["y"], events["x"]]
 
@@ -178,27 +227,91 @@ def _us(value) -> datetime.timedelta:
 
 
 def dv_background_activity(events: np.ndarray, height: int, width: int, duration_us: float = 2000) -> KeepMask:
-    """Keep-mask of dv-processing's noise.BackgroundActivityNoiseFilter(backgroundActivityDuration=duration_us)."""
+    """Keep-mask of dv-processing's noise.BackgroundActivityNoiseFilter(backgroundActivityDuration=duration_us).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    duration_us : float, optional
+        backgroundActivityDuration (us), > 0, rounded to whole microseconds (default 2000).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     return _dv_mask(lambda dv, res: dv.noise.BackgroundActivityNoiseFilter(res, _us(duration_us)),
                     events, height, width)
 
 
 def dv_knoise(events: np.ndarray, height: int, width: int, time_delta_us: float = 1000) -> KeepMask:
-    """Keep-mask of dv-processing's noise.KNoiseFilter(timeDelta=time_delta_us)."""
+    """Keep-mask of dv-processing's noise.KNoiseFilter(timeDelta=time_delta_us).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    time_delta_us : float, optional
+        timeDelta (us), > 0 (default 1000).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     return _dv_mask(lambda dv, res: dv.noise.KNoiseFilter(res, _us(time_delta_us)), events, height, width)
 
 
 def dv_fast_decay(events: np.ndarray, height: int, width: int, half_life_us: float = 10000, *,
                   subdivision_factor: int = 4, noise_threshold: float = 6.0) -> KeepMask:
     """Keep-mask of dv-processing's noise.FastDecayNoiseFilter(halfLife=half_life_us, subdivisionFactor,
-    noiseThreshold) (the library's defaults)."""
+    noiseThreshold) (the library's defaults).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    half_life_us : float, optional
+        halfLife (us), > 0 (default 10000).
+    subdivision_factor : int, optional
+        subdivisionFactor (default 4).
+    noise_threshold : float, optional
+        noiseThreshold (default 6).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     return _dv_mask(lambda dv, res: dv.noise.FastDecayNoiseFilter(res, _us(half_life_us), int(subdivision_factor),
                                                                   float(noise_threshold)), events, height, width)
 
 
 def tonic_denoise(events: np.ndarray, height: int, width: int, filter_time_us: float = 10000) -> KeepMask:
     """Keep-mask of tonic's Denoise(filter_time=filter_time_us) (tonic.functional.denoise_numpy, 4-neighbourhood;
-    as in tonic, events before the first filter_time_us are kept)."""
+    as in tonic, events before the first filter_time_us are kept).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    filter_time_us : float, optional
+        filter_time (us), >= 0 (default 10000).
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     functional = _import("tonic.functional", "tonic")
     events = _check(events, height, width)
     check_number("filter_time_us", filter_time_us, positive=False)
@@ -220,9 +333,27 @@ TIME_GRID_US = (100, 300, 1000, 3000, 10_000, 30_000, 100_000, 300_000)
 
 @dataclass(frozen=True)
 class DenoiseFilter:
-    """A filter of the registry: run(events, height, width, value, **options) -> bool keep-mask, where value is
-    the main parameter `param` (in `unit`; larger keeps more), `default` its default and `grid` the values an ROC
-    sweeps. library: the PyPI package it runs (None: evsim's own)."""
+    """A filter of the registry: run(events, height, width, value, **options) -> bool keep-mask.
+
+    Attributes
+    ----------
+    name : str
+        Its FILTERS name.
+    run : callable
+        The filter function: run(events, height, width, value, ...) -> keep-mask.
+    param : str
+        The main parameter's name (larger keeps more).
+    unit : str
+        Its unit ("us", "Hz").
+    default : float
+        Its default.
+    grid : tuple of float
+        The values an ROC sweeps.
+    library : str or None
+        The PyPI package it runs (None: evsim's own).
+    summary : str
+        One line describing it.
+    """
 
     name: str
     run: Callable[..., KeepMask]
@@ -252,7 +383,18 @@ FILTERS = {f.name: f for f in (
 
 
 def get_filter(name: str) -> DenoiseFilter:
-    """FILTERS[name], or InvalidParameterError listing the known names."""
+    """FILTERS[name], or InvalidParameterError listing the known names.
+
+    Parameters
+    ----------
+    name : str
+        A FILTERS name.
+
+    Returns
+    -------
+    DenoiseFilter
+        The filter.
+    """
     try:
         return FILTERS[name]
     except KeyError:
@@ -260,7 +402,18 @@ def get_filter(name: str) -> DenoiseFilter:
 
 
 def filter_available(name: str) -> bool:
-    """Whether the library a filter runs is installed (always True for evsim's own filters)."""
+    """Whether the library a filter runs is installed (always True for evsim's own filters).
+
+    Parameters
+    ----------
+    name : str
+        A FILTERS name.
+
+    Returns
+    -------
+    bool
+        True when it can run.
+    """
     import importlib.util
 
     module = {"dv-processing": "dv_processing", "tonic": "tonic"}.get(get_filter(name).library)
@@ -269,6 +422,25 @@ def filter_available(name: str) -> bool:
 
 def keep_mask(events: np.ndarray, height: int, width: int, name: str = "correlation", value: float | None = None,
               **options: Any) -> KeepMask:
-    """Keep-mask of filter `name` at main-parameter value (default FILTERS[name].default) with extra options."""
+    """Keep-mask of filter `name` at main-parameter value (default FILTERS[name].default) with extra options.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    name : str, optional
+        A FILTERS name (default "correlation").
+    value : float, optional
+        The main parameter (in FILTERS[name].unit; default FILTERS[name].default).
+    **options
+        The filter's other keyword arguments.
+
+    Returns
+    -------
+    numpy.ndarray
+        bool keep-mask, one per event.
+    """
     f = get_filter(name)
     return f.run(events, height, width, f.default if value is None else value, **options)

@@ -2,13 +2,7 @@
 
 Log units are natural logarithms of radiance; rates are per pixel; times are microseconds unless the name says Hz.
 
-References (full citations also in docs/models/references.md):
-
-- Brandli C, Berner R, Yang M, Liu S-C, Delbruck T (2014). A 240x180 130 dB 3 us latency global shutter
-  spatiotemporal vision sensor (DAVIS). IEEE Journal of Solid-State Circuits 49(10):2333-2341.
-  doi:10.1109/JSSC.2014.2342715
-- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. IEEE/CVF Conference on
-  Computer Vision and Pattern Recognition Workshops (CVPRW), 1312-1321. arXiv:2006.07722
+References (docs/models/references.md): Brandli et al. 2014 [Brandli2014a], the DAVIS; Hu et al. 2021 [Hu2021], v2e.
 """
 
 from __future__ import annotations
@@ -24,31 +18,46 @@ from .errors import InvalidParameterError, check_int, check_number, check_overri
 class DVSParams:
     """Configuration of the DVS emulator. Every field is validated on construction.
 
-    pos_threshold, neg_threshold: mean ON / OFF contrast thresholds C_on, C_off (natural-log units, > 0).
-    threshold_sigma: standard deviation of the per-pixel Gaussian threshold mismatch (log units, >= 0); ON and OFF
-        thresholds are drawn independently and fixed for the sensor (seeded).
-    min_threshold: positive floor the per-pixel thresholds are clamped to (log units, > 0).
-    refractory_us: dead time after each event (integer microseconds, >= 0). See sim.dvs for the reset semantics.
-    cutoff_hz: photoreceptor bandwidth (first-order low-pass, Hz) when the photocurrent equals full_illumination;
-        it scales in proportion to radiance + dark level. 0 disables the filter (ideal, infinitely fast pixel).
-    full_illumination: the radiance (in the caller's units) that counts as full illumination (> 0).
-    dark_fraction: the dark current expressed as radiance, relative to full_illumination (> 0). The pixel responds
-        to log(radiance + dark_fraction * full_illumination): logarithmic above that level, linear below it.
-    shot_noise_hz: rate of shot-noise events (ON and OFF together, Hz per pixel) at any illumination (>= 0).
-    dark_shot_noise_hz: additional shot-noise rate in complete darkness (Hz per pixel, >= 0); it falls off as
-        dark / (radiance + dark), so noise rises in the dark as in real sensors.
-    leak_hz: mean reference drift, as the rate of the leak ON events it gives a static pixel without noise or
-        refractory (Hz per pixel, >= 0; the reference drifts down leak_hz * C_on log units per second; the AKF's
-        leak_rate_hz is this rate). Shot noise resets the reference and restarts the drift, so with noise a static
-        pixel shows fewer leak events (0.058 Hz for 0.1 with 0.1 Hz shot noise): observed_leak_hz gives that
-        rate, with_observed_leak the leak_hz that shows a measured one.
-    leak_spread: standard deviation of the natural log of the per-pixel leak rate (log-normal spread, >= 0);
-        the per-pixel rates average to leak_hz.
-    hot_pixel_fraction: fraction of pixels that are hot, in [0, 1] (rounded to a whole number of pixels).
-    hot_pixel_hz: Poisson rate of the extra events of each hot pixel (ON and OFF together, Hz, >= 0).
-    dead_pixel_fraction: fraction of pixels that never fire, signal or noise (stuck or masked pixels, as the
-        Prophesee simulator models them), in [0, 1] (rounded to a whole number of pixels; a dead pixel drawn among
-        the hot ones is dead).
+    Attributes
+    ----------
+    pos_threshold, neg_threshold : float
+        Mean ON / OFF contrast thresholds C_on, C_off (natural-log units, > 0).
+    threshold_sigma : float
+        Standard deviation of the per-pixel Gaussian threshold mismatch (log units, >= 0); ON and OFF thresholds are
+        drawn independently and fixed for the sensor (seeded).
+    min_threshold : float
+        Positive floor the per-pixel thresholds are clamped to (log units, > 0).
+    refractory_us : int
+        Dead time after each event (integer microseconds, >= 0). See sim.dvs for the reset semantics.
+    cutoff_hz : float
+        Photoreceptor bandwidth (first-order low-pass, Hz) when the photocurrent equals full_illumination; it scales in
+        proportion to radiance + dark level. 0 disables the filter (ideal, infinitely fast pixel).
+    full_illumination : float
+        The radiance (in the caller's units) that counts as full illumination (> 0).
+    dark_fraction : float
+        The dark current expressed as radiance, relative to full_illumination (> 0). The pixel responds to log(radiance
+        + dark_fraction * full_illumination): logarithmic above that level, linear below it.
+    shot_noise_hz : float
+        Rate of shot-noise events (ON and OFF together, Hz per pixel) at any illumination (>= 0).
+    dark_shot_noise_hz : float
+        Additional shot-noise rate in complete darkness (Hz per pixel, >= 0); it falls off as dark / (radiance + dark),
+        so noise rises in the dark as in real sensors.
+    leak_hz : float
+        Mean reference drift, as the rate of the leak ON events it gives a static pixel without noise or refractory (Hz
+        per pixel, >= 0; the reference drifts down leak_hz * C_on log units per second; the AKF's leak_rate_hz is this
+        rate). Shot noise resets the reference and restarts the drift, so with noise a static pixel shows fewer leak
+        events (0.058 Hz for 0.1 with 0.1 Hz shot noise): observed_leak_hz gives that rate, with_observed_leak the
+        leak_hz that shows a measured one.
+    leak_spread : float
+        Standard deviation of the natural log of the per-pixel leak rate (log-normal spread, >= 0); the per-pixel rates
+        average to leak_hz.
+    hot_pixel_fraction : float
+        Fraction of pixels that are hot, in [0, 1] (rounded to a whole number of pixels).
+    hot_pixel_hz : float
+        Poisson rate of the extra events of each hot pixel (ON and OFF together, Hz, >= 0).
+    dead_pixel_fraction : float
+        Fraction of pixels that never fire, signal or noise (stuck or masked pixels, as the Prophesee simulator models
+        them), in [0, 1] (rounded to a whole number of pixels; a dead pixel drawn among the hot ones is dead).
     """
 
     pos_threshold: float = 0.2
@@ -82,7 +91,20 @@ class DVSParams:
 
     @classmethod
     def preset(cls, name: str, **overrides: object) -> DVSParams:
-        """The named preset (see PRESETS), with any field replaced by a keyword override."""
+        """The named preset (see PRESETS), with any field replaced by a keyword override.
+
+        Parameters
+        ----------
+        name : str
+            A PRESETS name ("ideal", "davis346", "davis346_road", "noisy").
+        **overrides
+            DVSParams fields to replace (units: FIELD_UNITS).
+
+        Returns
+        -------
+        DVSParams
+            The parameters.
+        """
         try:
             base = PRESETS[name]
         except KeyError:
@@ -97,6 +119,18 @@ class DVSParams:
         the reference, after a dead time r = refractory_us, so with shot-noise rate lam (at that radiance) and
         drift period T = 1 / leak_hz, a leak event ends a cycle r + min(Exp(lam), T) with probability
         u = e^(-lam T): the rate is u / (r + (1 - u) / lam) (1 / (r + T) without noise).
+
+        Parameters
+        ----------
+        radiance : float, optional
+            The pixel's radiance (radiance units, as full_illumination), >= 0 (default 1).
+        leak_hz : float, optional
+            Drift rate (Hz); default self.leak_hz.
+
+        Returns
+        -------
+        float
+            Observed leak events per second (Hz); 0 when the drift rate is 0.
         """
         rate = self.leak_hz if leak_hz is None else float(leak_hz)
         if rate <= 0:
@@ -111,6 +145,18 @@ class DVSParams:
         """A copy whose leak_hz makes a static pixel at `radiance` show `observed_hz` leak events (Hz).
 
         The inverse of observed_leak_hz: what to set when the leak rate was measured on a real, noisy sensor.
+
+        Parameters
+        ----------
+        observed_hz : float
+            The measured leak event rate (Hz), >= 0, below 1 / refractory period.
+        radiance : float, optional
+            The radiance it was measured at (radiance units), >= 0 (default 1).
+
+        Returns
+        -------
+        DVSParams
+            A copy with leak_hz set.
         """
         check_number("observed_hz", observed_hz, positive=False)
         o = float(observed_hz)
@@ -131,7 +177,18 @@ class DVSParams:
         return self.shot_noise_hz + self.dark_shot_noise_hz * dark / (i + dark)
 
     def replace(self, **changes: object) -> DVSParams:
-        """A copy with some fields changed (validated again)."""
+        """A copy with some fields changed (validated again).
+
+        Parameters
+        ----------
+        **changes
+            DVSParams fields to change (units: FIELD_UNITS).
+
+        Returns
+        -------
+        DVSParams
+            The copy.
+        """
         return dataclasses.replace(self, **changes)
 
 

@@ -22,7 +22,20 @@ MAX_TIME_US = 1 << 62  # |t| bound of every time (about 146,000 years): differen
 
 def check_times_us(t: npt.ArrayLike, name: str = "t_us") -> npt.NDArray[np.int64]:
     """Integer microsecond times as int64, refusing values an int64 cast would wrap (uint64 >= 2**63) and any
-    |t| > 2**62 us (differences of two such times could overflow)."""
+    |t| > 2**62 us (differences of two such times could overflow).
+
+    Parameters
+    ----------
+    t : array_like
+        Integer times (us); a float or other non-integer dtype raises EvsimInputError.
+    name : str, optional
+        Their name, for the error message (default "t_us").
+
+    Returns
+    -------
+    numpy.ndarray
+        The times as int64 us.
+    """
     t = np.asarray(t)
     if t.size and t.dtype.kind not in "iu":
         raise EvsimInputError(f"{name} must be integer microseconds, got dtype {t.dtype}")
@@ -32,12 +45,38 @@ def check_times_us(t: npt.ArrayLike, name: str = "t_us") -> npt.NDArray[np.int64
 
 
 def empty_events(n: int = 0) -> np.ndarray:
-    """A zero-filled event array of length n."""
+    """A zero-filled event array of length n.
+
+    Parameters
+    ----------
+    n : int, optional
+        Number of events (default 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) EVENT_DTYPE array of zeros.
+    """
     return np.zeros(n, dtype=EVENT_DTYPE)
 
 
 def make_events(t: npt.ArrayLike, x: npt.ArrayLike, y: npt.ArrayLike, p: npt.ArrayLike) -> np.ndarray:
-    """Build an event array from column arrays (t in microseconds, p in {-1, +1})."""
+    """Build an event array from column arrays (t in microseconds, p in {-1, +1}).
+
+    Parameters
+    ----------
+    t : array_like
+        (n,) integer times, int64 us.
+    x, y : array_like
+        (n,) integer pixel coordinates in 0..65535.
+    p : array_like
+        (n,) polarities, +1 (ON) or -1 (OFF).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n,) EVENT_DTYPE array, in the given order (not necessarily time-sorted).
+    """
     t = np.asarray(t)
     n = t.shape[0]
     ev = empty_events(n)
@@ -59,6 +98,20 @@ def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: st
 
     Raises EvsimInputError when the dtype is not EVENT_DTYPE or a polarity is not -1/+1, and
     UnsortedEventsError (naming the first offending index) when require_sorted and t decreases.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        The events to check, one-dimensional.
+    require_sorted : bool, optional
+        Also require non-decreasing times (default True).
+    name : str, optional
+        Their name, for the error messages (default "events").
+
+    Returns
+    -------
+    numpy.ndarray
+        events itself.
     """
     if not isinstance(events, np.ndarray) or events.dtype != EVENT_DTYPE:
         got = getattr(events, "dtype", type(events).__name__)
@@ -80,7 +133,18 @@ def validate_events(events: np.ndarray, *, require_sorted: bool = True, name: st
 
 
 def first_unsorted_index(events: np.ndarray) -> int:
-    """Index of the first event whose time is earlier than its predecessor's, or -1 when sorted."""
+    """Index of the first event whose time is earlier than its predecessor's, or -1 when sorted.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        EVENT_DTYPE events.
+
+    Returns
+    -------
+    int
+        The index, or -1.
+    """
     return _first_decrease(events["t"])
 
 
@@ -123,12 +187,36 @@ def _search_left(t, value) -> int:
 
 
 def is_sorted(events: np.ndarray) -> bool:
-    """True when event times never decrease."""
+    """True when event times never decrease.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        EVENT_DTYPE events.
+
+    Returns
+    -------
+    bool
+        Whether t is non-decreasing.
+    """
     return first_unsorted_index(events) < 0
 
 
 def concatenate(chunks: Iterable[np.ndarray], *, sort: bool = False) -> np.ndarray:
-    """Join event arrays. With sort=True the result is stably sorted by time (ties keep input order)."""
+    """Join event arrays. With sort=True the result is stably sorted by time (ties keep input order).
+
+    Parameters
+    ----------
+    chunks : iterable of numpy.ndarray
+        EVENT_DTYPE arrays (validated, not required sorted).
+    sort : bool, optional
+        Sort the result by time (default False: input order).
+
+    Returns
+    -------
+    numpy.ndarray
+        One EVENT_DTYPE array (empty for no chunks).
+    """
     chunks = [validate_events(c, require_sorted=False) for c in chunks]
     ev = np.concatenate(chunks) if chunks else empty_events()
     if sort:
@@ -137,7 +225,20 @@ def concatenate(chunks: Iterable[np.ndarray], *, sort: bool = False) -> np.ndarr
 
 
 def slice_time(events: np.ndarray, t_start_us: int, t_end_us: int) -> np.ndarray:
-    """The events with t_start_us <= t < t_end_us of a time-sorted array (a view, found by binary search)."""
+    """The events with t_start_us <= t < t_end_us of a time-sorted array (a view, found by binary search).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted EVENT_DTYPE events.
+    t_start_us, t_end_us : int
+        The half-open window [t_start_us, t_end_us), int64 us; t_end_us < t_start_us raises EvsimInputError.
+
+    Returns
+    -------
+    numpy.ndarray
+        A view of events.
+    """
     if t_end_us < t_start_us:
         raise EvsimInputError(f"slice_time: t_end_us={t_end_us} is before t_start_us={t_start_us}")
     t = events["t"]

@@ -9,11 +9,8 @@ the cache to <user cache>/evsim/numba (XDG_CACHE_HOME or ~/.cache on POSIX, LOCA
 keys each kernel by its source file's full path, so an installed and an editable copy never share an entry. A
 NUMBA_CACHE_DIR the user set is kept; so is numba's own default once numba is imported before evsim.
 
-References:
-
-- Lam SK, Pitrou A, Seibert S (2015). Numba: a LLVM-based Python JIT compiler. Proceedings of the Second Workshop
-  on the LLVM Compiler Infrastructure in HPC (LLVM '15). doi:10.1145/2833157.2833162 (its caching: "Notes on
-  caching" in the numba documentation, NUMBA_CACHE_DIR).
+References (docs/models/references.md): Lam et al. 2015 [Lam2015], numba (its caching: "Notes on caching" in
+the numba documentation, NUMBA_CACHE_DIR).
 """
 
 from __future__ import annotations
@@ -26,7 +23,13 @@ __all__ = ["user_cache_dir", "use_user_cache"]
 
 
 def user_cache_dir() -> Path:
-    """<the user's cache folder>/evsim/numba: LOCALAPPDATA on Windows, else XDG_CACHE_HOME or ~/.cache."""
+    """<the user's cache folder>/evsim/numba: LOCALAPPDATA on Windows, else XDG_CACHE_HOME or ~/.cache.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (not created).
+    """
     if sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
         base = Path(os.environ["LOCALAPPDATA"])
     else:

@@ -52,13 +52,39 @@ _TOP_KEYS = {"name": "the sensor's name", "base": "a DVS preset", "description":
 def check_dvs_fields(where: str, table: Mapping) -> dict:
     """`table` (DVSParams field -> value), checked: every key a field (else the closest name and the list of them),
     every value one the field accepts. InvalidParameterError naming where.key (where a flag such as "--dvs": "--dvs
-    key") otherwise. The one check of DVS overrides: sensor files, configuration tables, `--dvs FIELD=VALUE`."""
+    key") otherwise. The one check of DVS overrides: sensor files, configuration tables, `--dvs FIELD=VALUE`.
+
+    Parameters
+    ----------
+    where : str
+        Where the table comes from, for the error messages (e.g. "sensor file x.toml: dvs", or a flag "--dvs").
+    table : mapping
+        DVSParams field -> value (units: sim.dvs_params.FIELD_UNITS).
+
+    Returns
+    -------
+    dict
+        The table, as a dict.
+    """
     return _check_fields(where, table, "DVS field", dvs_params.FIELD_UNITS, lambda t: DVSParams().replace(**t))
 
 
 def check_camera_fields(where: str, table: Mapping) -> dict:
     """`table` (CameraParams field -> value, and optionally preset = a camera preset name), checked as
-    check_dvs_fields checks DVS fields; lists become tuples (exposure_us, frame_times_us)."""
+    check_dvs_fields checks DVS fields; lists become tuples (exposure_us, frame_times_us).
+
+    Parameters
+    ----------
+    where : str
+        Where the table comes from, for the error messages.
+    table : mapping
+        CameraParams field -> value (units: sim.camera_params.FIELD_UNITS), and optionally "preset".
+
+    Returns
+    -------
+    dict
+        The table, as a dict, its lists as tuples.
+    """
     table = {k: tuple(v) if isinstance(v, list) else v for k, v in _check_mapping(where, table).items()}
 
     def build(t: dict) -> object:
@@ -111,7 +137,20 @@ INPUT_FIELDS = {
 
 
 def check_input_fields(where: str, table: Mapping) -> dict:
-    """The [input] table checked: keys of INPUT_FIELDS, finite numbers >= 0 (offset_dn > 0)."""
+    """The [input] table checked: keys of INPUT_FIELDS, finite numbers >= 0 (offset_dn > 0).
+
+    Parameters
+    ----------
+    where : str
+        Where the table comes from, for the error messages.
+    table : mapping
+        INPUT_FIELDS key -> number (DN).
+
+    Returns
+    -------
+    dict
+        The table, its values as floats.
+    """
     table = _check_mapping(where, table)
     for key, value in table.items():
         if key not in INPUT_FIELDS:
@@ -137,12 +176,28 @@ TABLES: dict[str, Callable[[str, Mapping], dict]] = {
 class Sensor:
     """A sensor model: what a preset name or a sensor file stands for.
 
-    name: what outputs record; dvs: the DVS parameters (base preset + the file's [dvs] table); camera: CameraParams
-    field overrides applied as camera defaults, under any explicit camera setting (some camera fields are per
-    sequence); provenance: where the values come from (free-form); base: the DVS preset the [dvs] table modifies;
-    description: text; tables: the file's other tables (see TABLES), validated; dvs_fields: the DVS fields the sensor
-    sets itself (its [dvs] table; always including every field where dvs differs from base); path: the file it was
-    read from (None for a preset or a Sensor made in Python; not compared).
+    Attributes
+    ----------
+    name : str
+        What outputs record (non-empty).
+    dvs : DVSParams
+        The DVS parameters (base preset + the file's [dvs] table).
+    camera : mapping
+        CameraParams field overrides applied as camera defaults, under any explicit camera setting (some camera
+        fields are per sequence).
+    provenance : mapping
+        Where the values come from (free-form).
+    base : str
+        The DVS preset the [dvs] table modifies (default DEFAULT_BASE, "davis346").
+    description : str
+        Text.
+    tables : mapping
+        The file's other tables (see TABLES), validated.
+    dvs_fields : tuple of str
+        The DVS fields the sensor sets itself (its [dvs] table; always including every field where dvs differs from
+        base).
+    path : str or None
+        The file it was read from (None for a preset or a Sensor made in Python; not compared).
     """
 
     name: str
@@ -183,7 +238,18 @@ class Sensor:
 
     @classmethod
     def preset(cls, name: str) -> Sensor:
-        """The sensor a DVS preset name stands for (no camera defaults)."""
+        """The sensor a DVS preset name stands for (no camera defaults).
+
+        Parameters
+        ----------
+        name : str
+            A DVS preset name (sim.DVS_PRESETS).
+
+        Returns
+        -------
+        Sensor
+            The preset's sensor.
+        """
         if name not in dvs_params.PRESETS:
             raise InvalidParameterError(unknown_name("DVS preset", name, dvs_params.PRESETS))
         return cls(name=name, dvs=dvs_params.PRESETS[name], base=name)
@@ -195,7 +261,13 @@ class Sensor:
 
     def describe(self) -> dict:
         """JSON-serialisable record for output metadata: name, base, description, file (None for a preset), the DVS
-        fields it sets, its camera defaults, provenance and other tables (dates as ISO 8601 text)."""
+        fields it sets, its camera defaults, provenance and other tables (dates as ISO 8601 text).
+
+        Returns
+        -------
+        dict
+            The record.
+        """
         return _jsonable({"name": self.name, "base": self.base, "description": self.description, "file": self.path,
                           "dvs": self.dvs_overrides, "camera": dict(self.camera),
                           "provenance": dict(self.provenance), **self.tables})
@@ -213,7 +285,22 @@ def _jsonable(v: object) -> object:
 
 def parse_sensor(data: Mapping, *, source: str = "<sensor>", path: str | None = None) -> Sensor:
     """A Sensor from a sensor file's content (a dict as tomllib parses it), checked strictly (see the module
-    docstring); errors name `source` and the key."""
+    docstring); errors name `source` and the key.
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed TOML.
+    source : str, optional
+        What the content came from, for the error messages (default "<sensor>").
+    path : str, optional
+        The file it was read from, recorded as Sensor.path (default None).
+
+    Returns
+    -------
+    Sensor
+        The sensor.
+    """
     allowed = [*_TOP_KEYS, *TABLES]
     for key in data:
         if key not in allowed:
@@ -239,9 +326,22 @@ def parse_sensor(data: Mapping, *, source: str = "<sensor>", path: str | None = 
 
 
 def load_sensor(name_or_path: str | os.PathLike | Sensor, *, base_dir: str | os.PathLike | None = None) -> Sensor:
-    """The Sensor of a DVS preset name (sim.DVS_PRESETS) or of a sensor file (.toml; a relative path is taken
-    relative to base_dir, default the current folder). A Sensor is returned as is. InvalidParameterError for an
-    unknown name (with the closest preset), EvsimInputError for a file that cannot be read or is not TOML."""
+    """The Sensor of a DVS preset name (sim.DVS_PRESETS) or of a sensor file (.toml). A Sensor is returned as is.
+    InvalidParameterError for an unknown name (with the closest preset), EvsimInputError for a file that cannot be
+    read or is not TOML.
+
+    Parameters
+    ----------
+    name_or_path : str, os.PathLike or Sensor
+        A preset name, a sensor file path, or a Sensor.
+    base_dir : str or os.PathLike, optional
+        The folder a relative path is taken relative to (default: the current folder).
+
+    Returns
+    -------
+    Sensor
+        The sensor.
+    """
     if isinstance(name_or_path, Sensor):
         return name_or_path
     if isinstance(name_or_path, str) and name_or_path in dvs_params.PRESETS:
@@ -322,7 +422,18 @@ def _toml_value(where: str, v: object) -> str:
 
 def sensor_toml(sensor: Sensor) -> str:
     """The sensor file text of `sensor` (what write_sensor writes): units in comments; the DVS fields it does not
-    set are listed as comments with the base preset's values."""
+    set are listed as comments with the base preset's values.
+
+    Parameters
+    ----------
+    sensor : Sensor
+        The sensor.
+
+    Returns
+    -------
+    str
+        The TOML text.
+    """
     lines = ["# evsim sensor file: `--sensor FILE`, sensor = \"FILE\" in a configuration, sim.load_sensor(FILE)",
              f"name = {_toml_string(sensor.name)}", f"base = {_toml_string(sensor.base)}"]
     if sensor.description:
@@ -344,7 +455,20 @@ def sensor_toml(sensor: Sensor) -> str:
 
 def write_sensor(path: str | os.PathLike, sensor: Sensor) -> Path:
     """Write `sensor` as a sensor file at `path` atomically (a temporary file in the same folder, then os.replace;
-    missing folders are created); return the path. load_sensor(path) gives back an equal Sensor."""
+    missing folders are created); return the path. load_sensor(path) gives back an equal Sensor.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write.
+    sensor : Sensor
+        The sensor.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
     if not isinstance(sensor, Sensor):
         raise InvalidParameterError(f"write_sensor takes a sim.Sensor, got {type(sensor).__name__}")
     path = Path(path)

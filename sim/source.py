@@ -16,20 +16,46 @@ __all__ = ["RadianceSource"]
 class RadianceSource(Protocol):
     """A linear-radiance video defined at every integer microsecond in [0, duration_us].
 
-    height, width: image size in pixels.
-    duration_us: length of the source in microseconds.
-    radiance(t_us): float32 (height, width) array, linear radiance (any scale), finite and >= 0.
-    max_speed_px_per_s(): an upper bound of image-plane motion in pixels per second over the whole source
-        (0 for static or flicker-only sources); used to choose how many sub-frames a blurred exposure needs.
+    radiance(t_us) gives a float32 (height, width) array, linear radiance (any scale), finite and >= 0;
+    max_speed_px_per_s() an upper bound of image-plane motion in pixels per second over the whole source (0 for
+    static or flicker-only sources), used to choose how many sub-frames a blurred exposure needs.
 
     Optional: max_frequency_hz(), the highest temporal frequency of the radiance that is not motion (a flickering
     light); an exposure then takes at least sim.camera.SUBFRAMES_PER_PERIOD sub-frames per period of it.
+
+    Attributes
+    ----------
+    height, width : int
+        Image size in pixels.
+    duration_us : int
+        Length of the source in microseconds.
     """
 
     height: int
     width: int
     duration_us: int
 
-    def radiance(self, t_us: int) -> np.ndarray: ...
+    def radiance(self, t_us: int) -> np.ndarray:
+        """The radiance at one time.
 
-    def max_speed_px_per_s(self) -> float: ...
+        Parameters
+        ----------
+        t_us : int
+            Time, integer microseconds in [0, duration_us].
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 (height, width) linear radiance (any scale), finite and >= 0.
+        """
+        ...
+
+    def max_speed_px_per_s(self) -> float:
+        """An upper bound of image-plane motion over the whole source.
+
+        Returns
+        -------
+        float
+            Pixels per second (0 for static or flicker-only sources).
+        """
+        ...

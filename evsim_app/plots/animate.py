@@ -30,7 +30,13 @@ FORMATS = (".gif", ".mp4")
 
 
 def check_output(out: str | Path) -> None:
-    """EvsimInputError unless `out` ends in .gif or .mp4; PlotDependencyError for .mp4 without ffmpeg."""
+    """EvsimInputError unless `out` ends in .gif or .mp4; PlotDependencyError for .mp4 without ffmpeg.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The animation file.
+    """
     _writer(Path(out).suffix.lower(), 10.0)
 
 
@@ -49,7 +55,26 @@ def _writer(suffix: str, fps: float):
 
 def animate(prep: Prepared, out: str | Path, *, n_frames: int = 40, fps: float = 10.0,
             params: AKFParams | None = None) -> dict:
-    """Write the animation to `out` (.gif or .mp4) over the span of the LDR frames; return {"times_us", "path"}."""
+    """Write the animation to `out` (.gif or .mp4) over the span of the LDR frames.
+
+    Parameters
+    ----------
+    prep : Prepared
+        The recording.
+    out : str or pathlib.Path
+        The animation file (.gif, or .mp4 with ffmpeg).
+    n_frames : int, optional
+        Animation frames, >= 2, evenly spaced over the LDR frames' span (default 40).
+    fps : float, optional
+        Animation frame rate (frames per second; default 10).
+    params : AKFParams, optional
+        The AKF's parameters (default AKFParams()).
+
+    Returns
+    -------
+    dict
+        {"times_us": the animation frames' times (int64 us), "path": the file written}.
+    """
     import akf
 
     out = Path(out)

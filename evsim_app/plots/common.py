@@ -15,12 +15,8 @@ in highlights and in shadows, which is what the figures compare. Global Reinhard
 before, maps everything above about 10 x the reference's log-average into the top few grey levels, so the highlight
 detail the events recover was invisible.
 
-References (full citations also in docs/models/references.md):
-
-- Drago F, Myszkowski K, Annen T, Chiba N (2003). Adaptive logarithmic mapping for displaying high contrast
-  scenes. Computer Graphics Forum 22(3):419-426 (Eurographics 2003).
-- Reinhard E, Stark M, Shirley P, Ferwerda J (2002). Photographic tone reproduction for digital images. ACM
-  Transactions on Graphics 21(3):267-276 (SIGGRAPH 2002).
+References (docs/models/references.md): Drago et al. 2003 [Drago2003], the global log map; Reinhard et al. 2002
+[Reinhard2002], the tone map before issue 33.
 """
 
 from __future__ import annotations
@@ -154,16 +150,44 @@ class ToneMap:
         return np.clip(self.log(image) / np.log(self.top / self.floor), 0.0, 1.0)
 
     def log(self, image: ArrayLike) -> np.ndarray:
-        """log(max(I, floor) / floor) of a linear image (x): natural log units above the floor."""
+        """log(max(I, floor) / floor) of a linear image (x): natural log units above the floor.
+
+        Parameters
+        ----------
+        image : array_like
+            Linear intensity (x units).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 log values (natural log units), >= 0, of image's shape.
+        """
         return np.log(np.maximum(np.asarray(image, np.float64), self.floor) / self.floor)
 
     def log_error(self, image: ArrayLike, reference: ArrayLike) -> np.ndarray:
         """log(max(I, floor)) - log(max(R, floor)), natural log units: > 0 where the image is brighter than the
-        reference (0.69 is a factor 2), 0 where both are at or below the floor."""
+        reference (0.69 is a factor 2), 0 where both are at or below the floor.
+
+        Parameters
+        ----------
+        image, reference : array_like
+            Linear intensities (x units) of one shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 log errors (natural log units).
+        """
         return self.log(image) - self.log(reference)
 
     def describe(self) -> str:
-        """One line for figure titles and command output: the operator and its range in x."""
+        """One line for figure titles and command output: the operator and its range in x.
+
+        Returns
+        -------
+        str
+            The description.
+        """
         return (f"global log map from {self.floor:.3g} x (black) to {self.top:.3g} x (white), "
                 f"{np.log10(self.top / self.floor):.1f} decades")
 
@@ -172,12 +196,23 @@ class ToneMap:
 class Prepared:
     """A recording ready for akf (built with evsim_eval.evaluate's helpers, so plots and scores agree).
 
-    crf: the recorded CRF object (linear when the layout records none). contrast: the nominal (on, off) thresholds
-    given to the reconstructions (log units; the per-pixel maps would be an oracle). thresholds: (2, H, W) float64
-    per-pixel ON / OFF thresholds for drawing the DVS reference level: the stored maps, else the nominal ones.
-    to_x: factor from reference radiance to the CRF's scaled irradiance x of frame 0's exposure, or None when the
-    recording has no reference or does not say how (then reference_x is None). leak_rate_hz: the recorded DVS leak
-    rate given to the AKF (0 when unknown).
+    Attributes
+    ----------
+    rec : Recording
+        The recording.
+    crf : CRF
+        The recorded CRF object (linear when the layout records none).
+    contrast : tuple of float
+        The nominal (on, off) thresholds given to the reconstructions (log units; the per-pixel maps would be an
+        oracle).
+    thresholds : numpy.ndarray
+        (2, H, W) float64 per-pixel ON / OFF thresholds for drawing the DVS reference level: the stored maps, else the
+        nominal ones.
+    to_x : float or None
+        Factor from reference radiance to the CRF's scaled irradiance x of frame 0's exposure, or None when the
+        recording has no reference or does not say how (then reference_x is None).
+    leak_rate_hz : float
+        The recorded DVS leak rate given to the AKF (Hz; 0 when unknown).
     """
 
     rec: Recording
@@ -196,20 +231,43 @@ class Prepared:
 
     def frames_range(self) -> tuple[np.ndarray, np.ndarray]:
         """(F,) float64 lowest and highest radiance (x) each frame records: CRF^-1(0) and CRF^-1(1) times T_0 / T_k,
-        frame 0's exposure time over frame k's (x is in frame 0's units); outside it the frame is clipped."""
+        frame 0's exposure time over frame k's (x is in frame 0's units); outside it the frame is clipped.
+
+        Returns
+        -------
+        lo, hi : numpy.ndarray
+            (F,) float64, x units.
+        """
         from evsim_eval.scoring import exposure_gains
 
         gain = exposure_gains(self.rec.frame_t_start_us, self.rec.frame_t_end_us)
         return float(self.crf.inverse(0.0)) * gain, float(self.crf.inverse(1.0)) * gain
 
     def reconstruct_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, CRF]:
-        """The positional arguments (events, frames, t_start, t_end, crf) shared by akf methods."""
+        """The positional arguments (events, frames, t_start, t_end, crf) shared by akf methods.
+
+        Returns
+        -------
+        tuple
+            (events, frames, frame_t_start_us, frame_t_end_us, crf).
+        """
         r = self.rec
         return r.events, r.frames, r.frame_t_start_us, r.frame_t_end_us, self.crf
 
 
 def load_recording(path: str | Path) -> Recording:
-    """generators.load(path), with a missing path reported as EvsimInputError naming it."""
+    """generators.load(path), with a missing path reported as EvsimInputError naming it.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A recording file or folder.
+
+    Returns
+    -------
+    Recording
+        The recording.
+    """
     path = Path(path)
     if not path.exists():
         raise EvsimInputError(f"dataset not found: {path}")
@@ -217,7 +275,20 @@ def load_recording(path: str | Path) -> Recording:
 
 
 def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
-    """Check that rec has frames (and a reference in known units when asked) and derive what akf needs."""
+    """Check that rec has frames (and a reference in known units when asked) and derive what akf needs.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    need_reference : bool, optional
+        Require HDR reference frames in known units (default False).
+
+    Returns
+    -------
+    Prepared
+        The recording with its CRF, thresholds and reference scale.
+    """
     from evsim_eval.protocols import recording_contrast, recording_crf, recording_leak_rate, reference_to_x
 
     if rec.frames is None or rec.frames.shape[0] == 0:
@@ -242,13 +313,35 @@ def prepare(rec: Recording, *, need_reference: bool = False) -> Prepared:
 
 def inner_reference_indices(rec: Recording) -> np.ndarray:
     """Indices of the reference frames strictly between the first and last frame's mid-exposure times (where
-    every method has a frame on either side)."""
+    every method has a frame on either side).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+
+    Returns
+    -------
+    numpy.ndarray
+        The indices.
+    """
     t = rec.reference_t_us
     return np.flatnonzero((t > rec.frame_t_mid_us[0]) & (t < rec.frame_t_mid_us[-1]))
 
 
 def default_time_us(rec: Recording) -> int:
-    """The reference time nearest the middle of the frames (us), used when no time is given."""
+    """The reference time nearest the middle of the frames (us), used when no time is given.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+
+    Returns
+    -------
+    int
+        The time, int64 us.
+    """
     inner = inner_reference_indices(rec)
     if inner.size == 0:
         raise EvsimInputError("the dataset has no reference frame between its first and last LDR frame")

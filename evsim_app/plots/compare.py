@@ -151,6 +151,15 @@ def plot_compare(prep: Prepared, out: str | Path, *, t_us: int | None = None, me
                  params: AKFParams | None = None) -> dict:
     """Draw compare_images(...) into the image file `out` (see the module docstring).
 
+    Parameters
+    ----------
+    prep : Prepared
+        The recording (needs an HDR reference in known units).
+    out : str or pathlib.Path
+        The image file.
+    t_us, methods, params
+        As compare_images'.
+
     Returns
     -------
     dict

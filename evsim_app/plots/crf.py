@@ -26,7 +26,22 @@ def default_curves() -> dict:
 
 
 def plot_crfs(out: str | Path, curves: dict | None = None, n: int = 512) -> dict:
-    """Left: y against x on a log x axis (1e-4..1); right: the weighting f^w(y). Returns {name: (x, y, w)}."""
+    """Left: y against x on a log x axis (1e-4..1); right: the weighting f^w(y).
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The image file.
+    curves : dict, optional
+        {name: CRF} (default: every registered curve with its default parameters, default_curves).
+    n : int, optional
+        Samples per curve (default 512).
+
+    Returns
+    -------
+    dict
+        {name: (x, y, w)} the plotted samples.
+    """
     curves = default_curves() if curves is None else curves
     x = np.logspace(-4, 0, n)
     yy = np.linspace(0, 1, n)

@@ -2,14 +2,11 @@
 
 - Event frame over [t - window, t): per pixel the ON and OFF counts; drawn on white, ON towards red, OFF towards
   blue (pixels with many of both turn dark), saturating at the 99th percentile of the counts.
-- Time surface at t (Lagorce et al. 2017): S = p * exp(-(t - t_last) / tau) with t_last and p the time and polarity
-  of the pixel's latest event before t (0 where none in the last 10 tau); tau = the window length.
+- Time surface at t (Lagorce et al. 2017 [Lagorce2017]): S = p * exp(-(t - t_last) / tau) with t_last and p the
+  time and polarity of the pixel's latest event before t (0 where none in the last 10 tau); tau = the window length.
 - Event rate: ON and OFF events per second (whole sensor) in bins of bin_ms.
 
-References (full citations also in docs/models/references.md):
-
-- Lagorce X, Orchard G, Galluppi F, Shi BE, Benosman RB (2017). HOTS: a hierarchy of event-based time-surfaces
-  for pattern recognition. IEEE Transactions on Pattern Analysis and Machine Intelligence 39(7):1346-1359.
+References (docs/models/references.md): Lagorce et al. 2017 [Lagorce2017], time surfaces.
 """
 
 from __future__ import annotations
@@ -32,7 +29,22 @@ if TYPE_CHECKING:
 
 
 def event_frame(events: np.ndarray, height: int, width: int, t_start_us: int, t_end_us: int) -> np.ndarray:
-    """(2, H, W) int64 counts of ON (index 0) and OFF (index 1) events with t_start_us <= t < t_end_us."""
+    """(2, H, W) int64 counts of ON (index 0) and OFF (index 1) events with t_start_us <= t < t_end_us.
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    t_start_us, t_end_us : int
+        The window, int64 us.
+
+    Returns
+    -------
+    numpy.ndarray
+        (2, H, W) int64 counts.
+    """
     ev = slice_time(events, t_start_us, t_end_us)
     counts = np.zeros((2, height * width), np.int64)
     idx = ev["y"].astype(np.int64) * width + ev["x"]
@@ -43,7 +55,24 @@ def event_frame(events: np.ndarray, height: int, width: int, t_start_us: int, t_
 
 
 def time_surface(events: np.ndarray, height: int, width: int, t_us: int, tau_us: float) -> np.ndarray:
-    """(H, W) float64 signed exponential time surface at t_us (see the module docstring)."""
+    """(H, W) float64 signed exponential time surface at t_us (see the module docstring).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Time-sorted sim.EVENT_DTYPE events.
+    height, width : int
+        Sensor size (pixels).
+    t_us : int
+        The time (int64 us); events before it count.
+    tau_us : float
+        The decay time (us), > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float64 values in [-1, 1].
+    """
     if not tau_us > 0:
         raise EvsimInputError(f"time-surface decay must be > 0 us, got {tau_us}")
     ev = slice_time(events, int(t_us - 10 * tau_us), int(t_us))
@@ -58,8 +87,24 @@ def time_surface(events: np.ndarray, height: int, width: int, t_us: int, tau_us:
 
 def event_rate(events: np.ndarray | Mapping[str, np.ndarray], bin_us: int, t_start_us: int | None = None,
                t_end_us: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(bin_start_us, on_rate_hz, off_rate_hz): events per second in consecutive bins of bin_us microseconds.
-    events: an event array, or a mapping of its "t" and "p" columns."""
+    """Events per second in consecutive bins of bin_us microseconds.
+
+    Parameters
+    ----------
+    events : numpy.ndarray or mapping
+        An event array, or a mapping of its "t" and "p" columns.
+    bin_us : int
+        Bin length (us), >= 1.
+    t_start_us, t_end_us : int, optional
+        The span (int64 us; default: the first event to just after the last).
+
+    Returns
+    -------
+    bin_start_us : numpy.ndarray
+        int64 start of every bin (us).
+    on_rate_hz, off_rate_hz : numpy.ndarray
+        ON and OFF events per second in every bin (Hz).
+    """
     if bin_us < 1:
         raise EvsimInputError(f"rate bin must be >= 1 us, got {bin_us}")
     t = events["t"]
@@ -87,7 +132,20 @@ def _streamed_rate(src: EventStream, bin_us: int) -> tuple[np.ndarray, np.ndarra
 
 def event_frame_rgb(counts: np.ndarray, top: float | None = None) -> np.ndarray:
     """(H, W, 3) float image of a (2, H, W) event frame: white, ON towards red, OFF towards blue (see module doc),
-    full colour at `top` events (default: the 99th percentile of the counts)."""
+    full colour at `top` events (default: the 99th percentile of the counts).
+
+    Parameters
+    ----------
+    counts : numpy.ndarray
+        (2, H, W) ON and OFF event counts (event_frame).
+    top : float, optional
+        Count shown in full colour (default: the 99th percentile of the non-zero counts, at least 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W, 3) float RGB in [0, 1].
+    """
     if top is None:
         top = max(float(np.percentile(counts[counts > 0], 99)) if np.any(counts > 0) else 1.0, 1.0)
     on, off = (np.clip(c / top, 0, 1)[..., None] for c in counts)
@@ -98,7 +156,20 @@ def event_frame_rgb(counts: np.ndarray, top: float | None = None) -> np.ndarray:
 
 
 def default_times_us(events: np.ndarray | EventStream, n: int = 3) -> list[int]:
-    """n window end times spread evenly over the events' span, on whole milliseconds (us)."""
+    """n window end times spread evenly over the events' span, on whole milliseconds (us).
+
+    Parameters
+    ----------
+    events : numpy.ndarray or EventStream
+        The events.
+    n : int, optional
+        How many (default 3).
+
+    Returns
+    -------
+    list of int
+        The times (us).
+    """
     src = events if isinstance(events, EventStream) else EventStream.of_array(events, 1, 1)
     if src.count == 0:
         raise EvsimInputError("the dataset has no events")
@@ -109,9 +180,27 @@ def default_times_us(events: np.ndarray | EventStream, n: int = 3) -> list[int]:
 def plot_events(rec: Recording | EventStream, out: str | Path, *, at_ms: Sequence[float] | None = None,
                 window_ms: float = 10.0, bin_ms: float | None = None) -> dict:
     """Event frames and time surfaces at each time of at_ms (window [t - window_ms, t)), and the event rate over
-    time, into the image file `out`. rec: a Recording, or an EventStream (generators.formats.streaming: from
-    open_event_stream, a native file is read window by window, and the rate from its t and p columns in chunks).
-    Returns {"times_us", "frames", "surfaces", "rate"} (what was drawn)."""
+    time, into the image file `out`.
+
+    Parameters
+    ----------
+    rec : Recording or EventStream
+        A Recording, or an EventStream (generators.formats.streaming: from open_event_stream, a native file is read
+        window by window, and the rate from its t and p columns in chunks).
+    out : str or pathlib.Path
+        The image file.
+    at_ms : sequence of float, optional
+        Window end times (ms; default: 3 spread over the events' span).
+    window_ms : float, optional
+        Window length (ms), > 0 (default 10); also the time surfaces' decay.
+    bin_ms : float, optional
+        Rate bin (ms; default: about 1/200 of the span, at least 0.1 ms).
+
+    Returns
+    -------
+    dict
+        {"times_us", "frames", "surfaces", "rate"}: what was drawn.
+    """
     src = rec if isinstance(rec, EventStream) else EventStream.of_array(rec.events, rec.height, rec.width)
     if not window_ms > 0:
         raise EvsimInputError(f"--window-ms must be > 0, got {window_ms}")

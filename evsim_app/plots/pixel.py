@@ -43,14 +43,36 @@ if TYPE_CHECKING:
 class PixelSeries:
     """What plot_pixel draws (times int64 us, log values in log(x + I0) units).
 
-    reference_t_us, true_log: the reference frames at the pixel (None when the file has none).
-    event_t_us, event_p: the pixel's events; dvs_level_t_us, dvs_level: the rebuilt DVS reference level (a step
-    function: the level holds from each time to the next).
-    frame_t_start_us, frame_t_end_us, frame_log, frame_clipped: the LDR samples and their exposure windows.
-    frame_range_log: (F, 2) the range each frame records, log(CRF^-1(0) T_0 / T_k + I0) and log(CRF^-1(1) T_0 / T_k
-    + I0). i0: the I0 of every log value.
-    deblurred: (F, 2) EDI-deblurred log at each exposure's start and end.
-    t_us: the dense sample times of augmented, akf, akf_std (sqrt P, log units) and cf.
+    Attributes
+    ----------
+    x, y : int
+        The pixel (column, row).
+    reference_t_us, true_log : numpy.ndarray or None
+        The reference frames' times and log values at the pixel (None when the file has none).
+    event_t_us, event_p : numpy.ndarray
+        The pixel's events: times and polarities.
+    dvs_level_t_us, dvs_level : numpy.ndarray
+        The rebuilt DVS reference level (a step function: the level holds from each time to the next).
+    frame_t_start_us, frame_t_end_us : numpy.ndarray
+        The LDR frames' exposure windows.
+    frame_log, frame_clipped : numpy.ndarray
+        The LDR samples' log values, and whether each is clipped.
+    frame_range_log : numpy.ndarray
+        (F, 2) the range each frame records, log(CRF^-1(0) T_0 / T_k + I0) and log(CRF^-1(1) T_0 / T_k + I0).
+    i0 : float
+        The I0 of every log value (x units).
+    deblurred : numpy.ndarray
+        (F, 2) EDI-deblurred log at each exposure's start and end.
+    t_us : numpy.ndarray
+        The dense sample times of augmented, akf, akf_std and cf.
+    augmented : numpy.ndarray
+        The AKF's augmented frame L^A at t_us.
+    akf : numpy.ndarray
+        The AKF's estimate at t_us.
+    akf_std : numpy.ndarray
+        Its standard deviation sqrt(P) (log units).
+    cf : numpy.ndarray
+        The complementary filter's estimate at t_us.
     """
 
     x: int
@@ -76,7 +98,18 @@ class PixelSeries:
 
     def log_span(self, margin: float = 0.05) -> tuple[float, float]:
         """The y range of the figure (log(x + I0)): every curve and the frames' range, widened by `margin` of the
-        span (at least of 1 log unit) each side; not the +-2 sqrt(P) band, wide where the filter knows little."""
+        span (at least of 1 log unit) each side; not the +-2 sqrt(P) band, wide where the filter knows little.
+
+        Parameters
+        ----------
+        margin : float, optional
+            Fraction of the span added each side (default 0.05).
+
+        Returns
+        -------
+        lo, hi : float
+            Log(x + I0), natural log units.
+        """
         parts = [self.dvs_level, self.frame_log, self.frame_range_log, self.deblurred, self.augmented, self.akf,
                  self.cf] + ([] if self.true_log is None else [self.true_log])
         values = np.concatenate([np.ravel(v) for v in parts])
@@ -87,7 +120,15 @@ class PixelSeries:
 
 
 def check_pixel(rec: Recording, x: int, y: int) -> None:
-    """EvsimInputError unless (x, y) lies on the sensor."""
+    """EvsimInputError unless (x, y) lies on the sensor.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    x, y : int
+        The pixel (column, row).
+    """
     if not (0 <= x < rec.width and 0 <= y < rec.height):
         raise EvsimInputError(f"pixel (x={x}, y={y}) is outside the {rec.width}x{rec.height} sensor "
                               f"(x in 0..{rec.width - 1}, y in 0..{rec.height - 1})")
@@ -114,8 +155,24 @@ def _neighbourhood(prep: Prepared, x: int, y: int, params: AKFParams):
 
 def pixel_series(prep: Prepared, x: int, y: int, *, n_times: int = 1500,
                  params: AKFParams | None = None) -> PixelSeries:
-    """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring); n_times dense samples
-    from the first exposure start to the end of the data."""
+    """Compute everything plot_pixel draws for pixel (x, y) (see the module docstring).
+
+    Parameters
+    ----------
+    prep : Prepared
+        The recording.
+    x, y : int
+        The pixel (column, row).
+    n_times : int, optional
+        Dense samples from the first exposure start to the end of the data (default 1500).
+    params : AKFParams, optional
+        The AKF's parameters (default AKFParams(); the output smoothing is turned off for one pixel).
+
+    Returns
+    -------
+    PixelSeries
+        The curves (log(x + I0) units) and their times (int64 us).
+    """
     import akf
     from akf.frame_noise import frame_read_noise
 
@@ -182,7 +239,24 @@ def _x_axis(ax, i0: float) -> None:
 
 def plot_pixel(prep: Prepared, x: int, y: int, out: str | Path, *, n_times: int = 1500,
                params: AKFParams | None = None) -> PixelSeries:
-    """Draw pixel (x, y) over time into the image file `out` (see the module docstring); return the series."""
+    """Draw pixel (x, y) over time into the image file `out` (see the module docstring); return the series.
+
+    Parameters
+    ----------
+    prep : Prepared
+        The recording.
+    x, y : int
+        The pixel (column, row).
+    out : str or pathlib.Path
+        The image file.
+    n_times, params
+        As pixel_series'.
+
+    Returns
+    -------
+    PixelSeries
+        What was drawn.
+    """
     s = pixel_series(prep, x, y, n_times=n_times, params=params)
     plt = pyplot()
     fig, (ax, axe) = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True, gridspec_kw={"height_ratios": [4, 1]})

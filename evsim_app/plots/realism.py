@@ -30,7 +30,18 @@ def rate_bins_s(stats: RealismStats) -> np.ndarray:
 
 
 def busiest_time_s(stats: RealismStats) -> float:
-    """Middle of the real recording's busiest rate bin (s from its origin)."""
+    """Middle of the real recording's busiest rate bin (s from its origin).
+
+    Parameters
+    ----------
+    stats : RealismStats
+        The real recording's statistics.
+
+    Returns
+    -------
+    float
+        Seconds from its origin.
+    """
     k = int(np.argmax(stats.rate_hz))
     return float(rate_bins_s(stats)[k]) + 0.005
 
@@ -38,8 +49,26 @@ def busiest_time_s(stats: RealismStats) -> float:
 def plot_realism(c: Comparison, real: Recording, sim: Recording, out: str | Path, *, at_s: float | None = None,
                  window_ms: float = 20.0) -> dict:
     """Draw the realism figure of the Comparison c of sim against real (score_recordings) into the image file out.
-    Event frames over [at_s - window_ms / 2, at_s + window_ms / 2) (s from each recording's origin; default: the
-    real recording's busiest 10 ms). Returns {"at_s", "frames": (real, sim) (2, H, W) counts}."""
+
+    Parameters
+    ----------
+    c : Comparison
+        The comparison (evsim_eval.realism.score_recordings).
+    real, sim : Recording
+        The two recordings.
+    out : str or pathlib.Path
+        The image file.
+    at_s : float, optional
+        Middle of the event frames' window (s from each recording's origin; default: the real recording's busiest
+        10 ms).
+    window_ms : float, optional
+        The event frames' window [at_s - window_ms / 2, at_s + window_ms / 2) (ms), > 0 (default 20).
+
+    Returns
+    -------
+    dict
+        {"at_s", "frames": (real, sim) (2, H, W) counts}.
+    """
     if not window_ms > 0:
         raise EvsimInputError(f"--window-ms must be > 0, got {window_ms}")
     at_s = busiest_time_s(c.real) if at_s is None else float(at_s)

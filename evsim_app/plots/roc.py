@@ -19,7 +19,20 @@ from .common import pyplot, read_json, save_figure
 
 def load_roc_result(source: str | Path, filters: Sequence[str] | None = None) -> dict:
     """The denoising result of a JSON file written by `evsim evaluate --task denoise --json`, or computed from a
-    dataset (filters only, no reconstruction)."""
+    dataset (filters only, no reconstruction).
+
+    Parameters
+    ----------
+    source : str or pathlib.Path
+        A .json result, or a dataset.
+    filters : sequence of str, optional
+        The filters to keep (or to run); default all.
+
+    Returns
+    -------
+    dict
+        The result, as evaluate_denoise_dataset gives it (JSON nulls back to NaN).
+    """
     source = Path(source)
     if source.suffix.lower() == ".json":
         result = read_json(source, f"{source}: no such file")
@@ -46,8 +59,22 @@ def _nan_from_null(obj):
 
 
 def plot_roc(result: dict, out: str | Path, *, title: str | None = None) -> dict:
-    """Draw the ROC panels of an evaluate_denoise_dataset result into `out`; returns {filter: {kind: AUC}} of the
-    pooled points."""
+    """Draw the ROC panels of an evaluate_denoise_dataset result into `out`.
+
+    Parameters
+    ----------
+    result : dict
+        The result (load_roc_result).
+    out : str or pathlib.Path
+        The image file.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    dict
+        {filter: {kind: AUC}} of the pooled points (kind: "all" or a noise type).
+    """
     from evsim_eval.denoisers import pooled_points, roc_auc
 
     names = list(result["filters"])

@@ -56,7 +56,26 @@ def score_sequence(path: str | Path, methods: Iterable[str] = DEFAULT_METHODS,
 def sweep_metrics(results: str | Path, methods: Sequence[str] = DEFAULT_METHODS, metric: str = "mse", *,
                   recompute: bool = False, progress: bool = False) -> list[dict]:
     """Per grid point {"name", "stamp", "point", "scores": {method: {metric: value}}}; scores come from the cache
-    when it has them for the same file (name, size, modification time), the missing ones are computed and added."""
+    when it has them for the same file (name, size, modification time), the missing ones are computed and added.
+
+    Parameters
+    ----------
+    results : str or pathlib.Path
+        A sweep's output folder (generators.generate_sweep).
+    methods : sequence of str, optional
+        akf.METHODS names, or denoising filters for an AUC metric (default DEFAULT_METHODS).
+    metric : str, optional
+        The metric (default "mse").
+    recompute : bool, optional
+        Ignore the cache (default False).
+    progress : bool, optional
+        Print progress (default False).
+
+    Returns
+    -------
+    list of dict
+        One row per grid point.
+    """
     results = Path(results)
     index = read_index(results)
     cache_path = results / METRICS_FILE
@@ -85,7 +104,24 @@ def sweep_metrics(results: str | Path, methods: Sequence[str] = DEFAULT_METHODS,
 
 def aggregate(rows: list[dict], key: str, method: str,
               metric: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(values, mean, min, max) of metric over the grid points, grouped by the value of parameter `key`."""
+    """(values, mean, min, max) of metric over the grid points, grouped by the value of parameter `key`.
+
+    Parameters
+    ----------
+    rows : list of dict
+        sweep_metrics' rows.
+    key : str
+        The swept parameter.
+    method : str
+        The method.
+    metric : str
+        The metric.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (values, mean, min, max), one entry per parameter value.
+    """
     values = sorted({r["point"][key] for r in rows})
     groups = [[r["scores"][method][metric] for r in rows if r["point"][key] == v] for v in values]
     return (np.array(values, float), np.array([np.mean(g) for g in groups]), np.array([min(g) for g in groups]),
@@ -94,7 +130,22 @@ def aggregate(rows: list[dict], key: str, method: str,
 
 def plot_sweep(results: str | Path, out: str | Path, *, methods: Sequence[str] = DEFAULT_METHODS, metric: str = "mse",
                recompute: bool = False, progress: bool = False) -> list[dict]:
-    """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows."""
+    """One panel per swept parameter: metric against its value, one line per method, into `out`; returns the rows.
+
+    Parameters
+    ----------
+    results : str or pathlib.Path
+        A sweep's output folder.
+    out : str or pathlib.Path
+        The image file.
+    methods, metric, recompute, progress
+        As sweep_metrics'.
+
+    Returns
+    -------
+    list of dict
+        sweep_metrics' rows.
+    """
     import evsim_eval
 
     if metric not in evsim_eval.METRICS and metric not in AUC_METRICS:

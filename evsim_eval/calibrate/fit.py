@@ -25,10 +25,8 @@ squared log ratio of the quiet static noise counts, ON and OFF together (x 0.5, 
 stage 3 only: a real sensor's static noise may be almost all ON, which the candidates cannot split) and the passage
 median difference (x 0.1).
 
-References (full citations also in docs/models/references.md):
-
-- Nelder JA, Mead R (1965). A simplex method for function minimization. The Computer Journal 7(4):308-313.
-- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. CVPRW. arXiv:2006.07722
+References (docs/models/references.md): Nelder and Mead 1965 [Nelder1965], stage 2's simplex search; Hu et al. 2021
+[Hu2021], v2e.
 """
 
 from __future__ import annotations
@@ -65,13 +63,39 @@ WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 
 class Calibration:
     """What calibrate gives.
 
-    dvs: the fitted DVSParams (full_illumination: the recording's resolved value; dark_fraction relative to it, as
-    convert's auto illumination resolves it on the same recording); preset: the starting preset's DVSParams (same
-    full_illumination). input: the frames' black level etc.; read_noise_dn: the frames' read noise (DN rms,
-    evsim_eval.realism.frame_masks). offset_dn: the log offset b (the pixel responds to log(DN - black + b)).
-    scores: {"preset": ..., "fitted": ...} realism scores; real: the real statistics' summary; loss: the fitted
-    parameters' loss (loss_of), seed: the simulations' seed. evaluations:
-    simulations run; wall_s, cpu_s: time taken (seconds). history: (stage, loss) per evaluation.
+    Attributes
+    ----------
+    path : pathlib.Path
+        The recording.
+    window_s : tuple of float
+        The fitted window (seconds from the first frame's exposure start).
+    dvs : DVSParams
+        The fitted parameters (full_illumination: the recording's resolved value; dark_fraction relative to it, as
+        convert's auto illumination resolves it on the same recording).
+    preset : DVSParams
+        The starting preset's parameters (same full_illumination).
+    preset_name : str
+        Its name.
+    input : InputSettings
+        The frames' black level etc.
+    read_noise_dn : float
+        The frames' read noise (DN rms, evsim_eval.realism.frame_masks).
+    offset_dn : float
+        The log offset b in frame DN (the pixel responds to log(DN - black + b)).
+    scores : dict
+        {"preset": ..., "fitted": ...} realism scores.
+    real : dict
+        The real statistics' summary.
+    loss : float
+        The fitted parameters' loss (loss_of).
+    seed : int
+        The simulations' seed.
+    evaluations : int
+        Simulations run.
+    wall_s, cpu_s : float
+        Time taken (seconds).
+    history : list
+        (stage, loss) per evaluation.
     """
 
     path: Path
@@ -93,7 +117,13 @@ class Calibration:
 
 
     def to_dict(self) -> dict:
-        """JSON-serialisable summary: the fitted and preset DVS parameters, input, scores, real statistics, timing."""
+        """JSON-serialisable summary: the fitted and preset DVS parameters, input, scores, real statistics, timing.
+
+        Returns
+        -------
+        dict
+            The summary.
+        """
         return {"recording": str(self.path), "window_s": list(self.window_s), "preset_name": self.preset_name,
                 "fitted": dataclasses.asdict(self.dvs), "preset": dataclasses.asdict(self.preset),
                 "input": dataclasses.asdict(self.input), "read_noise_dn": self.read_noise_dn,
@@ -102,9 +132,23 @@ class Calibration:
 
 
 def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int], noise: bool = True) -> float:
-    """The calibration loss of realism scores (module docstring); real_quiet, sim_quiet: (ON, OFF) events on the
-    quiet static pixels; noise=False leaves out the quiet-noise term (the signal stages, which simulate without
-    noise: what the noise stage adds is not theirs to match)."""
+    """The calibration loss of realism scores (module docstring).
+
+    Parameters
+    ----------
+    scores : dict
+        Realism scores (evsim_eval.realism.compare).
+    real_quiet, sim_quiet : tuple of int
+        (ON, OFF) events on the quiet static pixels, real and simulated.
+    noise : bool, optional
+        Include the quiet-noise term (default True); False for the signal stages, which simulate without noise: what
+        the noise stage adds is not theirs to match.
+
+    Returns
+    -------
+    float
+        The loss (lower is better).
+    """
     def log_ratio(r):
         return math.log(r) if r > 0 and math.isfinite(r) else 5.0
 
@@ -181,8 +225,24 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
     """Stage 1 (module docstring) from `start`: for each log offset of OFFSET_GRID_DN the ON and OFF thresholds
     matched to the counts (each offset starting from the previous one's thresholds); refine: then the offset at
     the vertex of the parabola in log b through the best grid offset and its two neighbours, when that lies between
-    them (for a search that ends here: calibrate's stage 2 refines the offset itself). Returns (loss, DVSParams) of
-    the smallest loss."""
+    them (for a search that ends here: calibrate's stage 2 refines the offset itself).
+
+    Parameters
+    ----------
+    objective : _Objective
+        The calibration's objective (simulation, real statistics, seed).
+    start : DVSParams
+        The starting parameters.
+    refine : bool, optional
+        Refine the offset between grid points (default False).
+
+    Returns
+    -------
+    loss : float
+        The smallest loss.
+    dvs : DVSParams
+        Its parameters.
+    """
     simulation = objective.simulation
     grid = np.log(OFFSET_GRID_DN)
     tried, dvs = [], start
@@ -250,7 +310,18 @@ class LightFlickerWarning(sim.EvsimNote):
 
 def flicker_warning(real: RealismStats) -> LightFlickerWarning | None:
     """The LightFlickerWarning for real statistics whose event rate flickers (RealismStats.flicker_hz), else
-    None."""
+    None.
+
+    Parameters
+    ----------
+    real : RealismStats
+        The real recording's statistics.
+
+    Returns
+    -------
+    LightFlickerWarning or None
+        The warning.
+    """
     if not math.isfinite(real.flicker_hz):
         return None
     what = (f"the real events flicker at {real.flicker_hz:.0f} Hz ({real.flicker_share:.0%} of the 1 ms event "
@@ -267,11 +338,35 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
               black_level: float | None = None, conditioning: str | None = None, seed: int = 0,
               max_evaluations: int = 120,
               progress: bool = True, log: Callable[[str], None] | None = None) -> Calibration:
-    """Fit the DVS model to the recording at `path` (an AEDAT4 file or IJRR folder with frames, or any hybrid
-    layout generators.formats reads) over window_s (seconds from its first frame's exposure start), starting from
-    `preset`. black_level: the frames' value for no light (default: the recording's darkest 0.01 % of frame
-    values, the floor a black pixel reads). conditioning: the input conditioning of the frames (None: temporal, as
-    convert does; "off" for noise-free frames). max_evaluations bounds stage 2's simulations. See the module."""
+    """Fit the DVS model to the recording at `path`, starting from `preset`. See the module.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        An AEDAT4 file or IJRR folder with frames, or any hybrid layout generators.formats reads.
+    window_s : tuple of float, optional
+        (start, end) seconds from its first frame's exposure start (default (0.4, 2.32)).
+    preset : str, optional
+        The starting DVS preset (default "davis346").
+    black_level : float, optional
+        The frames' value for no light (DN; default: the recording's darkest 0.01 % of frame values, the floor a
+        black pixel reads).
+    conditioning : str, optional
+        The input conditioning of the frames (None: temporal, as convert does; "off" for noise-free frames).
+    seed : int, optional
+        The simulations' seed (default 0).
+    max_evaluations : int, optional
+        Bound of stage 2's simulations (default 120).
+    progress : bool, optional
+        Show a progress bar (default True).
+    log : callable, optional
+        log(text) receives progress messages.
+
+    Returns
+    -------
+    Calibration
+        The fitted parameters and how they were found.
+    """
     from tqdm.auto import tqdm
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -322,8 +417,30 @@ def prepare(path: Path, rec: Recording, window_s: tuple[float, float], black_lev
             conditioning: str | None = None,
             log: Callable[[str], None] | None = None) -> tuple[RealismStats, RecordingSimulation]:
     """(real statistics over window_s, RecordingSimulation) of the recording `rec` read from `path`, checked: frames
-    (at least 3) and MIN_EVENTS real ON and OFF events in the window (sim.EvsimInputError otherwise). black_level
-    None: the frames' darkest 0.01 %."""
+    (at least 3) and MIN_EVENTS real ON and OFF events in the window (sim.EvsimInputError otherwise).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Where the recording was read from (for messages).
+    rec : Recording
+        The recording.
+    window_s : tuple of float
+        (start, end) seconds from its origin.
+    black_level : float, optional
+        The frames' value for no light (DN); None: the frames' darkest 0.01 %.
+    conditioning : str, optional
+        The frames' input conditioning (None: temporal).
+    log : callable, optional
+        log(text) receives messages.
+
+    Returns
+    -------
+    real : RealismStats
+        The real statistics over the window.
+    simulation : RecordingSimulation
+        The recording's simulation.
+    """
     from evsim_eval.realism import measure_recording
 
     start_s, end_s = _checked_window(window_s)

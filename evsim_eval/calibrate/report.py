@@ -35,7 +35,18 @@ def _pair(rates: tuple[float, float]) -> str:
 
 
 def fit_table(cal: Calibration) -> str:
-    """The parameters (preset, fitted) and the realism statistics (real, preset, fitted) as a Markdown table."""
+    """The parameters (preset, fitted) and the realism statistics (real, preset, fitted) as a Markdown table.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     rows = [("quantity", "real", cal.preset_name, "fitted"), ("---", "---:", "---:", "---:")]
     for name, label, fmt in PARAM_ROWS:
         rows.append((label, "", fmt.format(getattr(cal.preset, name)), fmt.format(getattr(cal.dvs, name))))
@@ -70,7 +81,22 @@ def fit_table(cal: Calibration) -> str:
 def sensor_of(cal: Calibration, name: str, description: str = "") -> object:
     """The sim.Sensor of a calibration: the fitted DVS fields over the preset (full_illumination left to the
     generation's auto illumination, which resolves it as the calibration did), the [input] table (black level,
-    read noise, log offset in DN) and the provenance (recording, its sha256, window, loss, evaluations, time)."""
+    read noise, log offset in DN) and the provenance (recording, its sha256, window, loss, evaluations, time).
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration.
+    name : str
+        The sensor's name.
+    description : str, optional
+        Its description (default: "fitted to <recording> by evsim calibrate").
+
+    Returns
+    -------
+    Sensor
+        The sensor.
+    """
     from generators.scenes.video import open_frames
 
     dvs = cal.dvs.replace(full_illumination=sim.DVSParams.preset(cal.preset_name).full_illumination)
@@ -93,7 +119,22 @@ def sensor_of(cal: Calibration, name: str, description: str = "") -> object:
 
 
 def write_calibration(cal: Calibration, path: str | Path, name: str | None = None) -> Path:
-    """Write the sensor file of a calibration (sim.write_sensor, atomic); return its path."""
+    """Write the sensor file of a calibration (sim.write_sensor, atomic); return its path.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration.
+    path : str or pathlib.Path
+        The sensor file to write (.toml).
+    name : str, optional
+        The sensor's name (default: the file's stem).
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
     path = Path(path)
     sensor = sensor_of(cal, name or path.stem)
     sim.write_sensor(path, sensor)

@@ -36,10 +36,25 @@ SETTLE_S = 0.4  # s after the first frame's exposure start left out of the windo
 
 @dataclass(frozen=True)
 class ThresholdEstimate:
-    """pos_threshold, neg_threshold: the fitted thresholds (log units); offset_dn: the log offset b in frame DN
-    (the pixel responds to log(DN - black level + b)); window_s: the scored window (s from the first frame's
-    exposure start); loss: calibrate's loss (fit.loss_of, without the noise term); evaluations: simulations run;
-    cpu_s: CPU time (s)."""
+    """The thresholds and log offset estimated by estimate_thresholds.
+
+    Attributes
+    ----------
+    pos_threshold, neg_threshold : float
+        The fitted thresholds (log units).
+    offset_dn : float
+        The log offset b in frame DN (the pixel responds to log(DN - black level + b)).
+    dark_fraction : float
+        The same offset as the DVS model's dark_fraction (relative to full illumination).
+    window_s : tuple of float
+        The scored window (s from the first frame's exposure start).
+    loss : float
+        calibrate's loss (fit.loss_of, without the noise term).
+    evaluations : int
+        Simulations run.
+    cpu_s : float
+        CPU time (s).
+    """
 
     pos_threshold: float
     neg_threshold: float
@@ -58,7 +73,18 @@ class ThresholdEstimate:
 
 def default_window(rec: Recording) -> tuple[float, float]:
     """(start, end) s from the first frame's exposure start: SETTLE_S (at most a fifth of the frames' span) to the
-    last frame's mid-exposure."""
+    last frame's mid-exposure.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording (with frames).
+
+    Returns
+    -------
+    start, end : float
+        Seconds.
+    """
     end = (int(rec.frame_t_mid_us[-1]) - int(rec.frame_t_start_us[0])) / 1e6
     return min(SETTLE_S, 0.2 * end), end
 
@@ -66,10 +92,28 @@ def default_window(rec: Recording) -> tuple[float, float]:
 def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, preset: str = "davis346",
                         conditioning: str | None = None, seed: int = 0) -> ThresholdEstimate:
     """The (ON, OFF) thresholds and log offset of `rec` by calibrate's first stage (see the module), simulating
-    only the frames with indices `frames` (default all; at least 3) over default_window. preset: the DVS whose
-    other parameters the simulation uses (its noise off; SIGNAL_FIELDS its or an ideal pixel's); conditioning: the
-    frames' input conditioning, as for calibrate (None: temporal, a real camera's). sim.EvsimInputError when the
-    recording has too few frames or events in the window."""
+    only the chosen frames over default_window. sim.EvsimInputError when the recording has too few frames or events
+    in the window.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    frames : array_like, optional
+        Indices of the frames to simulate (default all; at least 3).
+    preset : str, optional
+        The DVS preset whose other parameters the simulation uses (its noise off; SIGNAL_FIELDS its or an ideal
+        pixel's; default "davis346").
+    conditioning : str, optional
+        The frames' input conditioning, as for calibrate (None: temporal, a real camera's).
+    seed : int, optional
+        The simulations' seed (default 0).
+
+    Returns
+    -------
+    ThresholdEstimate
+        The thresholds, the offset and how they were found.
+    """
     cpu0 = time.process_time()
     if rec.frames is not None and frames is not None:
         k = np.asarray(frames, np.int64)

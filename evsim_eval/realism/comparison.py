@@ -49,7 +49,19 @@ PERFECT = {"count_ratio": 1.0, "on_ratio": 1.0, "off_ratio": 1.0, "quiet_on_rati
 
 @dataclass
 class Comparison:
-    """What compare gives: scores and seed_noise {name: value} (see the module), the two RealismStats and notes."""
+    """What compare gives (see the module).
+
+    Attributes
+    ----------
+    real, sim : RealismStats
+        The two recordings' statistics.
+    scores : dict
+        {name: score} (PERFECT: each score's perfect value).
+    seed_noise : dict
+        {name: value}, how much each score varies with the simulation's seed.
+    notes : list of str
+        Notes on the comparison.
+    """
 
     real: RealismStats
     sim: RealismStats
@@ -59,7 +71,13 @@ class Comparison:
 
     def to_dict(self) -> dict:
         """JSON-serialisable: {"scores", "seed_noise", "perfect", "real", "sim", "notes"} (non-finite values as
-        strings "inf", "nan")."""
+        strings "inf", "nan").
+
+        Returns
+        -------
+        dict
+            The record.
+        """
         return _clean({"scores": self.scores, "seed_noise": self.seed_noise, "perfect": PERFECT,
                        "real": self.real.summary(), "sim": self.sim.summary(), "notes": self.notes})
 
@@ -137,7 +155,20 @@ def _flicker_share_at(stats: RealismStats, frequency_hz: float) -> float:
 
 def compare(real: RealismStats, sim: RealismStats) -> Comparison:
     """The realism score of sim against real (see the module); both measured on the same windows (measure(...,
-    like=real)), else EvsimInputError."""
+    like=real)), else EvsimInputError.
+
+    Parameters
+    ----------
+    real : RealismStats
+        The real recording's statistics.
+    sim : RealismStats
+        The simulation's, of the same size and windows (relative to each origin).
+
+    Returns
+    -------
+    Comparison
+        The scores, the two statistics and notes.
+    """
     if (real.height, real.width) != (sim.height, sim.width):
         raise EvsimInputError(f"the simulation is {sim.width}x{sim.height} pixels, the real recording "
                               f"{real.width}x{real.height}: simulate at the real sensor's size")
@@ -187,7 +218,18 @@ def _seconds(t_us: int) -> str:
 
 
 def table_rows(c: Comparison) -> list[tuple[str, str, str, str]]:
-    """(statistic, real, simulated, score) rows of the realism table."""
+    """(statistic, real, simulated, score) rows of the realism table.
+
+    Parameters
+    ----------
+    c : Comparison
+        The comparison.
+
+    Returns
+    -------
+    list of tuple of str
+        The rows, as text.
+    """
     r, s, k = c.real, c.sim, c.scores
     span = ", ".join(f"{_seconds(a - r.origin_us)}-{_seconds(b - r.origin_us)}" for a, b in r.windows_us[:3])
     span += ", ..." if len(r.windows_us) > 3 else ""
@@ -227,7 +269,20 @@ def _flicker(stats: RealismStats) -> str:
 
 
 def format_comparison(c: Comparison, real_name: str = "real", sim_name: str = "sim") -> str:
-    """The realism table as text, with the pixel classes and notes."""
+    """The realism table as text, with the pixel classes and notes.
+
+    Parameters
+    ----------
+    c : Comparison
+        The comparison.
+    real_name, sim_name : str, optional
+        The column headers (default "real", "sim").
+
+    Returns
+    -------
+    str
+        The table.
+    """
     rows = [("statistic", real_name, sim_name, "score"), *table_rows(c)]
     widths = [max(len(row[i]) for row in rows) for i in range(4)]
     lines = ["  ".join(f"{v:<{widths[0]}}" if i == 0 else f"{v:>{widths[i]}}" for i, v in enumerate(row))
@@ -256,5 +311,13 @@ def _clean(v: object) -> object:
 
 
 def write_comparison_json(c: Comparison, path: str | Path) -> None:
-    """Comparison.to_dict() as JSON, atomically."""
+    """Comparison.to_dict() as JSON, atomically.
+
+    Parameters
+    ----------
+    c : Comparison
+        The comparison.
+    path : str or pathlib.Path
+        The file to write.
+    """
     write_text_atomic(path, json.dumps(c.to_dict(), indent=2) + "\n")

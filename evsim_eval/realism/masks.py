@@ -29,10 +29,22 @@ QUIET_RADIUS_PX = 2  # quiet pixels: every pixel within this Chebyshev distance 
 class FrameMasks:
     """Pixel classes from a recording's frames (see the module).
 
-    static, quiet, dark: (H, W) bool. motion: (F - 1, H * W) bool, pixel changed between frames k and k + 1, whose
-    mid-exposure times are frame_t_us[k], frame_t_us[k + 1] (int64 us). median_dn: (H, W) float32 temporal median
-    of the frames used. change_dn: the change threshold; read_noise_dn: the estimated read noise (frame DN).
-    frames_used: how many frames (those bracketing the windows) set static, quiet and dark.
+    Attributes
+    ----------
+    static, quiet, dark : numpy.ndarray
+        (H, W) bool pixel classes.
+    motion : numpy.ndarray
+        (F - 1, H W) bool, pixel changed between frames k and k + 1.
+    frame_t_us : numpy.ndarray
+        (F,) the frames' mid-exposure times, int64 us.
+    median_dn : numpy.ndarray
+        (H, W) float32 temporal median of the frames used (DN).
+    change_dn : float
+        The change threshold (frame DN).
+    read_noise_dn : float
+        The estimated read noise (frame DN rms).
+    frames_used : int
+        How many frames (those bracketing the windows) set static, quiet and dark.
     """
 
     static: np.ndarray
@@ -48,7 +60,20 @@ class FrameMasks:
 
 def bracketing_frames(frame_t_us: np.ndarray, windows_us: np.ndarray) -> np.ndarray:
     """Indices of the frames whose mid-exposure times lie in the windows, with the last one before and the first
-    one after each window."""
+    one after each window.
+
+    Parameters
+    ----------
+    frame_t_us : numpy.ndarray
+        (F,) mid-exposure times, ascending int64 us.
+    windows_us : numpy.ndarray
+        (K, 2) windows [start, end), int64 us.
+
+    Returns
+    -------
+    numpy.ndarray
+        Ascending frame indices.
+    """
     n = frame_t_us.size
     keep = np.zeros(n, bool)
     for a, b in windows_us:
@@ -60,8 +85,24 @@ def bracketing_frames(frame_t_us: np.ndarray, windows_us: np.ndarray) -> np.ndar
 
 def frame_masks(frames: np.ndarray, frame_t_us: np.ndarray, windows_us: np.ndarray, bit_depth: int = 8
                 ) -> FrameMasks:
-    """FrameMasks of (F, H, W) integer frames with mid-exposure times frame_t_us (F,) int64 us, over the frames
-    bracketing windows_us ((K, 2) int64 us); bit_depth scales the 8-bit constants."""
+    """FrameMasks of integer frames over the frames bracketing the windows; bit_depth scales the 8-bit constants.
+
+    Parameters
+    ----------
+    frames : numpy.ndarray
+        (F, H, W) integer frames (DN).
+    frame_t_us : numpy.ndarray
+        (F,) their mid-exposure times, int64 us.
+    windows_us : numpy.ndarray
+        (K, 2) windows, int64 us.
+    bit_depth : int, optional
+        The frames' bits (default 8).
+
+    Returns
+    -------
+    FrameMasks
+        The pixel classes.
+    """
     frames = np.asarray(frames)
     t = np.asarray(frame_t_us, dtype=np.int64)
     f, h, w = frames.shape

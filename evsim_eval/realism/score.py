@@ -15,9 +15,22 @@ from .stats import cut, measure, measure_recording, shifted
 
 
 def score_recordings(real: object, sim: object, window_s: tuple[float, float] | None = None) -> Comparison:
-    """compare of two generators.formats Recordings over window_s (seconds from each one's origin, see
-    measure_recording; default: the real recording's whole event stream), with the real frames' pixel classes.
-    Both are scored on the windows where both have events: coverage gaps of either are cut out of both."""
+    """compare of two generators.formats Recordings, with the real frames' pixel classes. Both are scored on the
+    windows where both have events: coverage gaps of either are cut out of both.
+
+    Parameters
+    ----------
+    real, sim : Recording
+        The real recording and the simulation.
+    window_s : tuple of float, optional
+        (start, end) seconds from each one's origin (see measure_recording); default: the real recording's whole
+        event stream.
+
+    Returns
+    -------
+    Comparison
+        The realism scores.
+    """
     real_stats = measure_recording(real, window_s)
     sim_stats = measure_recording(sim, like=real_stats)
     if sim_stats.gaps_us.size:  # the simulation misses time the real recording covers: score both without it
@@ -32,7 +45,20 @@ def score_recordings(real: object, sim: object, window_s: tuple[float, float] | 
 
 def load_one(path: str | Path, what: str = "the recording") -> object:
     """The Recording at path: a file or IJRR folder evsim reads, or a dataset folder of exactly one sequence (what
-    `evsim convert` writes for one clip); EvsimInputError naming `what` otherwise."""
+    `evsim convert` writes for one clip); EvsimInputError naming `what` otherwise.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The recording.
+    what : str, optional
+        What it is, for the error message (default "the recording").
+
+    Returns
+    -------
+    Recording
+        The recording.
+    """
     sequences = dataset_sequences(path)
     if len(sequences) != 1:
         raise EvsimInputError(f"{what} {path} holds {len(sequences)} sequences: give one recording")

@@ -49,14 +49,38 @@ INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] +
 class RealismStats:
     """What measure gives (see the module). Times are int64 us, rates Hz.
 
-    windows_us: (K, 2) scored [start, end) windows; gaps_us: (G, 2) coverage gaps cut out of the requested windows.
-    counts: (2, H, W) int64 ON and OFF events per pixel. rate_hz: whole-sensor event rate in the RATE_BIN_US bins
-    of every window (the last bin of a window may be shorter); rate_counts: the events of those bins.
-    interval_counts: (len(INTERVAL_EDGES_US) - 1,) number of same-pixel intervals per log bin. passages: events of
-    each passage. quiet_hz, dark_hz: (ON, OFF) mean event rate per quiet / dark pixel, NaN without masks.
-    quiet_counts, dark_counts: (ON, OFF) events on those pixels. origin_us: the recording's time zero, from which
-    windows given in seconds count (measure_recording). flicker_hz, flicker_share: the event rate's flicker
-    frequency (Hz; NaN without one) and the share of the rate's variance it holds (see the module).
+    Attributes
+    ----------
+    height, width : int
+        Sensor size (pixels).
+    windows_us : numpy.ndarray
+        (K, 2) scored [start, end) windows.
+    gaps_us : numpy.ndarray
+        (G, 2) coverage gaps cut out of the requested windows.
+    masks : FrameMasks or None
+        The pixel classes from the frames, or None.
+    counts : numpy.ndarray
+        (2, H, W) int64 ON and OFF events per pixel.
+    rate_hz : numpy.ndarray
+        Whole-sensor event rate in the RATE_BIN_US bins of every window (the last bin of a window may be shorter).
+    rate_counts : numpy.ndarray
+        The events of those bins.
+    interval_counts : numpy.ndarray
+        (len(INTERVAL_EDGES_US) - 1,) number of same-pixel intervals per log bin.
+    passages : numpy.ndarray
+        Events of each passage.
+    quiet_hz, dark_hz : tuple of float
+        (ON, OFF) mean event rate per quiet / dark pixel, NaN without masks.
+    quiet_counts, dark_counts : tuple of int
+        (ON, OFF) events on those pixels.
+    notes : list of str
+        Notes on the measurement.
+    origin_us : int
+        The recording's time zero, from which windows given in seconds count (measure_recording).
+    flicker_hz : float
+        The event rate's flicker frequency (Hz; NaN without one).
+    flicker_share : float
+        The share of the rate's variance it holds (see the module).
     """
 
     height: int
@@ -107,7 +131,13 @@ class RealismStats:
         return float(np.median(self.passages)) if self.passages.size else float("nan")
 
     def summary(self) -> dict:
-        """The scalar statistics as a JSON-serialisable dict (Hz, s, counts)."""
+        """The scalar statistics as a JSON-serialisable dict (Hz, s, counts).
+
+        Returns
+        -------
+        dict
+            {name: value}.
+        """
         masks = self.masks
         return {
             "windows_s": (self.windows_us / 1e6).tolist(), "gaps_s": (self.gaps_us / 1e6).tolist(),
@@ -208,12 +238,28 @@ def _check_events(events: np.ndarray, height: int, width: int) -> None:
 def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = None, *, height: int | None = None,
             width: int | None = None, masks: FrameMasks | None = None, like: RealismStats | None = None,
             detect_gaps: bool = False) -> RealismStats:
-    """The statistics of events (sim.EVENT_DTYPE, sorted by t) over windows_us ((K, 2) or (2,) int64 us).
+    """The statistics of events over windows.
 
-    like: the statistics of a real recording, whose windows, sensor size and pixel classes are used (a simulation
-    is measured on them; the other arguments must then be left out). masks: FrameMasks for the noise rates and
-    passages (NaN rates and no passages without). detect_gaps: cut coverage gaps out of the windows (see the
-    module), noted in RealismStats.notes.
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE, sorted by t.
+    windows_us : array_like, optional
+        (K, 2) or (2,) int64 us windows [start, end).
+    height, width : int, optional
+        Sensor size (pixels).
+    masks : FrameMasks, optional
+        Pixel classes for the noise rates and passages (NaN rates and no passages without).
+    like : RealismStats, optional
+        The statistics of a real recording, whose windows, sensor size and pixel classes are used (a simulation is
+        measured on them; windows_us, height, width and masks must then be left out).
+    detect_gaps : bool, optional
+        Cut coverage gaps out of the windows (see the module), noted in RealismStats.notes (default False).
+
+    Returns
+    -------
+    RealismStats
+        The statistics.
     """
     if like is not None:
         if windows_us is not None or height is not None or width is not None or masks is not None:
@@ -309,7 +355,20 @@ def _flicker(t: np.ndarray, windows: np.ndarray) -> tuple[float, float]:
 
 
 def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
-    """stats with its windows, gaps and frame times moved to a recording whose time zero is origin_us."""
+    """stats with its windows, gaps and frame times moved to a recording whose time zero is origin_us.
+
+    Parameters
+    ----------
+    stats : RealismStats
+        The statistics.
+    origin_us : int
+        The other recording's time zero (int64 us).
+
+    Returns
+    -------
+    RealismStats
+        A shifted copy.
+    """
     d = origin_us - stats.origin_us
     masks = None if stats.masks is None else replace(stats.masks, frame_t_us=stats.masks.frame_t_us + d)
     return replace(stats, windows_us=stats.windows_us + d, gaps_us=stats.gaps_us + d, masks=masks,
@@ -318,7 +377,18 @@ def shifted(stats: RealismStats, origin_us: int) -> RealismStats:
 
 def recording_origin_us(rec: object) -> int:
     """Time zero of a recording (us): its first frame's exposure start (t0 of the IJRR layout), else its first
-    event's time (0 without events). Windows given in seconds count from it."""
+    event's time (0 without events). Windows given in seconds count from it.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+
+    Returns
+    -------
+    int
+        Time zero, int64 us.
+    """
     if getattr(rec, "frames", None) is not None and len(rec.frame_t_start_us):
         return int(rec.frame_t_start_us[0])
     return int(rec.events["t"][0]) if rec.events.size else 0
@@ -326,10 +396,25 @@ def recording_origin_us(rec: object) -> int:
 
 def measure_recording(rec: object, window_s: tuple[float, float] | None = None, *,
                       like: RealismStats | None = None, detect_gaps: bool = True) -> RealismStats:
-    """measure of a generators.formats Recording over window_s = (start, end) seconds from its origin
-    (recording_origin_us; default: its whole event stream), with the pixel classes of its frames (if any), or with
-    like= (another recording's statistics, whose windows are taken from that recording's origin to this one's).
-    Coverage gaps are cut out (detect_gaps)."""
+    """measure of a generators.formats Recording, with the pixel classes of its frames (if any), or with like=.
+    Coverage gaps are cut out (detect_gaps).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    window_s : tuple of float, optional
+        (start, end) seconds from its origin (recording_origin_us; default: its whole event stream).
+    like : RealismStats, optional
+        Another recording's statistics, whose windows are taken from that recording's origin to this one's.
+    detect_gaps : bool, optional
+        Cut coverage gaps out of the windows (default True).
+
+    Returns
+    -------
+    RealismStats
+        The statistics, origin_us set to the recording's origin.
+    """
     origin = recording_origin_us(rec)
     if like is not None:
         if (rec.height, rec.width) != (like.height, like.width):
