@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     import sim
     from sim.source import RadianceSource
 
-__all__ = ["DVSInput", "warm_up_input", "MAX_FIXED_SAMPLES"]
+__all__ = ["DVSInput", "SamplingSettings", "sampling_options", "warm_up_input", "MAX_FIXED_SAMPLES"]
 
 MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
 
