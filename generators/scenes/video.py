@@ -605,7 +605,10 @@ class VideoScene(Scene):
         if k not in self._pairs:
             log1 = self._frame(k + 1)[1]
             log0 = self._frame(k)[1]
-            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys)
+            prev = self._pairs.get(k - 1)  # its frame 1, upsampled, is this pair's frame 0
+            up0 = prev.upsampled1 if prev is not None and prev.log1 is log0 else None
+            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys,
+                                                    upsampled0=up0)
             self._pair_motion[k] = pair.max_motion_px
             while len(self._pairs) > 2:
                 self._pairs.pop(min(self._pairs))
