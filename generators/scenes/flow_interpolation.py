@@ -279,8 +279,8 @@ def upsample(img: np.ndarray) -> np.ndarray:
 def _warp_blend(up0, up1, occ0, occ1, flows, a, y0, y1, out):
     """out[y0:y1] = the occlusion-weighted blend of both frames warped to fraction a (module docstring): frame i's
     log radiance sampled bilinearly on up_i (upsampled _UP times, float32 (_UP H, _UP W)) at p + F_ai(p), its
-    occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W): F01 x, y, F10 x, y (pixels). Three loops per row,
-    each simple enough to vectorise but the middle one (the gathers)."""
+    occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W): F01 x, y, F10 x, y (pixels). Three
+    loops per row, each simple enough to vectorise but the middle one (the gathers)."""
     h, w = out.shape
     w2 = np.int32(_UP * w)
     b = 1.0 - a
