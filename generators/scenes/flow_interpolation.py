@@ -211,13 +211,19 @@ class FlowPair:
             self._keys[j] = self._synthesise(j / self.n_keys)
         return self._keys[j]
 
-    def _synthesise(self, a: float) -> np.ndarray:
-        """float32 (H, W): both frames warped to fraction a and blended (module docstring), on every core."""
+    def prepare(self) -> None:
+        """Make what key synthesis needs (the upsampled frames, the flows by component): at the first key, or
+        ahead of it."""
         if self._planar is None:
-            self._planar = np.ascontiguousarray(np.concatenate((self.flow01, self.flow10), axis=2).transpose(2, 0, 1))
             if self._up[0] is None:
                 self._up[0] = upsample(self.log0)
-        up0, up1 = self._up[0], self.upsampled1
+            self.upsampled1  # noqa: B018 (made here)
+            self._planar = np.ascontiguousarray(np.concatenate((self.flow01, self.flow10), axis=2).transpose(2, 0, 1))
+
+    def _synthesise(self, a: float) -> np.ndarray:
+        """float32 (H, W): both frames warped to fraction a and blended (module docstring), on every core."""
+        self.prepare()
+        up0, up1 = self._up[0], self._up[1]
         out = np.empty_like(self.log0)
         in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, a, y0, y1,
                                                out), out.shape[0], _MIN_ROWS, per_thread=2)
