@@ -618,17 +618,18 @@ class VideoScene(Scene):
         while the caller feeds the DVS)."""
         pair = self._pairs.get(k)
         if pair is None:
-            pair = self._make_pair(k, self._generation)
+            pair = self._make_pair(k)
         if k + 2 < self.times.size and k + 1 not in self._pairs and (self._ahead is None or self._ahead.done()):
             if self._worker is None:
                 self._worker = ThreadPoolExecutor(1, thread_name_prefix="evsim-video")
             self._ahead = self._worker.submit(self._make_pair, k + 1, self._generation)
         return pair
 
-    def _make_pair(self, k: int, generation: int) -> FlowPair | None:
-        """Pair k made (or found) under the lock, ready for synthesis; None for a look-ahead of a past pass."""
+    def _make_pair(self, k: int, generation: int | None = None) -> FlowPair | None:
+        """Pair k made (or found) under the lock, ready for synthesis; None for a look-ahead (generation: the pass
+        it was asked in) of a past pass."""
         with self._lock:
-            if generation != self._generation:
+            if generation is not None and generation != self._generation:
                 return None
             if k not in self._pairs:
                 log1 = self._frame(k + 1)[1]
