@@ -10,8 +10,14 @@ upsampling mode (none, linear, flow):
 - the whole pipeline (generate_ahdr: events, the LDR camera's frames and the HDR reference, HDF5 writing), with
   its time split.
 
+- --hd: the conversion at 1280x720 (`evsim convert` at defaults, events only: generate_ahdr into an HDF5 file) of
+  bikes.mp4 area-resized to 1280x720 (else the synthetic clip rendered at that size), against its DVS pass alone
+  (the same samples, recorded in an untimed first pass, fed to the emulator as generate_ahdr feeds them): the
+  ratio of their wall times (the figure issue 37 asks at most 1.5 of) and the conversion's CPU time / wall time.
+
     python bench/bench_convert.py [--duration-s 10] [--clip bikes|synthetic] [--modes none linear flow]
                                   [--flow-preset medium] [--flow-scale 0.5] [--max-keys 32] [--full]
+                                  [--hd [--hd-duration-s 0.5]]
 
 Also prints the process's peak resident memory. Numba kernels are compiled (or loaded from cache) by a short
 warm-up first. Wall-clock figures depend on whatever else the machine runs; CPU time (time.process_time, all
@@ -33,10 +39,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import sim  # noqa: E402
-from generators.ahdr import AHDRConfig, generate_ahdr  # noqa: E402
+from generators.ahdr import AHDRConfig, generate_ahdr, resolve_sensors  # noqa: E402
 from generators.sampling import AdaptiveSampler  # noqa: E402
 from generators.scenes import Trajectory, VideoScene, builtin_image_scene  # noqa: E402
 from generators.scenes.flow_interpolation import FLOW_SCALE, MAX_KEYS  # noqa: E402
+from sim.seeding import as_seed_sequence, child_seed  # noqa: E402
 
 BIKES = Path(__file__).resolve().parents[2] / "shared" / "data" / "video" / "bikes.mp4"
 HEIGHT, WIDTH = 260, 346
@@ -53,6 +60,57 @@ def make_clip(folder: Path, duration_s: float, which: str) -> tuple[Path, dict]:
     path = folder / "astronaut_30fps.npy"
     np.save(path, np.stack([scene.radiance(int(t)) for t in times]))
     return path, {"fps": fps}
+
+
+class _Recorder:
+    """A radiance source proxy that keeps every image it renders, with its time (the DVS pass's samples)."""
+
+    def __init__(self, source):
+        self._source, self.samples = source, []
+        self.height, self.width, self.duration_us = source.height, source.width, source.duration_us
+
+    def radiance(self, t_us):
+        img = self._source.radiance(t_us)
+        self.samples.append((int(t_us), img))
+        return img
+
+    def __getattr__(self, name):
+        return getattr(self._source, name)
+
+
+def hd_case(folder: Path, duration_s: float, which: str) -> dict:
+    """The 1280x720 conversion against its DVS pass alone on the same samples (module docstring, --hd)."""
+    h, w = 720, 1280
+    if which == "bikes" and BIKES.is_file():
+        path, options = BIKES, {"stop_s": duration_s}
+    else:
+        fps = 30.0
+        scene = builtin_image_scene(h, w, int(duration_s * 1e6) + 1,
+                                    Trajectory(pan_px_per_s=(120.0, 30.0), shake_px=1.0, shake_hz=2.0))
+        times = np.arange(0, duration_s * 1e6 + 1, 1e6 / fps).astype(np.int64)
+        path, options = folder / "astronaut_hd.npy", {"fps": fps}
+        np.save(path, np.stack([scene.radiance(int(t)) for t in times]))
+    config = AHDRConfig(outputs=("events",), crf="srgb")  # what `evsim convert` runs at defaults
+    rec = _Recorder(VideoScene(path, height=h, width=w, **options))
+    generate_ahdr(rec, folder / "record.h5", config, 0, progress=False)  # untimed: records the DVS pass's samples
+    samples = rec.samples[2:]  # (resolve_sensors and the metadata render t = 0 before the pass)
+    dvs_params = resolve_sensors(rec, config)[0]
+    del rec
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
+    r = generate_ahdr(VideoScene(path, height=h, width=w, **options), folder / "hd.h5", config, 0, progress=False)
+    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
+    dvs = sim.DVSEmulator(h, w, dvs_params, child_seed(as_seed_sequence(0), 0))
+    chunk = max(2, (1 << 22) // (h * w))  # generate_ahdr's feed size
+    d_wall, d_cpu, n_events = 0.0, 0.0, 0
+    for i in range(0, len(samples), chunk):
+        part = samples[i:i + chunk]
+        w0, c0 = time.perf_counter(), time.process_time()
+        n_events += dvs.feed(np.stack([img for _, img in part]), np.array([t for t, _ in part], np.int64)).size
+        d_wall += time.perf_counter() - w0
+        d_cpu += time.process_time() - c0
+    return {"clip": path.name, "clip_s": duration_s, "samples": len(samples), "events": r.n_events,
+            "replay_events": n_events, "wall_s": wall, "cpu_s": cpu, "dvs_wall_s": d_wall, "dvs_cpu_s": d_cpu,
+            "ratio": wall / d_wall, "cores": cpu / wall, "split_s": {k: round(v, 2) for k, v in r.timings_s.items()}}
 
 
 def events_only(path: Path, options: dict, mode: str, preset: str, scale: float = FLOW_SCALE,
@@ -107,6 +165,8 @@ def main() -> None:
     ap.add_argument("--clip", choices=["bikes", "synthetic"], default="bikes",
                     help="bikes.mp4 (when present; else synthetic) or the synthetic astronaut clip")
     ap.add_argument("--full", action="store_true", help="also run the whole pipeline (frames, reference, HDF5)")
+    ap.add_argument("--hd", action="store_true", help="also the 1280x720 conversion against its DVS pass alone")
+    ap.add_argument("--hd-duration-s", type=float, default=0.5, help="clip length of the --hd case (default 0.5 s)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         d = Path(d)
@@ -125,6 +185,14 @@ def main() -> None:
                   f"{r['realtime_x']:12.2f} / {r['realtime_x_cpu']:.2f}")
         print(f"peak resident memory: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB; "
               f"load average {os.getloadavg()[0]:.1f}")
+        if args.hd:
+            r = hd_case(d, args.hd_duration_s, args.clip)
+            print(f"1280x720 conversion of {r['clip']} ({r['clip_s']:g} s, events only, defaults): {r['samples']} DVS "
+                  f"samples, {r['events']} events, wall {r['wall_s']:.2f} s ({r['wall_s'] / r['clip_s']:.1f}x its "
+                  f"duration), CPU {r['cpu_s']:.2f} s (CPU / wall {r['cores']:.2f}), split {r['split_s']}; its DVS "
+                  f"pass alone on the same samples: wall {r['dvs_wall_s']:.2f} s, CPU {r['dvs_cpu_s']:.2f} s "
+                  f"({r['replay_events']} events); conversion / DVS pass: {r['ratio']:.2f}x wall; load average "
+                  f"{os.getloadavg()[0]:.1f}")
         if args.full:
             print("whole pipeline (events + LDR frames + HDR reference + HDF5):")
             for mode in args.modes:

@@ -9,6 +9,9 @@ in the same loop (the ratio is the figure to quote on a shared machine). `--bloc
 streaming user does. `--json FILE` also writes the figures as JSON (docs/make_results.py reads it).
 
     python bench/bench_dvs.py --frames 3000 --frames-hd 300 --preset davis346 --speed 0.2
+
+`--densities` runs 346x260 instead at the speeds that give about 15,000, 30,000 and 60,000 events per frame (0.2,
+0.4 and 0.8 px per frame) and ends with the emulator / bare-kernel speed ratio at each (issue 37: at least 1.6x).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import resource
 import time
 import tracemalloc
@@ -58,6 +62,9 @@ def bare_esim(frames, times, t_prev, log_prev, ref, c, eps, out_t, out_x, out_y,
                 log_prev[y, x] = l1
         t0 = t1
     return cnt
+
+
+DENSITY_SPEEDS = (0.2, 0.4, 0.8)  # px per frame: about 15k, 30k and 60k events per frame at 346x260
 
 
 class TexturedScene:
@@ -158,13 +165,21 @@ def main() -> None:
     ap.add_argument("--block", type=int, default=0, help="frames per feed() call (default: the emulator's block)")
     ap.add_argument("--speed", type=float, default=0.2, help="scene motion in pixels per frame (default 0.2)")
     ap.add_argument("--json", type=Path, help="also write the results to this JSON file")
+    ap.add_argument("--densities", action="store_true",
+                    help="346x260 at about 15k, 30k and 60k events per frame (speeds 0.2, 0.4, 0.8 px per frame)")
     args = ap.parse_args()
     if min(args.frames, args.frames_hd, args.block) < 0 or args.fps <= 0:
         ap.error("--frames, --frames-hd and --block must be >= 0 and --fps > 0")
     results = []
-    if args.frames > 0:
+    if args.densities:
+        for speed in DENSITY_SPEEDS:
+            results.append(run(260, 346, args.frames, args.preset, args.fps, args.block, speed))
+        print("emulator / bare one-thread kernel, wall clock: " + ", ".join(
+            f"{r['speed_vs_bare_wall']:.2f}x at {r['events_per_frame'] / 1e3:.0f}k events/frame" for r in results)
+            + f"; load average {os.getloadavg()[0]:.1f}")
+    elif args.frames > 0:
         results.append(run(260, 346, args.frames, args.preset, args.fps, args.block, args.speed))
-    if args.frames_hd > 0:
+    if args.frames_hd > 0 and not args.densities:
         results.append(run(720, 1280, args.frames_hd, args.preset, args.fps, args.block, args.speed))
     if args.json:
         args.json.write_text(json.dumps({"bench": "bench_dvs", "runs": results}, indent=1))

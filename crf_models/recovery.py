@@ -12,8 +12,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
 
 from .base import CRFError, as_float_array
 from .tabulated import TabulatedCRF
@@ -124,6 +122,9 @@ def _solve(Z: np.ndarray, log_t: np.ndarray, smoothness: float, levels: int) -> 
         cols.append(k + off)
         vals.append(c * s)
     rhs.append(np.zeros(k.size))
+    import scipy.sparse  # here: scipy.sparse costs a quarter of a second to import, and few callers need it
+    import scipy.sparse.linalg
+
     A = scipy.sparse.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n + k.size, levels + N)
     )

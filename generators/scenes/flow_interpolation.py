@@ -13,13 +13,15 @@ For a pair of frames 0 and 1 (log radiance L0, L1):
    time a back to both frames are approximated from the two flows as in Super SloMo (Jiang et al., CVPR 2018),
    exact for any motion constant over the interval:
    F_a0 = -(1 - a) a F01 + a^2 F10,   F_a1 = (1 - a)^2 F01 - a (1 - a) F10;
-   both frames are warped to time a (cv2.remap, bicubic: OpenCV's Keys kernel with parameter -0.75, coordinates
-   quantised to 1/32 pixel; a third of the CPU time of a floating-point bicubic kernel and as accurate in the
-   ground-truth tests, README "Converting videos"; bilinear interpolation blurs texture at half-pixel shifts and
-   loses events) and blended in log radiance with weights
+   both frames are warped to time a and blended in log radiance, in one pass over the pixels (one numba kernel on
+   blocks of rows, on every core): each frame is sampled bilinearly on its copy upsampled 4x (cv2.resize, bicubic:
+   OpenCV's Keys kernel with parameter -0.75; made once per frame), which is close to a bicubic warp at a fraction
+   of its cost (bilinear interpolation on the frames themselves blurs texture at half-pixel shifts and loses
+   events, README "Converting videos"; on 2x copies 1.3 % of the events of tests/test_convert_pinned.py's clip,
+   against 0.15 % of seed noise); weights
    w0 = (1 - a) (1 - O1 + d), w1 = a (1 - O0 + d): content about to be hidden comes from frame 0 (O0 warped from
    frame 0, nearest neighbour: it is not in frame 1), newly revealed content from frame 1; d = 1e-3 keeps both
-   weights positive.
+   weights positive. Outside the image the frames are extended by their edge values.
 The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames the log radiance is linear in time.
 
 References (full citations also in docs/models/references.md):
@@ -57,6 +59,8 @@ _FARNEBACK = (0.5, 4, 15, 3, 5, 1.2, 0)
 _FB_ALPHA, _FB_BETA = 0.01, 0.5  # forward-backward consistency: relative (1) and absolute (px^2) tolerance
 _WEIGHT_FLOOR = 1e-3
 _MIN_ROWS = 32  # rows per thread, at least
+_UP_SHIFT = 2
+_UP = 1 << _UP_SHIFT  # frames are warped bilinearly on copies upsampled by this factor (bicubic)
 FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
 DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below this (pixels)
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
@@ -134,7 +138,7 @@ class FlowEstimator:
         return cv2.calcOpticalFlowFarneback(u8_from, u8_to, None, *_FARNEBACK)
 
     def pair(self, log0: np.ndarray, log1: np.ndarray, **kwargs: Any) -> FlowPair:
-        """The FlowPair of two log-radiance frames (kwargs: key_step_px, max_keys)."""
+        """The FlowPair of two log-radiance frames (kwargs: key_step_px, max_keys, upsampled0)."""
         u8_0, u8_1 = self.to_u8(log0), self.to_u8(log1)
         f01, f10 = self.flow(u8_0, u8_1), self.flow(u8_1, u8_0)
         h, w = log0.shape
@@ -184,13 +188,22 @@ class FlowPair:
 
     def __init__(self, log0: np.ndarray, log1: np.ndarray, flow01: np.ndarray, flow10: np.ndarray,
                  occlusion0: np.ndarray, occlusion1: np.ndarray, max_motion_px: float, *,
-                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS):
+                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS, upsampled0: np.ndarray | None = None):
         self.log0, self.log1 = log0, log1
         self.flow01, self.flow10 = flow01, flow10
         self.occlusion0, self.occlusion1 = occlusion0, occlusion1  # of frame 0 hidden in frame 1, and back
         self.max_motion_px = max_motion_px  # largest displacement over the interval among the visible pixels
         self.n_keys = int(min(max(np.ceil(self.max_motion_px / key_step_px), 1), max_keys))
         self._keys = {0: log0, self.n_keys: log1}
+        self._up = [upsampled0, None]  # both frames upsampled (made when the first key is synthesised)
+        self._planar = None  # the flows as (4, H, W): F01 x, F01 y, F10 x, F10 y
+
+    @property
+    def upsampled1(self) -> np.ndarray:
+        """float32 (_UP H, _UP W): frame 1's log radiance upsampled (bicubic; the next pair's frame 0 reuses it)."""
+        if self._up[1] is None:
+            self._up[1] = upsample(self.log1)
+        return self._up[1]
 
     def key(self, j: int) -> np.ndarray:
         """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys."""
@@ -198,18 +211,23 @@ class FlowPair:
             self._keys[j] = self._synthesise(j / self.n_keys)
         return self._keys[j]
 
+    def prepare(self) -> None:
+        """Make what key synthesis needs (the upsampled frames, the flows by component): at the first key, or
+        ahead of it."""
+        if self._planar is None:
+            if self._up[0] is None:
+                self._up[0] = upsample(self.log0)
+            self.upsampled1  # noqa: B018 (made here)
+            self._planar = np.ascontiguousarray(np.concatenate((self.flow01, self.flow10), axis=2).transpose(2, 0, 1))
+
     def _synthesise(self, a: float) -> np.ndarray:
-        """float32 (H, W): both frames warped to fraction a (cv2.remap, bicubic) and blended (module docstring)."""
-        h, w = self.log0.shape
-        m0 = np.empty((h, w, 2), dtype=np.float32)
-        m1 = np.empty((h, w, 2), dtype=np.float32)
-        in_parallel(lambda y0, y1: _key_maps(self.flow01, self.flow10, a, m0, m1, y0, y1), h, _MIN_ROWS)
-        l0 = cv2.remap(self.log0, m0, None, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
-        l1 = cv2.remap(self.log1, m1, None, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
-        o0 = cv2.remap(self.occlusion0, m0, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
-        o1 = cv2.remap(self.occlusion1, m1, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
-        _blend(l0, o0, l1, o1, a)
-        return l0
+        """float32 (H, W): both frames warped to fraction a and blended (module docstring), on every core."""
+        self.prepare()
+        up0, up1 = self._up[0], self._up[1]
+        out = np.empty_like(self.log0)
+        in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, a, y0, y1,
+                                               out), out.shape[0], _MIN_ROWS, per_thread=2)
+        return out
 
     def log_at(self, a: float) -> np.ndarray:
         """float32 (H, W) log radiance at fraction a (0..1) of the interval."""
@@ -256,32 +274,70 @@ def _occlusion(fab, fba, out, y0, y1, beta):
     return np.sqrt(largest)
 
 
-@njit(cache=True, nogil=True)
-def _key_maps(f01, f10, a, m0, m1, y0, y1):
-    """m0[y0:y1] = (x, y) + F_a0, m1[y0:y1] = (x, y) + F_a1 (float32 (H, W, 2)): the cv2.remap maps of both
-    frames at fraction a."""
-    w = m0.shape[1]
+def upsample(img: np.ndarray) -> np.ndarray:
+    """float32 (_UP H, _UP W): img upsampled _UP times with cv2.resize (bicubic); its pixel u lies at img's
+    x = (u - (_UP - 1) / 2) / _UP."""
+    h, w = img.shape
+    return cv2.resize(img, (_UP * w, _UP * h), interpolation=cv2.INTER_CUBIC)
+
+
+@njit(cache=True, nogil=True, fastmath=True)
+def _warp_blend(up0, up1, occ0, occ1, flows, a, y0, y1, out):
+    """out[y0:y1] = the occlusion-weighted blend of both frames warped to fraction a (module docstring): frame i's
+    log radiance sampled bilinearly on up_i (upsampled _UP times, float32 (_UP H, _UP W)) at p + F_ai(p), its
+    occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W): F01 x, y, F10 x, y (pixels). Three
+    loops per row, each simple enough to vectorise but the middle one (the gathers)."""
+    h, w = out.shape
+    w2 = np.int32(_UP * w)
     b = 1.0 - a
-    c00, c01, c10, c11 = np.float32(-b * a), np.float32(a * a), np.float32(b * b), np.float32(-a * b)
+    # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
+    c00, c01 = np.float32(-_UP * b * a), np.float32(_UP * a * a)
+    c10, c11 = np.float32(_UP * b * b), np.float32(-_UP * a * b)
+    wa, wb, floor = np.float32(a), np.float32(b), np.float32(1.0 + _WEIGHT_FLOOR)
+    zero, half, off = np.float32(0.0), np.float32(0.5), np.float32((_UP - 1) / 2)
+    umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
+    k0, k1 = np.empty(w, np.int32), np.empty(w, np.int32)  # flat index of the upper left bilinear neighbour
+    n0, n1 = np.empty(w, np.int32), np.empty(w, np.int32)  # flat index of the nearest pixel (occlusion)
+    fx0, fy0, fx1, fy1 = (np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32),
+                          np.empty(w, np.float32))
+    v0, v1 = np.empty(w, np.float32), np.empty(w, np.float32)
+    u0f, u1f, o0f, o1f = up0.ravel(), up1.ravel(), occ0.ravel(), occ1.ravel()
     for y in range(y0, y1):
-        yf = np.float32(y)
+        yf = np.float32(_UP * y) + off
+        ux, uy, vx, vy = flows[0, y], flows[1, y], flows[2, y], flows[3, y]
+        for x in range(w):  # sample positions (edge values beyond the image)
+            xf = np.float32(_UP * x) + off
+            p = xf + c00 * ux[x] + c01 * vx[x]
+            q = yf + c00 * uy[x] + c01 * vy[x]
+            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
+            p = p if p < umax else umax
+            q = q if q > zero else zero  # (conditionals, not min/max: they vectorise)
+            q = q if q < vmax else vmax
+            ip, iq = np.int32(p), np.int32(q)
+            fx0[x], fy0[x] = p - np.float32(ip), q - np.float32(iq)
+            k0[x] = iq * w2 + ip
+            n0[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+            p = xf + c10 * ux[x] + c11 * vx[x]
+            q = yf + c10 * uy[x] + c11 * vy[x]
+            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
+            p = p if p < umax else umax
+            q = q if q > zero else zero  # (conditionals, not min/max: they vectorise)
+            q = q if q < vmax else vmax
+            ip, iq = np.int32(p), np.int32(q)
+            fx1[x], fy1[x] = p - np.float32(ip), q - np.float32(iq)
+            k1[x] = iq * w2 + ip
+            n1[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+        for x in range(w):  # the gathers; fx0, fy0 then hold the blend weights
+            k = np.uintp(k0[x])
+            a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
+            t0, t1 = a00 + fx0[x] * (a01 - a00), a10 + fx0[x] * (a11 - a10)
+            v0[x] = t0 + fy0[x] * (t1 - t0)
+            k = np.uintp(k1[x])
+            a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
+            t0, t1 = a00 + fx1[x] * (a01 - a00), a10 + fx1[x] * (a11 - a10)
+            v1[x] = t0 + fy1[x] * (t1 - t0)
+            fx0[x] = wb * (floor - o1f[np.uintp(n1[x])])
+            fy0[x] = wa * (floor - o0f[np.uintp(n0[x])])
+        row = out[y]
         for x in range(w):
-            xf = np.float32(x)
-            ux, uy, vx, vy = f01[y, x, 0], f01[y, x, 1], f10[y, x, 0], f10[y, x, 1]
-            m0[y, x, 0] = xf + c00 * ux + c01 * vx
-            m0[y, x, 1] = yf + c00 * uy + c01 * vy
-            m1[y, x, 0] = xf + c10 * ux + c11 * vx
-            m1[y, x, 1] = yf + c10 * uy + c11 * vy
-
-
-@njit(cache=True, nogil=True)
-def _blend(l0, o0, l1, o1, a):
-    """l0 = the occlusion-weighted blend of l0 and l1, both frames' log radiance warped to fraction a, with o0, o1
-    their occlusion masks warped along the same maps (module docstring)."""
-    h, w = l0.shape
-    wa, wb, floor = np.float32(a), np.float32(1.0 - a), np.float32(1.0 + _WEIGHT_FLOOR)
-    for y in range(h):
-        for x in range(w):
-            w0 = wb * (floor - o1[y, x])
-            w1 = wa * (floor - o0[y, x])
-            l0[y, x] = (w0 * l0[y, x] + w1 * l1[y, x]) / (w0 + w1)
+            row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])

@@ -55,7 +55,9 @@ decoding from the first frame (generate_ahdr does this once, between its DVS pas
 
 from __future__ import annotations
 
+import threading
 import warnings
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -500,6 +502,10 @@ class VideoScene(Scene):
         self._window: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._pairs: dict[int, FlowPair] = {}
         self._pair_motion = np.full(self.times.size - 1, np.nan)  # largest displacement per interval (px)
+        self._lock = threading.RLock()  # the decoding and the pairs: the caller's thread and the look-ahead's
+        self._generation = 0  # passes over the clip (restarts)
+        self._worker: ThreadPoolExecutor | None = None
+        self._ahead: Future | None = None  # the look-ahead's pair
         self._restart()
 
     @property
@@ -585,38 +591,66 @@ class VideoScene(Scene):
     # ----- the sliding window --------------------------------------------------------------------------
     def _restart(self) -> None:
         """Decode from the first frame of the clip again (forgetting the window)."""
-        self._window.clear()
-        self._pairs.clear()
-        self._conditioner.reset()
-        self._raw = iter(self._input.frames(self._first))
-        self._next = 0
+        with self._lock:
+            self._generation += 1  # a pending look-ahead of the old pass does nothing
+            self._window.clear()
+            self._pairs.clear()
+            self._conditioner.reset()
+            self._raw = iter(self._input.frames(self._first))
+            self._next = 0
 
     def _frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """(linear, log) of clip frame i; keeps the last three decoded frames."""
-        if i in self._window:
+        got = self._window.get(i)  # (a dict look-up is atomic: no lock while the look-ahead decodes)
+        if got is not None:
+            return got
+        with self._lock:
+            if i in self._window:
+                return self._window[i]
+            if i < self._next:  # behind the window: decode again from the start of the clip
+                self._restart()
+            while self._next <= i:
+                raw = next(self._raw, None)
+                if raw is None:
+                    raise fail(self.path, f"the input ended before frame {self._first + self._next}")
+                self._window[self._next] = self._process(raw, self._next, self._conditioner)
+                self._next += 1
+                while len(self._window) > 3:
+                    self._window.pop(min(self._window))
             return self._window[i]
-        if i < self._next:  # behind the window: decode again from the start of the clip
-            self._restart()
-        while self._next <= i:
-            raw = next(self._raw, None)
-            if raw is None:
-                raise fail(self.path, f"the input ended before frame {self._first + self._next}")
-            self._window[self._next] = self._process(raw, self._next, self._conditioner)
-            self._next += 1
-            while len(self._window) > 3:
-                self._window.pop(min(self._window))
-        return self._window[i]
 
     def _pair(self, k: int) -> FlowPair:
-        """The flows of interval k (frames k, k + 1); keeps the last two intervals."""
-        if k not in self._pairs:
-            log1 = self._frame(k + 1)[1]
-            log0 = self._frame(k)[1]
-            self._pairs[k] = pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys)
-            self._pair_motion[k] = pair.max_motion_px
-            while len(self._pairs) > 2:
-                self._pairs.pop(min(self._pairs))
-        return self._pairs[k]
+        """The flows of interval k (frames k, k + 1); keeps the last two intervals. The next interval's frame is
+        decoded and its flows computed on a thread of their own meanwhile (the look-ahead: both cores stay busy
+        while the caller feeds the DVS)."""
+        pair = self._pairs.get(k)
+        if pair is None:
+            pair = self._make_pair(k)
+        if k + 2 < self.times.size and k + 1 not in self._pairs and (self._ahead is None or self._ahead.done()):
+            if self._worker is None:
+                self._worker = ThreadPoolExecutor(1, thread_name_prefix="evsim-video")
+            self._ahead = self._worker.submit(self._make_pair, k + 1, self._generation)
+        return pair
+
+    def _make_pair(self, k: int, generation: int | None = None) -> FlowPair | None:
+        """Pair k made (or found) under the lock, ready for synthesis; None for a look-ahead (generation: the pass
+        it was asked in) of a past pass."""
+        with self._lock:
+            if generation is not None and generation != self._generation:
+                return None
+            if k not in self._pairs:
+                log1 = self._frame(k + 1)[1]
+                log0 = self._frame(k)[1]
+                prev = self._pairs.get(k - 1)  # its frame 1, upsampled, is this pair's frame 0
+                up0 = prev.upsampled1 if prev is not None and prev.log1 is log0 else None
+                pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys,
+                                       upsampled0=up0)
+                pair.prepare()
+                self._pairs[k] = pair
+                self._pair_motion[k] = pair.max_motion_px
+                while len(self._pairs) > 2:
+                    self._pairs.pop(min(self._pairs))
+            return self._pairs[k]
 
     # ----- the radiance source -------------------------------------------------------------------------
     def _render(self, t_us):
