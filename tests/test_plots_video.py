@@ -88,7 +88,7 @@ def test_every_readable_layout_gives_the_same_video(native, tmp_path, fmt, name)
 def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
     cv2 = pytest.importorskip("cv2")
     path, ev = native
-    scale = 8  # MPEG-4 blurs colour across 2x2 pixels: compare block centres
+    scale = 8  # 4:2:0 blurs colour across 2x2 pixels: compare block centres
     r = write_video(path, tmp_path / "v.mp4", frame_ms=20, full_scale=FULL, scale=scale, progress=False)
     n = (int(ev["t"][-1]) - int(ev["t"][0])) // 20_000 + 1
     cap = cv2.VideoCapture(str(tmp_path / "v.mp4"))
@@ -103,6 +103,15 @@ def test_mp4_has_one_frame_per_interval_and_near_colours(native, tmp_path):
         want = expected_rgb(ev, k, 20_000).astype(int)
         err = np.abs(frames[k] - want)
         assert np.median(err) <= 4 and err.max() <= 40, (k, np.median(err), err.max())
+
+
+def test_mp4_is_h264_which_browsers_play(native, tmp_path):
+    av = pytest.importorskip("av")
+    path, _ = native
+    write_video(path, tmp_path / "v.mp4", frame_ms=20, progress=False)
+    with av.open(str(tmp_path / "v.mp4")) as f:
+        stream = f.streams.video[0]
+        assert stream.codec_context.name == "h264" and stream.codec_context.pix_fmt == "yuv420p"
 
 
 def test_mp4_of_an_odd_sized_sensor_keeps_its_last_row_and_column(tmp_path):

@@ -7,8 +7,9 @@ every evsim event figure (plots.events.event_frame_rgb): white where no event, t
 towards blue with the OFF count, full at `full_scale` events of a polarity in the frame (a fixed scale, so one
 colour means one pair of counts in every frame). Each sensor pixel becomes a `scale` x `scale` block.
 
-MP4 is written with OpenCV's VideoWriter (MPEG-4 part 2, fourcc mp4v: lossy, so colours are near, not exact;
-an odd side gets one blank row or column at the bottom or right, as MPEG-4 frames have even sides);
+MP4 is H.264 (High profile, yuv420p, CRF 18: what browsers, slide software and phones play), encoded by the x264
+that PyAV's wheels ship (the FFmpeg libraries, no ffmpeg program needed); lossy, so colours are near, not exact; an
+odd side gets one blank row or column at the bottom or right, as 4:2:0 frames have even sides;
 GIF with Pillow, one frame at a time with a fixed palette (lossless; GIF frame delays are whole centiseconds).
 The file is written to a temporary folder beside OUT and moved into place when complete.
 """
@@ -74,26 +75,34 @@ def event_frames(chunks: Iterable[np.ndarray], height: int, width: int, frame_us
 
 
 class _Mp4:
-    def __init__(self, path: Path, fps: float, size: tuple[int, int], colours: np.ndarray):
-        import cv2
+    """H.264 in MP4 through PyAV (libx264), one frame at a time."""
 
-        self._cv2 = cv2
-        lut = np.zeros((256, 1, 3), np.uint8)
-        lut[: len(colours), 0] = colours[:, ::-1]  # BGR
-        self._lut = lut
-        self._size = (size[0] + size[0] % 2, size[1] + size[1] % 2)  # MPEG-4 drops an odd last row or column
-        self._w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, self._size)
-        if not self._w.isOpened():
-            raise EvsimInputError("OpenCV cannot write MP4 (mp4v) here; write a .gif instead")
+    def __init__(self, path: Path, fps: float, size: tuple[int, int], colours: np.ndarray):
+        from fractions import Fraction
+
+        import av
+
+        self._lut = np.zeros((256, 3), np.uint8)
+        self._lut[: len(colours)] = colours  # RGB
+        self._size = (size[0] + size[0] % 2, size[1] + size[1] % 2)  # 4:2:0 needs even sides
+        self._file = av.open(str(path), mode="w", format="mp4")
+        rate = Fraction(fps).limit_denominator(1001)
+        self._stream = self._file.add_stream("libx264", rate=rate)
+        self._stream.width, self._stream.height = self._size
+        self._stream.pix_fmt = "yuv420p"
+        self._stream.options = {"crf": "18", "preset": "medium", "profile": "high"}
+        self._av = av
 
     def add(self, index: np.ndarray) -> None:
         h, w = index.shape
         if (w, h) != self._size:  # pad with the blank colour (index 0) to even sides
             index = np.pad(index, ((0, self._size[1] - h), (0, self._size[0] - w)))
-        self._w.write(self._cv2.LUT(self._cv2.merge((index, index, index)), self._lut))
+        frame = self._av.VideoFrame.from_ndarray(self._lut[index], format="rgb24")
+        self._file.mux(self._stream.encode(frame))
 
     def close(self) -> None:
-        self._w.release()
+        self._file.mux(self._stream.encode())  # flush the encoder's delayed frames
+        self._file.close()
 
 
 class _Gif:
