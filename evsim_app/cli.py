@@ -35,7 +35,7 @@ from .model_flags import flag_hint
 from .paths import check_paths
 from .plots.cli import add_plot_parser
 from .sigterm import MESSAGE as SIGTERM_MESSAGE
-from .sigterm import Terminated, Watchdog, end_now, on_sigterm
+from .sigterm import Terminated, Watchdog, end_now, interrupted_message, on_sigterm
 from .suggesting_parser import SuggestingParser
 
 
@@ -90,9 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"evsim: error: {e.cli_message}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        resume = (" (Ctrl-C): the complete sequences are kept; run the same command with --resume to finish"
-                  if hasattr(args, "resume") else "")
-        print(f"evsim: interrupted{resume}", file=sys.stderr)
+        print(interrupted_message(getattr(args, "out", None), hasattr(args, "resume")), file=sys.stderr)
         return 130
     except Terminated:  # the temporary files are removed (the writers' cleanup has run)
         watchdog.reported = True

@@ -10,7 +10,7 @@ import sim
 from generators.choices import DIS_PRESET_NAMES, FLOW_METHODS, UPSAMPLE_MODES
 
 from .dataset_flags import add_sensor_flags, lighting_from_flags, settings_from_flags
-from .flags import EPILOG, SENSOR_HELP, add_output_flags, add_run_flags, non_negative, run_options
+from .flags import EPILOG, SENSOR_HELP, add_output_flags, add_run_flags, non_negative, positive, run_options
 from .model_flags import sensor_size
 
 
@@ -32,7 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="start of the clip in seconds from the input's first frame (default 0)")
     g.add_argument("--stop-s", type=non_negative(float), default=None,
                    help="end of the clip in seconds (default: the input's last frame)")
-    g.add_argument("--input-fps", "--fps", dest="fps", type=float,
+    g.add_argument("--input-fps", "--fps", dest="fps", type=positive(float),
                    help="the rate the input frames were captured at, frames per second (default: a video's "
                         "capture-rate metadata, else its container rate; image folders and .npy stacks need it or "
                         "timestamps)")
@@ -65,10 +65,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--flow-scale", type=float, help="compute the flow on the frames resized by this factor "
                                                     "(0 < s <= 1; default 0.5)")
     s = conv.add_argument_group("sensors")
-    s.add_argument("--height", type=int, help="sensor height in pixels (default: the input's; alone, it keeps "
-                                              "the aspect ratio; see --resize; the input is area-resized)")
-    s.add_argument("--width", type=int, help="sensor width in pixels (default: the input's)")
-    s.add_argument("--camera-fps", type=float, help="frame rate of the synthetic LDR camera (default 30)")
+    s.add_argument("--height", type=positive(int),
+                   help="sensor height in pixels (default: the input's; alone, it keeps the aspect ratio; see "
+                        "--resize; the input is area-resized)")
+    s.add_argument("--width", type=positive(int), help="sensor width in pixels (default: the input's)")
+    s.add_argument("--camera-fps", type=positive(float), help="frame rate of the synthetic LDR camera (default 30)")
     add_sensor_flags(s, crf_default="srgb")
     conv.add_argument("--sensor", metavar="NAME|FILE", help=f"{SENSOR_HELP} (default davis346)")
     add_output_flags(conv, "evsim_convert")

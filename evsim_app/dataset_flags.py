@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import sim
 from sim.suggest import unknown_name
 
-from .flags import SENSOR_HELP, output_list
+from .flags import SENSOR_HELP, output_list, positive
 from .model_flags import add_model_flags, camera_overrides, dvs_overrides, parse_assignments, sensor_size
 
 if TYPE_CHECKING:
@@ -109,7 +109,8 @@ def dataset_config(args: argparse.Namespace) -> DatasetConfig:
 def add_sensor_flags(g: argparse._ArgumentGroup, crf_default: str = "window") -> None:
     """The LDR camera, CRF, DVS sampling and output flags shared by generate and convert (read by
     settings_from_flags, with the camera's --fps)."""
-    g.add_argument("--exposure-us", type=int, help="exposure time of each frame in microseconds (default 10000)")
+    g.add_argument("--exposure-us", type=positive(int),
+                   help="exposure time of each frame in microseconds (default 10000)")
     g.add_argument("--crf", help=f"camera response function name from crf_models (default: {crf_default})")
     g.add_argument("--sampling", choices=("adaptive", "fixed"), help="DVS input sampling (default adaptive)")
     g.add_argument("--sampling-quantile", type=float,
@@ -143,10 +144,10 @@ def add_scene_flags(p: argparse.ArgumentParser) -> None:
                                                           "second; default 0)")
     g.add_argument("--rotation", type=float, default=0.0, help="with --image: rotation in degrees per second")
     g.add_argument("--shake-px", type=float, default=0.0, help="with --image: hand-held shake amplitude in pixels")
-    g.add_argument("--duration-s", type=float, help="sequence duration in seconds (default 1.0)")
-    g.add_argument("--height", type=int, help="sensor height in pixels (default 180)")
-    g.add_argument("--width", type=int, help="sensor width in pixels (default 240)")
-    g.add_argument("--fps", type=float, help="frame rate of the LDR camera in frames per second (default 30)")
+    g.add_argument("--duration-s", type=positive(float), help="sequence duration in seconds (default 1.0)")
+    g.add_argument("--height", type=positive(int), help="sensor height in pixels (default 180)")
+    g.add_argument("--width", type=positive(int), help="sensor width in pixels (default 240)")
+    g.add_argument("--fps", type=positive(float), help="frame rate of the LDR camera in frames per second (default 30)")
     add_sensor_flags(g)
     p.add_argument("--sensor", metavar="NAME|FILE",
                    help=f"{SENSOR_HELP} (default davis346); with --config it replaces every sequence's sensor")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from evsim_eval.choices import DEMO_SIZE
 
-from .flags import EPILOG, SENSOR_HELP, non_negative
+from .flags import EPILOG, SENSOR_HELP, non_negative, positive
 from .model_flags import add_model_flags, camera_overrides, dvs_overrides, sensor_size
 
 
@@ -18,9 +18,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     demo.add_argument("--out", default="evsim_demo", help="output folder (default ./evsim_demo); demo.h5 and "
                                                           "metrics.txt in it are replaced")
     demo.add_argument("--seed", type=non_negative(int), default=0, help="root seed (non-negative integer; default 0)")
-    demo.add_argument("--duration-s", type=float, default=1.0, help="duration in seconds (default 1.0)")
-    demo.add_argument("--height", type=int, help=f"height in pixels (default {DEMO_SIZE[0]})")
-    demo.add_argument("--width", type=int, help=f"width in pixels (default {DEMO_SIZE[1]})")
+    demo.add_argument("--duration-s", type=positive(float), default=1.0, help="duration in seconds (default 1.0)")
+    demo.add_argument("--height", type=positive(int), help=f"height in pixels (default {DEMO_SIZE[0]})")
+    demo.add_argument("--width", type=positive(int), help=f"width in pixels (default {DEMO_SIZE[1]})")
     demo.add_argument("--sensor", metavar="NAME|FILE", default="davis346", help=f"{SENSOR_HELP} (default davis346)")
     add_model_flags(demo)
     demo.add_argument("--no-reconstruct", action="store_true", help="only generate, do not run AKF and baselines")

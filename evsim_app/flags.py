@@ -23,14 +23,27 @@ SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) o
 
 def non_negative(kind: type) -> Callable[[str], float]:
     """argparse type: a finite number >= 0 converted by kind (int for seeds, float for rates)."""
-    what = "a non-negative integer" if kind is int else "a finite number >= 0"
+    return _number(kind, allow_zero=True)
+
+
+def positive(kind: type) -> Callable[[str], float]:
+    """argparse type: a finite number > 0 converted by kind (int for sizes and exposures, float for durations and
+    rates): `--duration-s -1` is refused by argparse, naming the flag."""
+    return _number(kind, allow_zero=False)
+
+
+def _number(kind: type, *, allow_zero: bool) -> Callable[[str], float]:
+    if kind is int:
+        what = "a non-negative integer" if allow_zero else "a positive integer"
+    else:
+        what = "a finite number >= 0" if allow_zero else "a finite number > 0"
 
     def parse(text: str):
         try:
             v = kind(text)
         except ValueError:
             v = -1
-        if not (math.isfinite(v) and v >= 0):
+        if not (math.isfinite(v) and (v >= 0 if allow_zero else v > 0)):
             raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
         return v
 

@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 
 DEADLINE_S = 0.7  # after the signal; the children get up to 0.15 s more to go
 MESSAGE = "evsim: terminated (SIGTERM); temporary files removed"
@@ -99,3 +100,19 @@ class Terminated(BaseException):
 def on_sigterm(signum: int, frame: object) -> None:
     """The CLI's SIGTERM handler: raise Terminated in the main thread."""
     raise Terminated()
+
+
+def interrupted_message(out: str | Path | None, resumable: bool) -> str:
+    """The line for Ctrl-C: what was kept of the run into `out` and how to finish it (complete sequences carry a
+    manifest: generators.dataset); nothing to resume when no sequence was complete or the run cannot resume."""
+    if not resumable or out is None:
+        return "evsim: interrupted (Ctrl-C)"
+    from generators.dataset import MANIFEST_SUFFIX
+
+    folder = Path(out)
+    kept = sorted(folder.glob(f"*{MANIFEST_SUFFIX}")) if folder.is_dir() else []
+    if not kept:
+        gone = "" if folder.is_dir() else f"; {folder} was not left behind"
+        return f"evsim: interrupted (Ctrl-C): no sequence was complete, nothing was kept{gone}"
+    return (f"evsim: interrupted (Ctrl-C): {len(kept)} complete sequence(s) kept in {folder}; run the same command "
+            "with --resume to finish")

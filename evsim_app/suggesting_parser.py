@@ -16,7 +16,12 @@ class SuggestingParser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors add the closest allowed name: "unrecognized arguments: --pos-thres (did
     you mean '--pos-threshold'?)", "invalid choice: 'genrate' (did you mean 'generate'?)". Subparsers are of the
     same class; an unrecognised flag is compared with the flags of the parsers that took part in the parse (the
-    command and its subcommands)."""
+    command and its subcommands). Abbreviated flags are refused (allow_abbrev=False): `--output` is not taken for
+    `--outputs`."""
+
+    def __init__(self, *args: object, **kwargs: object):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def parse_known_args(self, args: list[str] | None = None, namespace: argparse.Namespace | None = None
                          ) -> tuple[argparse.Namespace, list[str]]:
@@ -31,12 +36,22 @@ class SuggestingParser(argparse.ArgumentParser):
         elif message.startswith("unrecognized arguments:"):
             flags = self._flags_in_use()
             words = [w.split("=")[0] for w in message.split(":", 1)[1].split() if w.startswith("--")]
-            hints = [f"{w!r}: did you mean {hint!r}?" for w in words if (hint := self._hint(w, flags))]
+            hints = [f"{w!r}: did you mean {hint}?" for w in words if (hint := self._hints(w, flags))]
             if hints:
                 message += f" ({'; '.join(hints)})"
             # argparse reports unrecognised flags from the top-level parser: show the usage of the subcommand typed
             argparse.ArgumentParser.error(self._deepest_in_use(), message)
         super().error(message)
+
+    def _hints(self, word: str, flags: list[str]) -> str | None:
+        """What to suggest for `word`: a flag it extends and one that extends it when both exist ('--out' or
+        '--outputs' for --output: abbreviations are refused, so either may be meant), else the closest flag."""
+        shorter = max((f for f in flags if word.startswith(f) and len(f) > 2), key=len, default=None)
+        longer = min((f for f in flags if f.startswith(word) and f != word), key=len, default=None)
+        if shorter and longer:
+            return f"{shorter!r} or {longer!r}"
+        hint = self._hint(word, flags)
+        return None if hint is None else repr(hint)
 
     def _hint(self, word: str, flags: list[str]) -> str | None:
         """The closer of the closest flag and flag_hint's suggestion (by similarity), or None."""

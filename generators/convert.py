@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import sim
-from sim import EvsimInputError
+from sim import EvsimInputError, OptionError
 
 from .choices import VIDEO_SUFFIXES
 from .config import DatasetConfig, parse_config
@@ -88,6 +88,7 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
                               f"known: {', '.join(SCENE_OPTIONS)}")
     options = {k: (str(Path(v).resolve()) if k == "timestamps" else v)
                for k, v in scene_options.items() if v is not None}
+    _check_clip_window(options.get("start_s", 0.0), options.get("stop_s"))
     sensor = (settings or {}).get("sensor")
     if sensor is not None and "black_level" not in options:  # a sensor file's [input] table: the frames' black
         black = sim.load_sensor(sensor).tables.get("input", {}).get("black_level")
@@ -107,6 +108,15 @@ def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict 
     defaults = {"crf": DEFAULT_CRF, **(settings or {})}
     defaults["output"] = {"outputs": list(CONVERT_OUTPUTS), **defaults.get("output", {})}
     return parse_config({"seed": seed, "defaults": defaults, "sequence": sequences}, source="<convert>")
+
+
+def _check_clip_window(start_s: float, stop_s: float | None) -> None:
+    """Before any work: the clip's window must be non-empty (OptionError naming --start-s and --stop-s)."""
+    if stop_s is not None and isinstance(start_s, (int, float)) and isinstance(stop_s, (int, float)) \
+            and stop_s <= start_s:
+        raise OptionError(f"start_s={start_s:g} must come before stop_s={stop_s:g} (seconds from the input's first "
+                          "frame)", f"--start-s {start_s:g} must come before --stop-s {stop_s:g} (seconds from the "
+                          "input's first frame)")
 
 
 def convert(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, *, settings: dict | None = None,

@@ -161,7 +161,8 @@ def test_failed_sequences_name_the_resume_flag_or_keyword():
 
 @pytest.mark.parametrize("command", [["generate", "ahdr", "--scene", "moving_edge", *SMALL],
                                      ["demo", "--no-reconstruct", "--no-progress"]])
-def test_an_interrupted_run_says_how_to_resume_and_leaves_no_empty_folder(monkeypatch, tmp_path, capsys, command):
+def test_an_interrupted_run_with_nothing_complete_says_so_and_leaves_no_empty_folder(monkeypatch, tmp_path, capsys,
+                                                                                     command):
     def interrupted(*args, **kwargs):
         (tmp_path / "o" / ".moving_edge.h5.partial.tmp").unlink(missing_ok=True)  # as the writer's cleanup does
         raise KeyboardInterrupt
@@ -169,9 +170,9 @@ def test_an_interrupted_run_says_how_to_resume_and_leaves_no_empty_folder(monkey
     monkeypatch.setattr(generators.dataset, "generate_ahdr", interrupted)
     assert main([*command, "--out", str(tmp_path / "o")]) == 130
     err = capsys.readouterr().err
-    assert err.startswith("evsim: interrupted")
+    assert err.startswith("evsim: interrupted (Ctrl-C)") and "--resume" not in err
     if command[0] == "generate":
-        assert "run the same command with --resume to finish" in err
+        assert "no sequence was complete, nothing was kept" in err
     assert not (tmp_path / "o").exists()
     (tmp_path / "kept").mkdir()  # a folder that was there before stays
     assert main([*command, "--out", str(tmp_path / "kept")]) == 130
@@ -192,8 +193,25 @@ def test_ctrl_c_on_a_real_run_exits_130_naming_resume_with_no_empty_folder(tmp_p
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err[-2000:]
-    assert "evsim: interrupted (Ctrl-C)" in err and "--resume" in err and "Traceback" not in err
+    assert "evsim: interrupted (Ctrl-C): no sequence was complete" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_an_interrupted_run_names_the_complete_sequences_and_how_to_resume(monkeypatch, tmp_path, capsys):
+    real = generators.dataset.generate_ahdr
+    calls = []
+
+    def second_interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(generators.dataset, "generate_ahdr", second_interrupted)
+    out = tmp_path / "o"
+    assert main(["generate", "ahdr", *SMALL, "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert f"1 complete sequence(s) kept in {out}; run the same command with --resume to finish" in err
 
 
 def test_progress_bars_count_frames_and_events_per_second(capsys):
