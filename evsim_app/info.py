@@ -10,12 +10,13 @@ output with one folder per sequence) is described sequence by sequence.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from generators.choices import INDEX_FILE
+from generators.choices import EXPORT_FILE, INDEX_FILE, MANIFEST_SUFFIX
 from generators.exports import folder_sequences
 from generators.formats import detect, load
 from generators.formats.native import (
@@ -45,7 +46,7 @@ def describe(path: str | Path) -> dict:
     sequences = folder_sequences(path)
     if sequences is not None:
         return {"path": str(path), "layout": "folder", "index": (path / INDEX_FILE).is_file(),
-                "sequences": [describe(file) for _, file in sequences]}
+                "kind": _folder_kind(path), "sequences": [describe(file) for _, file in sequences]}
     layout = detect(path)
     if layout == "native":
         # checked as load() checks the file (sensor size, frames, reference, thresholds, crf, metadata) without
@@ -179,13 +180,28 @@ def _not_asked(d: dict, part: str) -> str:
     return ""
 
 
+def _folder_kind(path: Path) -> str:
+    """What a folder of sequences is: a dataset (its index.json), an `evsim export` (its export.json), a
+    generate/convert run that did not finish (complete sequences' manifests and no index.json) or a folder."""
+    if (path / INDEX_FILE).is_file():
+        return "dataset folder"
+    if (path / EXPORT_FILE).is_file():
+        try:
+            record = json.loads((path / EXPORT_FILE).read_text())
+            return f"evsim export to {record['format']} of {record['source']}"
+        except (OSError, ValueError, KeyError, TypeError):
+            return "evsim export (its export.json is unreadable)"
+    if any(path.glob(f"*{MANIFEST_SUFFIX}")):
+        return (f"a generate/convert run that did not finish (no {INDEX_FILE}; the same command with --resume "
+                "completes it)")
+    return f"a folder of sequences, no {INDEX_FILE}"
+
+
 def format_description(d: dict) -> str:
     """A human-readable, multi-line rendering of describe()'s dictionary."""
     if "sequences" in d:
         n = len(d["sequences"])
-        head = (f"{d['path']} (dataset folder, {n} sequence{'s' * (n != 1)}"
-                + (")" if d["index"] else f"; without {INDEX_FILE}: an export or a copy, or a generate/convert run "
-                                          "that did not finish)"))
+        head = f"{d['path']} ({d['kind']}, {n} sequence{'s' * (n != 1)})"
         return "\n\n".join([head] + [format_description(s) for s in d["sequences"]])
     ev = d["events"]
     lines = [

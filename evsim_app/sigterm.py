@@ -107,7 +107,7 @@ def interrupted_message(out: str | Path | None, resumable: bool) -> str:
     manifest: generators.dataset); nothing to resume when no sequence was complete or the run cannot resume."""
     if not resumable or out is None:
         return "evsim: interrupted (Ctrl-C)"
-    from generators.dataset import MANIFEST_SUFFIX
+    from generators.choices import MANIFEST_SUFFIX
 
     folder = Path(out)
     kept = sorted(folder.glob(f"*{MANIFEST_SUFFIX}")) if folder.is_dir() else []

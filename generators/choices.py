@@ -8,6 +8,10 @@ from .formats.registry import EXPORT_FORMATS, FORMATS, READ_SUFFIXES  # noqa: F4
 
 # the file of a dataset folder that lists its sequences (generators.dataset)
 INDEX_FILE = "index.json"
+# the file of an `evsim export` folder that says what it holds (generators.exports: format, source, sequences)
+EXPORT_FILE = "export.json"
+# the suffix of a complete sequence's manifest in a dataset folder ("<name>.manifest.json"; generators.dataset)
+MANIFEST_SUFFIX = ".manifest.json"
 
 # what a generated sequence holds (generators.ahdr.AHDRConfig.outputs): the events always, LDR frames and HDR
 # reference frames when asked

@@ -44,7 +44,7 @@ from sim import EvsimInputError, OptionError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
-from .choices import INDEX_FILE
+from .choices import INDEX_FILE, MANIFEST_SUFFIX
 from .config import DatasetConfig, build_scene, check_sequence_name, to_ahdr_config
 from .formats import HOLDS, ExportDropWarning, export
 from .formats.atomic import discard, write_text_atomic
@@ -60,7 +60,6 @@ if TYPE_CHECKING:
 
 #: the name suffix of a sequence's export in each format but native ("<name><suffix>"; generators.formats.registry)
 EXPORT_SUFFIX = {f.name: f.export_suffix for f in REGISTRY if f.exportable and f.name != "native"}
-MANIFEST_SUFFIX = ".manifest.json"
 MANIFEST_VERSION = 1
 _MANIFEST_MAX_BYTES = 16 << 20  # a manifest lists a few files (an IJRR folder: one per frame); larger is not one
 

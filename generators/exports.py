@@ -5,7 +5,8 @@ A source is a file or folder generators.formats.load() reads (native HDF5, E2VID
 `evsim convert` (its index.json names the sequences' native files), or any folder whose entries are readable
 (e.g. one written by this export). One source becomes the file or folder DST; a folder of sequences becomes the
 folder DST with one export per sequence, named <name> + the suffix `generate --format` gives that format
-(generators.dataset.EXPORT_SUFFIX). Every export goes through generators.formats.export (the one writer per
+(generators.formats.registry), and an export.json naming the format, the source and the sequences (what `evsim
+info` reads to call the folder an export). Every export goes through generators.formats.export (the one writer per
 format, also behind `generate --format`): native sources are streamed in chunks, memory stays flat. DST appears
 whole or not at all (atomic); an existing DST is refused unless overwrite=True.
 """
@@ -20,7 +21,7 @@ from typing import Any
 
 from sim import EvsimInputError, OptionError
 
-from .choices import FORMATS, INDEX_FILE
+from .choices import EXPORT_FILE, FORMATS, INDEX_FILE
 from .formats import HOLDS, DatasetFormatError, ExportDropWarning, detect, export
 from .formats.atomic import atomic_path, discard
 from .formats.registry import format_record
@@ -116,6 +117,9 @@ def export_path(source: str | Path, dst: str | Path, fmt: str, *, overwrite: boo
                     out = tmp / f"{name}{export_suffix(fmt)}"
                     done.append(ExportedSequence(name, path, dst / out.name,
                                                  export(path, out, fmt, progress=progress, **options)))
+                record = {"format": fmt, "source": str(source.resolve()),
+                          "sequences": {d.name: Path(d.out).name for d in done}}
+                (tmp / EXPORT_FILE).write_text(json.dumps(record, indent=2) + "\n")
     for w in caught:
         if not issubclass(w.category, ExportDropWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

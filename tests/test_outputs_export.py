@@ -306,7 +306,18 @@ def test_cli_export_prints_a_note_as_one_line(tiny_dataset, tmp_path, capsys):
     assert main(["export", str(tiny_dataset / "a.h5"), str(tmp_path / "a.raw"), "--format", "evt3"]) == 2
     assert "already exists; pass --overwrite" in capsys.readouterr().err
     assert main(["info", str(tiny_dataset)]) == 0
-    assert "(dataset folder, 2 sequences; without index.json: an export or a copy" in capsys.readouterr().out
+    assert "(a folder of sequences, no index.json, 2 sequences)" in capsys.readouterr().out
+
+
+def test_info_names_an_export_folder_and_an_unfinished_run(tiny_dataset, tmp_path, capsys):
+    assert main(["export", str(tiny_dataset), str(tmp_path / "ex"), "--format", "e2vid", "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "ex")]) == 0
+    assert f"(evsim export to e2vid of {tiny_dataset.resolve()}, 2 sequences)" in capsys.readouterr().out
+    (tiny_dataset / "a.manifest.json").write_text("{}")  # a complete sequence of a run without its index
+    assert main(["info", str(tiny_dataset)]) == 0
+    assert "(a generate/convert run that did not finish (no index.json; the same command with --resume completes " \
+           "it), 2 sequences)" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("value,message", [("events,frame", "unknown output 'frame'"),
