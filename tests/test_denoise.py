@@ -268,3 +268,27 @@ def test_plot_roc_and_auc_sweep(labelled_dataset, tmp_path):
     assert low > high + 0.02
     assert main(["plot", "sweep", str(tmp_path / "sw"), "--metric", "auc", "--out", str(tmp_path / "s.png"),
                  "--no-progress"]) == 0
+
+
+@pytest.mark.skipif(not _has_matplotlib(), reason="matplotlib is not installed (pip install 'evsim[plot]')")
+def test_plot_roc_of_several_sequences_names_the_pooled_and_the_mean_auc(tmp_path, capsys):
+    from evsim_app.cli import main
+    from generators.ahdr import AHDRConfig
+    from generators.dataset import write_index, write_sequence
+    from generators.scenes import MovingEdge
+
+    cfg = AHDRConfig(dvs=sim.DVSParams.preset("noisy"), camera=sim.CameraParams(fps=50.0, exposure_us=2000),
+                     labels=True, compression="lzf")
+    entries = [write_sequence(tmp_path, name, MovingEdge(16, 20, 100_000, speed_px_per_s=speed), cfg,
+                              np.random.SeedSequence(seed), "native", progress=False)
+               for name, speed, seed in (("slow", 40.0, 1), ("fast", 300.0, 2))]
+    write_index(tmp_path, {"generator": "ahdr", "sequences": entries})
+    js = tmp_path / "dn.json"
+    assert main(["evaluate", str(tmp_path), "--task", "denoise", "--filters", "correlation", "--no-reconstruct",
+                 "--json", str(js), "--no-progress"]) == 0
+    mean = json.loads(js.read_text())["mean_auc"]["correlation"]["all"]
+    capsys.readouterr()
+    assert main(["plot", "roc", str(js), "--out", str(tmp_path / "roc.png")]) == 0
+    out = capsys.readouterr().out
+    assert "the 2 sequences' points pooled: correlation " in out
+    assert f"mean of the sequences' AUCs, as evsim evaluate reports: correlation {mean:.3f}" in out

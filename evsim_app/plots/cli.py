@@ -118,9 +118,17 @@ def _cmd_roc(args) -> int:
 
     filters = None if args.filters is None else tuple(args.filters)
     out = args.out or Path(f"{Path(args.source).stem}_roc.png")
-    aucs = plot_roc(load_roc_result(args.source, filters), out)
+    result = load_roc_result(args.source, filters)
+    aucs = plot_roc(result, out)
+    n = len(result["sequences"])
     scores = ", ".join(f"{name} {a['all']:.3f}" for name, a in aucs.items())
-    print(f"wrote {out} (AUC over all noise: {scores})")
+    if n == 1:
+        print(f"wrote {out} (AUC over all noise: {scores})")
+    else:
+        mean = ", ".join(f"{name} {result['mean_auc'][name]['all']:.3f}" for name in aucs if name in
+                         result.get("mean_auc", {}))
+        print(f"wrote {out} (AUC over all noise, the {n} sequences' points pooled: {scores}; mean of the "
+              f"sequences' AUCs, as evsim evaluate reports: {mean})")
     return 0
 
 

@@ -73,7 +73,8 @@ def plot_roc(result: dict, out: str | Path, *, title: str | None = None) -> dict
     Returns
     -------
     dict
-        {filter: {kind: AUC}} of the pooled points (kind: "all" or a noise type).
+        {filter: {kind: AUC}} of the points pooled over the sequences (kind: "all" or a noise type). With several
+        sequences this is not evsim evaluate's AUC, the mean of each sequence's: the legend gives both.
     """
     from evsim_eval.denoisers import pooled_points, roc_auc
 
@@ -86,14 +87,19 @@ def plot_roc(result: dict, out: str | Path, *, title: str | None = None) -> dict
     plt = pyplot()
     fig, axes = plt.subplots(1, len(kinds), figsize=(3.9 * len(kinds), 3.9), squeeze=False)
     aucs = {n: {} for n in names}
+    n_seq = len(result["sequences"])
+    mean = result.get("mean_auc", {})
     for ax, kind in zip(axes[0], kinds):
         key = "fpr" if kind == "all" else f"fpr_{kind}"
         for n in names:
             pts = sorted(pooled[n], key=lambda p: (p[key], p["tpr"]))
             fpr, tpr = [p[key] for p in pts], [p["tpr"] for p in pts]
             aucs[n][kind] = roc_auc(fpr, tpr)
-            line, = ax.plot([0.0, *fpr, 1.0], [0.0, *tpr, 1.0], marker="o", ms=3, lw=1.2,
-                            label=f"{n} (AUC {aucs[n][kind]:.3f})")
+            label = f"{n} (AUC {aucs[n][kind]:.3f})"
+            if n_seq > 1:
+                label = f"{n} (pooled AUC {aucs[n][kind]:.3f}" + (
+                    f", mean over sequences {mean[n][kind]:.3f})" if kind in mean.get(n, {}) else ")")
+            line, = ax.plot([0.0, *fpr, 1.0], [0.0, *tpr, 1.0], marker="o", ms=3, lw=1.2, label=label)
             default = result["filters"][n]["default"]
             for p in pts:
                 if abs(p["value"] - default) <= 1e-9 * max(1.0, abs(default)):
@@ -106,7 +112,6 @@ def plot_roc(result: dict, out: str | Path, *, title: str | None = None) -> dict
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right")
     axes[0, 0].set_ylabel("TPR (signal events kept)")
-    n_seq = len(result["sequences"])
     fig.suptitle(title or (f"{n_seq} sequences pooled; ringed: each filter's default parameter" if n_seq > 1
                            else f"{next(iter(result['sequences']))}; ringed: each filter's default parameter"),
                  fontsize=9)
