@@ -18,8 +18,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("recording", type=Path, metavar="RECORDING",
                    help="a hybrid recording with frames: .aedat4, IJRR folder, native or E2VID HDF5")
     p.add_argument("--out", type=Path, required=True, help="the sensor file to write (.toml)")
-    p.add_argument("--window", type=float, nargs=2, default=(0.4, 2.32), metavar=("START", "END"),
-                   help="the part of the recording fitted, seconds from its first frame (default 0.4 2.32)")
+    p.add_argument("--window", type=float, nargs=2, default=None, metavar=("START", "END"),
+                   help="the part of the recording fitted, seconds from its first frame's exposure start (default: "
+                        "the whole recording less its first 0.4 s, at most a fifth of it, while the sensor settles)")
     p.add_argument("--preset", default="davis346", help="the DVS preset the fit starts from and the sensor file "
                                                         "modifies (default davis346)")
     p.add_argument("--name", help="the sensor's name (default: the output file's stem)")
@@ -54,9 +55,12 @@ def run(args: argparse.Namespace) -> int:
     from evsim_eval.calibrate import calibrate, fit_table, write_calibration
 
     check_outputs(args)
-    cal = calibrate(args.recording, tuple(args.window), preset=args.preset, black_level=args.black_level,
+    window = None if args.window is None else tuple(args.window)
+    cal = calibrate(args.recording, window, preset=args.preset, black_level=args.black_level,
                     conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
                     progress=not args.no_progress, log=print)
+    given = "--window" if args.window is not None else "the recording less a settling start (default)"
+    print(f"window: {cal.window_s[0]:g}-{cal.window_s[1]:g} s from the first frame's exposure start ({given})")
     print(fit_table(cal))
     print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
     out = write_calibration(cal, args.out, args.name)

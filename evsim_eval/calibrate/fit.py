@@ -46,7 +46,10 @@ import sim
 from generators.formats import load
 from generators.formats.recording import Recording
 
+from .camera import recorded_camera
+from .sensor import calibrated_sensor
 from .simulation import InputSettings, RecordingSimulation
+from .verify import converted_scores
 
 if TYPE_CHECKING:
     from evsim_eval.realism import RealismStats
@@ -56,6 +59,7 @@ OFFSET_GRID_DN = (0.03, 1.0, 3.0, 10.0, 20.0, 40.0, 80.0)
 HOT_FACTOR = 50.0  # a static pixel firing this many times the quiet static rate (and >= HOT_MIN_EVENTS) is hot
 HOT_MIN_EVENTS = 10
 MIN_EVENTS = 20  # real ON and OFF events the window must hold, each
+SETTLE_S = 0.4  # s after the first frame's exposure start left out of the window (at most a fifth of the clip)
 WEIGHTS = {"counts": 10.0, "corr": 5.0, "rate": 2.0, "intervals": 1.0, "quiet": 0.5, "passages": 0.1}  # of loss_of
 
 
@@ -83,7 +87,9 @@ class Calibration:
     offset_dn : float
         The log offset b in frame DN (the pixel responds to log(DN - black + b)).
     scores : dict
-        {"preset": ..., "fitted": ...} realism scores.
+        {"preset": ..., "fitted": ..., "search": ...} realism scores: the preset and the fitted sensor as `evsim
+        convert --sensor` and the realism task give them (the fit's own simulation's with verify=False), and the
+        fit's own simulation of the fitted parameters.
     real : dict
         The real statistics' summary.
     loss : float
@@ -96,6 +102,10 @@ class Calibration:
         Time taken (seconds).
     history : list
         (stage, loss) per evaluation.
+    camera : dict
+        The recording's frame camera as CameraParams fields (evsim_eval.calibrate.camera.recorded_camera).
+    sha256 : str
+        The recording's sha256 (its file, or its folder's files).
     """
 
     path: Path
@@ -114,6 +124,8 @@ class Calibration:
     wall_s: float
     cpu_s: float
     history: list = field(default_factory=list)
+    camera: dict = field(default_factory=dict)
+    sha256: str = ""
 
 
     def to_dict(self) -> dict:
@@ -128,7 +140,8 @@ class Calibration:
                 "fitted": dataclasses.asdict(self.dvs), "preset": dataclasses.asdict(self.preset),
                 "input": dataclasses.asdict(self.input), "read_noise_dn": self.read_noise_dn,
                 "offset_dn": self.offset_dn, "scores": self.scores, "real": self.real, "loss": self.loss,
-                "seed": self.seed, "evaluations": self.evaluations, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
+                "seed": self.seed, "evaluations": self.evaluations, "wall_s": self.wall_s, "cpu_s": self.cpu_s,
+                "camera": self.camera}
 
 
 def loss_of(scores: dict, real_quiet: tuple[int, int], sim_quiet: tuple[int, int], noise: bool = True) -> float:
@@ -334,9 +347,9 @@ def flicker_warning(real: RealismStats) -> LightFlickerWarning | None:
                "(docs/guide/convert.md)")
 
 
-def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, preset: str = "davis346",
+def calibrate(path: str | Path, window_s: tuple[float, float] | None = None, *, preset: str = "davis346",
               black_level: float | None = None, conditioning: str | None = None, seed: int = 0,
-              max_evaluations: int = 120,
+              max_evaluations: int = 120, verify: bool = True,
               progress: bool = True, log: Callable[[str], None] | None = None) -> Calibration:
     """Fit the DVS model to the recording at `path`, starting from `preset`. See the module.
 
@@ -345,7 +358,9 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
     path : str or pathlib.Path
         An AEDAT4 file or IJRR folder with frames, or any hybrid layout generators.formats reads.
     window_s : tuple of float, optional
-        (start, end) seconds from its first frame's exposure start (default (0.4, 2.32)).
+        (start, end) seconds from its first frame's exposure start (default: the recording's frames less a settling
+        start, default_window: 0.4 s, at most a fifth of the span, to the last
+        frame's mid-exposure).
     preset : str, optional
         The starting DVS preset (default "davis346").
     black_level : float, optional
@@ -357,6 +372,10 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         The simulations' seed (default 0).
     max_evaluations : int, optional
         Bound of stage 2's simulations (default 120).
+    verify : bool, optional
+        Score the preset and the fitted sensor by converting the recording with each, as `evsim convert --sensor`
+        does, and scoring the conversion as `evsim evaluate --task realism` does (default True; the table is then
+        what the user will measure). False: the fit's own simulations' scores (faster).
     progress : bool, optional
         Show a progress bar (default True).
     log : callable, optional
@@ -371,9 +390,10 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
-    _checked_window(window_s)
+    rec = load(path)
+    window_s = default_window(rec) if window_s is None else _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
-    real, simulation = prepare(path, load(path), window_s, black_level, conditioning, log)
+    real, simulation = prepare(path, rec, window_s, black_level, conditioning, log)
     note = flicker_warning(real)
     if note is not None:
         warnings.warn(note, stacklevel=2)
@@ -397,13 +417,43 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
         loss, final, fitted_scores = objective.best
     finally:
         bar.close()
-    offset_dn = simulation.offset_dn(final)
+    camera = recorded_camera(rec, real.masks.read_noise_dn)
+    scores = {"search": fitted_scores}
+    if verify:  # the table as the realism task scores `evsim convert --sensor` (evsim_eval.calibrate.verify)
+        if log is not None:
+            log("scoring the preset and the fitted sensor as `evsim convert --sensor` gives them ...")
+        for key, dvs in (("preset", start), ("fitted", final)):
+            sensor = calibrated_sensor(key, simulation.params(dvs), preset, black_level=settings.black_level,
+                                       read_noise_dn=real.masks.read_noise_dn, offset_dn=simulation.offset_dn(dvs),
+                                       camera=camera)
+            scores[key] = converted_scores(path, rec, sensor, window_s)
+    else:
+        scores.update(preset=preset_scores, fitted=fitted_scores)
     return Calibration(
         path=path, window_s=tuple(window_s), dvs=simulation.params(final), preset=simulation.params(start),
-        preset_name=preset, input=settings, read_noise_dn=float(real.masks.read_noise_dn), offset_dn=offset_dn,
-        scores={"preset": preset_scores, "fitted": fitted_scores}, real=real.summary(), loss=loss, seed=seed,
+        preset_name=preset, input=settings, read_noise_dn=float(real.masks.read_noise_dn),
+        offset_dn=simulation.offset_dn(final), scores=scores, real=real.summary(), loss=loss, seed=seed,
         evaluations=objective.evaluations, wall_s=time.perf_counter() - wall0,
-        cpu_s=time.process_time() - cpu0, history=objective.history)
+        cpu_s=time.process_time() - cpu0, history=objective.history, camera=camera,
+        sha256=simulation.scene.describe()["input"]["sha256"])
+
+
+def default_window(rec: Recording) -> tuple[float, float]:
+    """(start, end) s from the first frame's exposure start: SETTLE_S (at most a fifth of the frames' span) to the
+    last frame's mid-exposure.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording (with frames).
+
+    Returns
+    -------
+    start, end : float
+        Seconds.
+    """
+    end = (int(rec.frame_t_mid_us[-1]) - int(rec.frame_t_start_us[0])) / 1e6
+    return min(SETTLE_S, 0.2 * end), end
 
 
 def _checked_window(window_s: tuple[float, float]) -> tuple[float, float]:
@@ -487,5 +537,5 @@ def _nelder_mead(objective: _Objective, dvs: sim.DVSParams, max_evaluations: int
     return best if best is not None and objective.best[0] <= result.fun else params(result.x)
 
 
-__all__ = ["Calibration", "calibrate", "fit_offset_and_thresholds", "prepare", "loss_of", "OFFSET_GRID_DN", "WEIGHTS",
-           "LightFlickerWarning", "flicker_warning"]
+__all__ = ["Calibration", "calibrate", "default_window", "fit_offset_and_thresholds", "prepare", "loss_of",
+           "OFFSET_GRID_DN", "WEIGHTS", "SETTLE_S", "LightFlickerWarning", "flicker_warning"]

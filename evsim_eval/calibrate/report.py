@@ -9,6 +9,7 @@ from pathlib import Path
 import sim
 
 from .fit import Calibration
+from .sensor import calibrated_sensor
 
 # DVS fields of the table: (field, label, format)
 PARAM_ROWS = (
@@ -81,7 +82,8 @@ def fit_table(cal: Calibration) -> str:
 def sensor_of(cal: Calibration, name: str, description: str = "") -> object:
     """The sim.Sensor of a calibration: the fitted DVS fields over the preset (full_illumination left to the
     generation's auto illumination, which resolves it as the calibration did), the [input] table (black level,
-    read noise, log offset in DN) and the provenance (recording, its sha256, window, loss, evaluations, time).
+    read noise, log offset in DN), the recording's frame camera ([camera]: frame rate, exposure, bit depth, read
+    noise) and the provenance (recording, its sha256, window, loss, evaluations, time).
 
     Parameters
     ----------
@@ -97,25 +99,19 @@ def sensor_of(cal: Calibration, name: str, description: str = "") -> object:
     Sensor
         The sensor.
     """
-    from generators.scenes.video import open_frames
-
-    dvs = cal.dvs.replace(full_illumination=sim.DVSParams.preset(cal.preset_name).full_illumination)
-    frames = open_frames(cal.path)
     provenance = {
         "method": "evsim calibrate: the recording's frames simulated and the realism statistics of the events "
                   "matched (evsim_eval.calibrate.fit)",
-        "recording": cal.path.name, "sha256": frames.sha256,
+        "recording": cal.path.name, "sha256": cal.sha256,
         "window_s": [float(cal.window_s[0]), float(cal.window_s[1])], "seed": cal.seed,
         "loss": round(cal.loss, 4), "evaluations": cal.evaluations,
         "wall_s": round(cal.wall_s, 1), "cpu_s": round(cal.cpu_s, 1),
         "date": datetime.date.today(),
     }
-    return sim.Sensor(name=name, dvs=dvs, base=cal.preset_name,
-                      description=description or f"fitted to {cal.path.name} by evsim calibrate",
-                      provenance=provenance,
-                      tables={"input": {"black_level": float(cal.input.black_level),
-                                        "read_noise_dn": round(float(cal.read_noise_dn), 4),
-                                        "offset_dn": round(float(cal.offset_dn), 3)}})
+    return calibrated_sensor(name, cal.dvs, cal.preset_name, black_level=cal.input.black_level,
+                             read_noise_dn=cal.read_noise_dn, offset_dn=cal.offset_dn, camera=cal.camera,
+                             description=description or f"fitted to {cal.path.name} by evsim calibrate",
+                             provenance=provenance)
 
 
 def write_calibration(cal: Calibration, path: str | Path, name: str | None = None) -> Path:

@@ -7,7 +7,7 @@ OFF thresholds matched to the real event counts at each b, and the b of the smal
 parabola's vertex) kept. The pixel's bandwidth, refractory period and threshold mismatch are not fitted (that is
 calibrate's second stage) but chosen between the preset's and an ideal pixel's (none): an ideal pixel that
 explains the events clearly better (IDEAL_GAIN) is kept, with the offset searched again for it. The window scored
-is the recording from SETTLE_S (the sensor settling after the first frame, capped at a fifth of the clip) to the
+is the recording from fit.SETTLE_S (the sensor settling after the first frame, capped at a fifth of the clip) to the
 last frame's mid-exposure. About 25 simulations: 30 s of CPU for the DAVIS346 road recording (59 frames of
 346 x 260 pixels), where the preset's pixel is kept.
 """
@@ -26,12 +26,11 @@ import sim
 from generators.formats import export
 from generators.formats.recording import Recording
 
-from .fit import _match_counts, _Objective, fit_offset_and_thresholds, prepare
+from .fit import _match_counts, _Objective, default_window, fit_offset_and_thresholds, prepare
 
 #: the fields of the pixel's response besides thresholds and offset: the starting preset's, or an ideal pixel's
 SIGNAL_FIELDS = ("cutoff_hz", "refractory_us", "threshold_sigma")
 IDEAL_GAIN = 0.05  # the ideal pixel replaces the preset's when its loss is this much smaller (relative)
-SETTLE_S = 0.4  # s after the first frame's exposure start left out of the window (at most a fifth of the clip)
 
 
 @dataclass(frozen=True)
@@ -69,24 +68,6 @@ class ThresholdEstimate:
     def pair(self) -> tuple[float, float]:
         """(ON, OFF) thresholds, log units."""
         return self.pos_threshold, self.neg_threshold
-
-
-def default_window(rec: Recording) -> tuple[float, float]:
-    """(start, end) s from the first frame's exposure start: SETTLE_S (at most a fifth of the frames' span) to the
-    last frame's mid-exposure.
-
-    Parameters
-    ----------
-    rec : Recording
-        The recording (with frames).
-
-    Returns
-    -------
-    start, end : float
-        Seconds.
-    """
-    end = (int(rec.frame_t_mid_us[-1]) - int(rec.frame_t_start_us[0])) / 1e6
-    return min(SETTLE_S, 0.2 * end), end
 
 
 def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, preset: str = "davis346",
@@ -145,4 +126,4 @@ def estimate_thresholds(rec: Recording, frames: npt.ArrayLike | None = None, *, 
                              objective.evaluations, time.process_time() - cpu0)
 
 
-__all__ = ["ThresholdEstimate", "estimate_thresholds", "default_window", "IDEAL_GAIN", "SETTLE_S", "SIGNAL_FIELDS"]
+__all__ = ["ThresholdEstimate", "estimate_thresholds", "IDEAL_GAIN", "SIGNAL_FIELDS"]
