@@ -126,8 +126,13 @@ class DVSInput:
         self.time_origin_us = int(getattr(scene, "time_origin_us", 0))
 
     def sampler(self) -> Iterator[tuple[int, np.ndarray]]:
-        """The sampler over the whole scene: (t_us, radiance) pairs from t = 0 to the end, with the breakpoints
-        (its n_samples counts them)."""
+        """The sampler over the whole scene, from t = 0 to the end, with the breakpoints.
+
+        Returns
+        -------
+        iterator of (int, numpy.ndarray)
+            (t_us, radiance) pairs: scene time (us) and (H, W) float32 linear radiance; its n_samples counts them.
+        """
         return make_sampler(self.source, self.mode, breakpoints_us=self.breakpoints_us, **self.options)
 
     def warm_up(self) -> tuple[list, np.ndarray]:
