@@ -25,7 +25,13 @@ MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows
 
 def check_paths(args: argparse.Namespace) -> None:
     """--config and the outputs, before any work: EvsimInputError (exit 2, one line) naming the flag, the path and
-    the problem. The configuration file itself is read by generators.config.read_text_file."""
+    the problem. The configuration file itself is read by generators.config.read_text_file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+    """
     config = getattr(args, "config", None)
     if config is not None and not str(config):
         raise sim.EvsimInputError("--config is empty: give a TOML configuration file")
