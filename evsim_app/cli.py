@@ -40,7 +40,13 @@ from .suggesting_parser import SuggestingParser
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The `evsim` parser: one subcommand per module (each registers itself with add_parser)."""
+    """The `evsim` parser: one subcommand per module (each registers itself with add_parser).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser (a SuggestingParser); each subcommand sets func, its handler.
+    """
     parser = SuggestingParser(prog="evsim", description=__doc__,
                               formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
     parser.flag_hint = flag_hint  # a model field typed as a flag: --dvs FIELD=VALUE

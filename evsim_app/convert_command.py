@@ -125,7 +125,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def conditioning_option(args: argparse.Namespace) -> str | dict | None:
-    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn."""
+    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    str, dict or None
+        A mode name, a table with noise_dn (DN), or None (the default).
+    """
     if args.input_noise_dn is None:
         return args.input_conditioning
     if args.input_conditioning == "off":

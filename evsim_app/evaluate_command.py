@@ -145,11 +145,30 @@ def evaluate_denoise(args: argparse.Namespace) -> int:
 
 
 def refuse_run_flags(args: argparse.Namespace, why: str) -> None:
-    """EvsimInputError when --workers or --scheduler is given to a task that runs in this process."""
+    """EvsimInputError when --workers or --scheduler is given to a task that runs in this process.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+    why : str
+        The task, for the message.
+    """
     if args.workers is not None or args.scheduler is not None:
         raise sim.EvsimInputError(f"{why}: drop --workers/--scheduler")
 
 
 def metrics_of(args: argparse.Namespace) -> tuple[str, ...]:
-    """--metrics, or the --protocol's default metrics (evsim_eval.choices.DEFAULT_METRICS) when not given."""
+    """The metrics to score.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    tuple of str
+        --metrics, or the --protocol's default metrics (evsim_eval.choices.DEFAULT_METRICS) when not given.
+    """
     return DEFAULT_METRICS[args.protocol] if args.metrics is None else names(args.metrics)

@@ -192,7 +192,18 @@ def _not_asked(d: dict, part: str) -> str:
 
 
 def format_description(d: dict) -> str:
-    """A human-readable, multi-line rendering of describe()'s dictionary."""
+    """A human-readable rendering of describe()'s dictionary.
+
+    Parameters
+    ----------
+    d : dict
+        What describe() returns.
+
+    Returns
+    -------
+    str
+        Multi-line text (what `evsim info` prints).
+    """
     if "sequences" in d:
         n = len(d["sequences"])
         head = (f"{d['path']} (dataset folder, {n} sequence{'s' * (n != 1)}"

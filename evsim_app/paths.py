@@ -45,7 +45,18 @@ def check_paths(args: argparse.Namespace) -> None:
 
 
 def check_output(flag: str, text: str, *, folder: bool | None) -> None:
-    """An output path that can be created (or, for a folder, exists as one) and written; folder=None: either."""
+    """Check an output path: it can be created (or, for a folder, exists as one) and written; EvsimInputError
+    naming the flag otherwise.
+
+    Parameters
+    ----------
+    flag : str
+        The flag that gave it, for the message.
+    text : str
+        The path.
+    folder : bool or None
+        True for a folder, False for a file, None for either.
+    """
     from generators.config import missing_path_reason
 
     kind = "folder" if folder else "file"
@@ -84,7 +95,18 @@ def check_output(flag: str, text: str, *, folder: bool | None) -> None:
 
 def writable(folder: Path) -> bool:
     """Whether a file can be created in `folder`: tried (a temporary file, removed at once), since permission bits
-    do not tell for root, read-only mounts or virtual file systems such as /proc."""
+    do not tell for root, read-only mounts or virtual file systems such as /proc.
+
+    Parameters
+    ----------
+    folder : Path
+        An existing folder.
+
+    Returns
+    -------
+    bool
+        Whether a file could be created there.
+    """
     import tempfile
 
     if not os.access(folder, os.W_OK | os.X_OK):
