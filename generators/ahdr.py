@@ -77,7 +77,7 @@ class AHDRConfig:
         The sensor model they came from, as sim.Sensor.describe() gives it (name, base, file, provenance; {} when
         the parameters were given directly); recorded in the metadata.
     crf : str
-        The camera response's name (crf_models.get(crf, **crf_params)); default the AHDR "window".
+        The camera response's name (``crf_models.get(crf, **crf_params)``); default the AHDR "window".
     crf_params : dict
         Its parameters (default {}).
     auto_exposure : bool

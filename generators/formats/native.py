@@ -364,7 +364,7 @@ class NativeWriter:
         Parameters
         ----------
         crf : dict or None
-            {"name": ..., "params": {...}} (crf_models.get(name, **params) rebuilds it; JSON-serialisable), or None.
+            {"name": ..., "params": {...}} (``crf_models.get(name, **params)`` rebuilds it; JSON-serialisable), or None.
         """
         if crf is not None and not (isinstance(crf, dict) and "name" in crf):
             raise EvsimInputError(f"crf must be a dict with 'name' and 'params', got {crf!r}")

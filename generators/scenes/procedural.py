@@ -98,7 +98,7 @@ class MovingEdge(Scene):
         Returns
         -------
         float
-            The edge's speed |speed_px_per_s| (pixels per second).
+            The edge's speed abs(speed_px_per_s) (pixels per second).
         """
         return abs(self.speed)
 
@@ -179,7 +179,7 @@ class Checkerboard(Scene):
         Returns
         -------
         float
-            The board's speed |velocity_px_per_s| (pixels per second).
+            The board's speed, the norm of velocity_px_per_s (pixels per second).
         """
         return math.hypot(self.vx, self.vy)
 
@@ -250,7 +250,7 @@ class RotatingBar(Scene):
         Returns
         -------
         float
-            The speed of the bar's ends, |angular speed| (rad/s) x length / 2 (pixels per second).
+            The speed of the bar's ends, abs(angular speed) (rad/s) x length / 2 (pixels per second).
         """
         return math.radians(abs(self.omega)) * self.length / 2
 
@@ -333,7 +333,7 @@ class RotatingDisk(Scene):
         Returns
         -------
         float
-            The rim's speed, |angular speed| (rad/s) x radius (pixels per second).
+            The rim's speed, abs(angular speed) (rad/s) x radius (pixels per second).
         """
         return math.radians(abs(self.omega)) * self.radius
 
@@ -483,7 +483,7 @@ class SunPatch(Scene):
         Returns
         -------
         float
-            The sun's speed |velocity_px_per_s| (pixels per second).
+            The sun's speed, the norm of velocity_px_per_s (pixels per second).
         """
         return math.hypot(self.vx, self.vy)
 
