@@ -24,13 +24,27 @@ if TYPE_CHECKING:
     import sim
     from sim.source import RadianceSource
 
-__all__ = ["DVSInput", "warm_up_input", "MAX_FIXED_SAMPLES"]
+__all__ = ["DVSInput", "SamplingSettings", "warm_up_input", "MAX_FIXED_SAMPLES"]
 
 MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per sequence (each a full render)
 
 
 class SamplingSettings(Protocol):
-    """What the DVS pass reads of a generators.ahdr.AHDRConfig: how the scene is sampled."""
+    """What the DVS pass reads of a generators.ahdr.AHDRConfig: how the scene is sampled.
+
+    Attributes
+    ----------
+    sampling : str
+        "adaptive" or "fixed".
+    sampling_fraction : float
+        Adaptive: the fraction of the smaller mean threshold (log units) allowed per sample.
+    sampling_quantile : float
+        Adaptive: the quantile of the per-pixel log change that fraction bounds.
+    min_step_us, max_step_us : int
+        Adaptive: the bounds of a step (us).
+    rate_hz : float
+        Fixed: samples per second (Hz).
+    """
 
     sampling: str
     sampling_fraction: float
