@@ -9,7 +9,13 @@ from pathlib import Path
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register the `calibrate` subcommand."""
+    """Register the `calibrate` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     p = sub.add_parser("calibrate", help="fit the DVS model to a real hybrid recording; write a sensor file",
                        description="Simulate the recording's own frames (as convert does) and fit the DVS "
                                    "parameters (thresholds and spread, log offset, refractory, cutoff, shot, leak "
@@ -40,7 +46,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def check_outputs(args: argparse.Namespace) -> None:
     """Before the minutes of fitting: --out is a .toml file, and neither it nor --json exists unless --overwrite
-    (sim.EvsimInputError naming the flag; the CLI checks that they can be written)."""
+    (sim.EvsimInputError naming the flag; the CLI checks that they can be written).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+    """
     import sim
 
     if args.out.suffix.lower() != ".toml":
@@ -52,6 +64,18 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """`evsim calibrate`: fit, print the fit table, write the sensor file (and --json).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.calibrate import calibrate, fit_table, write_calibration
 
     check_outputs(args)

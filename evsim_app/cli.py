@@ -40,7 +40,13 @@ from .suggesting_parser import SuggestingParser
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The `evsim` parser: one subcommand per module (each registers itself with add_parser)."""
+    """The `evsim` parser: one subcommand per module (each registers itself with add_parser).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser (a SuggestingParser); each subcommand sets func, its handler.
+    """
     parser = SuggestingParser(prog="evsim", description=__doc__,
                               formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
     parser.flag_hint = flag_hint  # a model field typed as a flag: --dvs FIELD=VALUE
@@ -64,9 +70,19 @@ def _note(message, category, filename, lineno, file=None, line=None) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the `evsim` command line on argv (default: sys.argv[1:]) and return its exit code: 0 success, 2 usage
-    error, bad input or a full disk, 3 some sequences failed, 1 unexpected failure, 130 interrupted, 143 terminated
-    (see the module docstring)."""
+    """Run the `evsim` command line (see the module docstring).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: sys.argv[1:]).
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 2 usage error, bad input or a full disk, 3 some sequences failed, 1 unexpected
+        failure, 130 interrupted, 143 terminated.
+    """
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as e:  # argparse: --help (0) or a usage error (2), message already printed

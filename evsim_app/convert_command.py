@@ -15,7 +15,13 @@ from .model_flags import sensor_size
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register `convert` on the evsim subparsers."""
+    """Register `convert` on the evsim subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     conv = sub.add_parser("convert", help="video(s) -> events (+ LDR frames + HDR reference with --outputs), one "
                           "sequence per clip",
                           epilog=EPILOG)
@@ -77,7 +83,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     conv.set_defaults(func=run)
 
 def run(args: argparse.Namespace) -> int:
-    """`evsim convert`: every clip to one sequence, then one line naming the folder."""
+    """`evsim convert`: every clip to one sequence, then one line naming the folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim convert`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from types import SimpleNamespace
 
     from generators.convert import convert
@@ -109,7 +126,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def conditioning_option(args: argparse.Namespace) -> str | dict | None:
-    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn."""
+    """convert's scene option `conditioning` from --input-conditioning and --input-noise-dn.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    str, dict or None
+        A mode name, a table with noise_dn (DN), or None (the default).
+    """
     if args.input_noise_dn is None:
         return args.input_conditioning
     if args.input_conditioning == "off":

@@ -19,7 +19,18 @@ if TYPE_CHECKING:
 
 
 def settings_from_flags(args: argparse.Namespace) -> dict:
-    """Sequence settings (generators.config schema) from the flags that were given."""
+    """Sequence settings (generators.config schema) from the flags that were given.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    dict
+        The settings (generators.config.DEFAULTS keys and units).
+    """
     from generators.config import resolve_sensor
 
     height, width = sensor_size(args)
@@ -44,7 +55,18 @@ def settings_from_flags(args: argparse.Namespace) -> dict:
 
 
 def scene_sequences(args: argparse.Namespace) -> list[dict]:
-    """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set."""
+    """[[sequence]] tables for the scene flags: --image, or --scene (built-in names), or the whole built-in set.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    list of dict
+        The sequence tables.
+    """
     from generators.builtin_sequences import BUILTIN_SEQUENCES
 
     if args.image is not None:
@@ -65,8 +87,18 @@ _SCENE_FLAGS = ("scene", "image", "duration_s", "height", "width", "sensor_size"
 
 
 def lighting_from_flags(args: argparse.Namespace) -> dict | None:
-    """The scene lighting table of --lighting (None without it); EvsimInputError naming the flag for an unknown
-    field."""
+    """The scene lighting table of --lighting; EvsimInputError naming the flag for an unknown field.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    dict or None
+        The table (generators.scenes.LIGHTING_KEYS: Hz, fraction, radians, fraction), None without --lighting.
+    """
     from generators.scenes import LIGHTING_KEYS, checked_lighting
 
     table = parse_assignments("--lighting", args.lighting)
@@ -79,7 +111,18 @@ def lighting_from_flags(args: argparse.Namespace) -> dict | None:
 
 def dataset_config(args: argparse.Namespace) -> DatasetConfig:
     """The dataset configuration of generate: --config with the model flags over every sequence, or the scene
-    flags' sequences."""
+    flags' sequences.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    DatasetConfig
+        The configuration.
+    """
     from generators.config import load_config, parse_config, resolve_sensor
 
     if args.config is not None:
@@ -108,7 +151,15 @@ def dataset_config(args: argparse.Namespace) -> DatasetConfig:
 
 def add_sensor_flags(g: argparse._ArgumentGroup, crf_default: str = "window") -> None:
     """The LDR camera, CRF, DVS sampling and output flags shared by generate and convert (read by
-    settings_from_flags, with the camera's --fps)."""
+    settings_from_flags, with the camera's --fps).
+
+    Parameters
+    ----------
+    g : argparse._ArgumentGroup
+        The group to add the flags to.
+    crf_default : str, optional
+        The --crf default (default "window").
+    """
     g.add_argument("--exposure-us", type=positive(int),
                    help="exposure time of each frame in microseconds (default 10000)")
     g.add_argument("--crf", help=f"camera response function name from crf_models (default: {crf_default})")
@@ -131,6 +182,13 @@ def add_sensor_flags(g: argparse._ArgumentGroup, crf_default: str = "window") ->
 
 
 def add_scene_flags(p: argparse.ArgumentParser) -> None:
+    """--config and the scene, sensor and model flags of `evsim generate` (read by dataset_config).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser to add the flags to.
+    """
     from generators.builtin_sequences import BUILTIN_SEQUENCES
 
     names = ", ".join(s["name"] for s in BUILTIN_SEQUENCES)

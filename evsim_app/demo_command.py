@@ -12,7 +12,13 @@ from .model_flags import add_model_flags, camera_overrides, dvs_overrides, senso
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register `demo` on the evsim subparsers."""
+    """Register `demo` on the evsim subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     demo = sub.add_parser("demo", help="generate a short built-in AHDR sequence, reconstruct it and print metrics",
                           epilog=EPILOG)
     demo.add_argument("--out", default="evsim_demo", help="output folder (default ./evsim_demo); demo.h5 and "
@@ -29,7 +35,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """`evsim demo`: the sequence, what it holds, then the scores (compiling the filters meanwhile)."""
+    """`evsim demo`: the sequence, what it holds, then the scores (compiling the filters meanwhile).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim demo`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.demo import score_demo, write_demo_sequence
     from evsim_eval.protocols import UNITS
     from generators.config import resolve_sensor

@@ -15,7 +15,13 @@ from .realism_command import add_realism_flags
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register `evaluate` on the evsim subparsers."""
+    """Register `evaluate` on the evsim subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     ev = sub.add_parser("evaluate", help="score HDR reconstructions per sequence (AKF, baselines) and print a table",
                         epilog=EPILOG)
     ev.add_argument("dataset", type=Path, help="a file evsim reads with frames (native .h5, AEDAT4, AKF .mat, ...), an "
@@ -71,7 +77,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """`evsim evaluate DATASET`: the table of scores (or the denoise or realism task), and --json."""
+    """`evsim evaluate DATASET`: the table of scores (or the denoise or realism task), and --json.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim evaluate`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.evaluate import evaluate_dataset
     from evsim_eval.tables import format_table, scoring_record, write_json
 
@@ -100,7 +117,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def evaluate_denoise(args: argparse.Namespace) -> int:
-    """`evsim evaluate DATASET --task denoise`: the filters' table, and --json."""
+    """`evsim evaluate DATASET --task denoise`: the filters' table, and --json.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.denoisers import evaluate_denoise_dataset, format_denoise_table, write_denoise_json
 
     refuse_run_flags(args, "--task denoise runs in this process")
@@ -117,11 +145,30 @@ def evaluate_denoise(args: argparse.Namespace) -> int:
 
 
 def refuse_run_flags(args: argparse.Namespace, why: str) -> None:
-    """EvsimInputError when --workers or --scheduler is given to a task that runs in this process."""
+    """EvsimInputError when --workers or --scheduler is given to a task that runs in this process.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+    why : str
+        The task, for the message.
+    """
     if args.workers is not None or args.scheduler is not None:
         raise sim.EvsimInputError(f"{why}: drop --workers/--scheduler")
 
 
 def metrics_of(args: argparse.Namespace) -> tuple[str, ...]:
-    """--metrics, or the --protocol's default metrics (evsim_eval.choices.DEFAULT_METRICS) when not given."""
+    """The metrics to score.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    tuple of str
+        --metrics, or the --protocol's default metrics (evsim_eval.choices.DEFAULT_METRICS) when not given.
+    """
     return DEFAULT_METRICS[args.protocol] if args.metrics is None else names(args.metrics)

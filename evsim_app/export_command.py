@@ -10,7 +10,20 @@ from generators.choices import FORMATS
 
 
 def add_parser(subparsers: argparse._SubParsersAction, epilog: str) -> argparse.ArgumentParser:
-    """Register `export` on the evsim subparsers; return its parser."""
+    """Register `export` on the evsim subparsers; return its parser.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The evsim subparsers.
+    epilog : str
+        The epilog shared by the subcommands' help.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p = subparsers.add_parser(
         "export", epilog=epilog,
         help="write a dataset evsim reads (a file, a recording folder, or a folder of sequences) in another layout")
@@ -28,7 +41,18 @@ def add_parser(subparsers: argparse._SubParsersAction, epilog: str) -> argparse.
 
 
 def run(args: argparse.Namespace) -> int:
-    """The handler: export, then one line per written sequence."""
+    """The handler: export, then one line per written sequence.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim export`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from generators.exports import export_path
 
     done = export_path(args.source, args.dest, args.format, overwrite=args.overwrite,

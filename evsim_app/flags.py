@@ -22,13 +22,34 @@ SENSOR_HELP = (f"the sensor model: a DVS preset ({', '.join(sim.DVS_PRESETS)}) o
 
 
 def non_negative(kind: type) -> Callable[[str], float]:
-    """argparse type: a finite number >= 0 converted by kind (int for seeds, float for rates)."""
+    """argparse type: a finite number >= 0.
+
+    Parameters
+    ----------
+    kind : type
+        The conversion: int for seeds and counts, float for rates.
+
+    Returns
+    -------
+    callable
+        parse(text) -> the number; argparse.ArgumentTypeError otherwise.
+    """
     return _number(kind, allow_zero=True)
 
 
 def positive(kind: type) -> Callable[[str], float]:
-    """argparse type: a finite number > 0 converted by kind (int for sizes and exposures, float for durations and
-    rates): `--duration-s -1` is refused by argparse, naming the flag."""
+    """argparse type: a finite number > 0 (`--duration-s -1` is refused by argparse, naming the flag).
+
+    Parameters
+    ----------
+    kind : type
+        The conversion: int for sizes and exposures, float for durations and rates.
+
+    Returns
+    -------
+    callable
+        parse(text) -> the number; argparse.ArgumentTypeError otherwise.
+    """
     return _number(kind, allow_zero=False)
 
 
@@ -51,7 +72,18 @@ def _number(kind: type, *, allow_zero: bool) -> Callable[[str], float]:
 
 
 def output_list(text: str) -> list[str]:
-    """argparse type of --outputs: comma-separated names of generators.choices.OUTPUTS, events among them."""
+    """argparse type of --outputs.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated names of generators.choices.OUTPUTS, events among them.
+
+    Returns
+    -------
+    list of str
+        The names.
+    """
     names = [o.strip() for o in text.split(",") if o.strip()]
     unknown = [o for o in names if o not in OUTPUTS]
     if unknown or "events" not in names:
@@ -61,6 +93,18 @@ def output_list(text: str) -> list[str]:
 
 
 def names(text: str) -> tuple[str, ...]:
+    """argparse type of a comma-separated list of names.
+
+    Parameters
+    ----------
+    text : str
+        The list.
+
+    Returns
+    -------
+    tuple of str
+        The names, stripped (at least one).
+    """
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     if not names:
         raise sim.EvsimInputError(f"expected a comma-separated list of names, got {text!r}")
@@ -68,7 +112,15 @@ def names(text: str) -> tuple[str, ...]:
 
 
 def add_run_flags(p: argparse.ArgumentParser, *, resume: bool = True) -> None:
-    """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner)."""
+    """--workers / --scheduler (and --resume): where the per-sequence tasks run (generators.runner).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser to add the flags to.
+    resume : bool, optional
+        Add --resume too (default True).
+    """
     g = p.add_argument_group("running the sequences (default: one after the other in this process)")
     where = g.add_mutually_exclusive_group()
     where.add_argument("--workers", type=non_negative(int), metavar="N",
@@ -83,22 +135,60 @@ def add_run_flags(p: argparse.ArgumentParser, *, resume: bool = True) -> None:
 
 
 def run_options(args: argparse.Namespace) -> dict:
-    """workers, scheduler (and resume) keyword arguments from the flags of add_run_flags."""
+    """The run keyword arguments from the flags of add_run_flags.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    dict
+        workers, scheduler (and resume), as generators.dataset.generate_dataset takes them.
+    """
     return {k: getattr(args, k) for k in ("workers", "scheduler", "resume") if hasattr(args, k)}
 
 
 def add_akf_flags(p: argparse.ArgumentParser) -> None:
+    """--leak-hz: the AKF's command-line option.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser to add the flag to.
+    """
     p.add_argument("--leak-hz", type=non_negative(float), default=None,
                    help="the DVS's leak rate (Hz) for the AKF's leak-aware event model (default: the recorded "
                         "one, else 0 = the paper's model)")
 
 
 def akf_options(args: argparse.Namespace) -> dict:
-    """{"akf": {...}} from the AKF's command-line options (only those given: the recording's values otherwise)."""
+    """The AKF's options from the command line (only those given: the recording's values otherwise).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of add_akf_flags.
+
+    Returns
+    -------
+    dict
+        {method: {"leak_rate_hz": Hz}} for each Kalman method, or {}.
+    """
     return {} if args.leak_hz is None else {m: {"leak_rate_hz": args.leak_hz} for m in KALMAN_METHODS}
 
 
 def add_output_flags(p: argparse.ArgumentParser, default_out: str) -> None:
+    """--out, --overwrite, --seed, --format and --no-progress of the generating subcommands.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser to add the flags to.
+    default_out : str
+        The default output folder.
+    """
     p.add_argument("--out", default=default_out, help=f"output folder (default: {default_out})")
     p.add_argument("--overwrite", action="store_true", help="replace the contents of an existing, non-empty --out")
     p.add_argument("--seed", type=non_negative(int), default=None,

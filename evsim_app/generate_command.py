@@ -10,7 +10,13 @@ from .flags import EPILOG, add_output_flags, add_run_flags, run_options
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register `generate` on the evsim subparsers."""
+    """Register `generate` on the evsim subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     gen = sub.add_parser("generate", help="generate datasets (ahdr, sweep)", epilog=EPILOG)
     gsub = gen.add_subparsers(dest="generator", required=True)
     ahdr = gsub.add_parser("ahdr", help="scene(s) -> events + LDR frames + HDR reference, one file per sequence",
@@ -35,7 +41,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run_ahdr(args: argparse.Namespace) -> int:
-    """`evsim generate ahdr`: one file per sequence, then one line naming the folder."""
+    """`evsim generate ahdr`: one file per sequence, then one line naming the folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from generators.dataset import generate_dataset
 
     cfg = dataset_config(args)
@@ -46,7 +63,18 @@ def run_ahdr(args: argparse.Namespace) -> int:
 
 
 def run_sweep(args: argparse.Namespace) -> int:
-    """`evsim generate sweep`: one scene over a grid of DVS parameters, then one line naming the folder."""
+    """`evsim generate sweep`: one scene over a grid of DVS parameters, then one line naming the folder.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from generators.config import build_scene, to_ahdr_config
     from generators.sweep import DEFAULT_GRID, GRID_KEYS, generate_sweep
 

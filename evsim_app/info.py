@@ -32,16 +32,28 @@ LABEL_NAMES = ("signal", "shot", "leak", "hot")
 
 
 def describe(path: str | Path) -> dict:
-    """Summary of a dataset in any readable layout (times in microseconds, rates in Hz, durations in s):
-    path, layout, height, width, duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz,
-    t_first_us, t_last_us, labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None,
-    reference {count, t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} or None, crf,
-    seed_entropy, generator, input (a converted video: path, capture_fps, rate_from, resize, linearisation,
-    conditioning) or None, lighting (a scene under flickering light: flicker_hz, depth, phase_rad, rise_fraction)
-    or None, sensor_model (the sensor's record: name, file, provenance, ...), dvs_changes ({field: value} of the
-    DVS fields the run set over that sensor's, auto-resolved illumination aside), packages, outputs (what the
-    generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
-    whether it has index.json, sequences: [one such dict each]}. Raises DatasetFormatError for unreadable files."""
+    """Summary of a dataset in any readable layout: what `evsim info` prints. Raises DatasetFormatError for
+    unreadable files.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file or folder in any layout generators.formats.load reads, or a folder of sequences.
+
+    Returns
+    -------
+    dict
+        JSON-serialisable (times in microseconds, rates in Hz, durations in s): path, layout, height, width
+        (pixels), duration_s, t_start_us, t_end_us, events {count, on, off, rate_hz, t_first_us, t_last_us,
+        labels}, frames {count, bit_depth, rate_hz, exposure_us {min, mean, max}} or None, reference {count,
+        t_first_us, t_last_us} or None, threshold_maps {on_mean, off_mean} (log units) or None, crf, seed_entropy,
+        generator, input (a converted video: path, capture_fps, rate_from, resize, linearisation, conditioning) or
+        None, lighting (a scene under flickering light: flicker_hz, depth, phase_rad, rise_fraction) or None,
+        sensor_model (the sensor's record: name, file, provenance, ...), dvs_changes ({field: value} of the DVS
+        fields the run set over that sensor's, auto-resolved illumination aside), packages, outputs (what the
+        generator was asked to write, or None). A folder of sequences gives {path, layout: "folder", index:
+        whether it has index.json, sequences: [one such dict each]}.
+    """
     path = Path(path)
     sequences = folder_sequences(path)
     if sequences is not None:
@@ -198,7 +210,18 @@ def _folder_kind(path: Path) -> str:
 
 
 def format_description(d: dict) -> str:
-    """A human-readable, multi-line rendering of describe()'s dictionary."""
+    """A human-readable rendering of describe()'s dictionary.
+
+    Parameters
+    ----------
+    d : dict
+        What describe() returns.
+
+    Returns
+    -------
+    str
+        Multi-line text (what `evsim info` prints).
+    """
     if "sequences" in d:
         n = len(d["sequences"])
         head = f"{d['path']} ({d['kind']}, {n} sequence{'s' * (n != 1)})"

@@ -10,7 +10,20 @@ from pathlib import Path
 
 
 def add_parser(subparsers: argparse._SubParsersAction, epilog: str) -> argparse.ArgumentParser:
-    """Register `lab` on the evsim subparsers; return its parser."""
+    """Register `lab` on the evsim subparsers; return its parser.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The evsim subparsers.
+    epilog : str
+        The epilog shared by the subcommands' help.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p = subparsers.add_parser(
         "lab", epilog=epilog,
         help="the teaching lab: interactive panels (one pixel, a sensor over a scene, reconstruction, real data) in "
@@ -26,7 +39,18 @@ def add_parser(subparsers: argparse._SubParsersAction, epilog: str) -> argparse.
 
 
 def run(args: argparse.Namespace) -> int:
-    """The handler: check the extra and the flags, print the address, serve until Ctrl-C."""
+    """The handler: check the extra and the flags, print the address, serve until Ctrl-C.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim lab`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     import sim
     from evsim_app.lab import require_panel
 

@@ -21,8 +21,20 @@ from sim.suggest import closest, similarity, unknown_name
 
 
 def field_list(cls: type, units: dict[str, str]) -> str:
-    """"name (unit; default value), ..." for every field of the dataclass cls (its defaults), from its units
-    table (sim.dvs_params.FIELD_UNITS, sim.camera_params.FIELD_UNITS)."""
+    """The fields of a parameter dataclass, for a flag's help.
+
+    Parameters
+    ----------
+    cls : type
+        The dataclass (sim.DVSParams, sim.CameraParams): its defaults are listed.
+    units : dict of str to str
+        Its units table (sim.dvs_params.FIELD_UNITS, sim.camera_params.FIELD_UNITS).
+
+    Returns
+    -------
+    str
+        "name (unit; default value), ..." for every field.
+    """
     defaults = cls()
     return ", ".join(f"{f.name} ({units[f.name]}; default "
                      f"{_AUTOMATIC.get(f.name) or _default(getattr(defaults, f.name))})"
@@ -41,7 +53,15 @@ def _default(v: object) -> str:
 
 
 def add_model_flags(group: argparse._ActionsContainer, *, sensor_size: bool = True) -> None:
-    """Add --dvs, --camera (and --sensor-size) to a parser or argument group."""
+    """Add --dvs, --camera (and --sensor-size) to a parser or argument group.
+
+    Parameters
+    ----------
+    group : argparse._ActionsContainer
+        The parser or argument group.
+    sensor_size : bool, optional
+        Add --sensor-size too (default True).
+    """
     group.add_argument("--dvs", action="append", metavar="FIELD=VALUE",
                        help="set a DVS field over the sensor's (repeatable; FIELD=VALUE,FIELD=VALUE): "
                             + field_list(sim.DVSParams, dvs_params.FIELD_UNITS))
@@ -56,8 +76,20 @@ def add_model_flags(group: argparse._ActionsContainer, *, sensor_size: bool = Tr
 
 
 def parse_assignments(flag: str, texts: list[str] | None) -> dict:
-    """FIELD=VALUE texts (each possibly several, comma-separated) -> {field: value}; field names may use - for _.
-    EvsimInputError naming the flag for a text without '='."""
+    """Parse FIELD=VALUE texts; field names may use - for _. EvsimInputError naming the flag for a text without '='.
+
+    Parameters
+    ----------
+    flag : str
+        The flag, for the error message ("--dvs", "--camera").
+    texts : list of str or None
+        Its values, each possibly several comma-separated assignments.
+
+    Returns
+    -------
+    dict
+        {field: value}, values as TOML spells them (units: the fields').
+    """
     out = {}
     for text in texts or []:
         for item in _split_top_level(text):
@@ -100,14 +132,38 @@ def _toml_value(text: str) -> object:
 
 
 def dvs_overrides(args: argparse.Namespace) -> dict:
-    """The --dvs fields, checked (sim.sensor_file.check_dvs_fields)."""
+    """The --dvs fields, checked (sim.sensor_file.check_dvs_fields).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    dict
+        {field: value} (units: sim.dvs_params.FIELD_UNITS).
+    """
     return check_dvs_fields("--dvs", parse_assignments("--dvs", getattr(args, "dvs", None)))
 
 
 def camera_overrides(args: argparse.Namespace, named: dict[str, tuple[str, object]] | None = None) -> dict:
     """The --camera fields and those of the named camera flags given (flag -> (field, value); value None: not
     given), checked (sim.sensor_file.check_camera_fields). EvsimInputError when a named flag and --camera set the
-    same field."""
+    same field.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+    named : dict, optional
+        Named camera flags: flag -> (field, value), value None when not given.
+
+    Returns
+    -------
+    dict
+        {field: value} (units: sim.camera_params.FIELD_UNITS).
+    """
     fields = parse_assignments("--camera", getattr(args, "camera", None))
     for flag, (key, value) in (named or {}).items():
         if value is not None:
@@ -118,8 +174,19 @@ def camera_overrides(args: argparse.Namespace, named: dict[str, tuple[str, objec
 
 
 def sensor_size(args: argparse.Namespace) -> tuple[int | None, int | None]:
-    """(height, width) from --sensor-size, else from --height and --width (None where not given). EvsimInputError
-    for an unknown name (with the closest) or when --height/--width are given too."""
+    """The sensor size from --sensor-size, else from --height and --width. EvsimInputError for an unknown name
+    (with the closest) or when --height/--width are given too.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags.
+
+    Returns
+    -------
+    tuple of int or None
+        (height, width) in pixels (None where not given).
+    """
     name = getattr(args, "sensor_size", None)
     if name is None:
         return args.height, args.width
@@ -131,7 +198,7 @@ def sensor_size(args: argparse.Namespace) -> tuple[int | None, int | None]:
     return SENSOR_SIZES[name]
 
 
-#: v2e's model flags (Hu, Liu, Delbruck 2021, v2e's --help) -> what sets the same here
+#: v2e's model flags (Hu et al. 2021 [Hu2021], v2e's --help) -> what sets the same here
 V2E_FLAGS = {
     "pos_thres": "--dvs pos_threshold=VALUE", "neg_thres": "--dvs neg_threshold=VALUE",
     "sigma_thres": "--dvs threshold_sigma=VALUE", "cutoff_hz": "--dvs cutoff_hz=VALUE",
@@ -144,7 +211,18 @@ V2E_FLAGS = {
 def flag_hint(flag: str) -> tuple[str, float] | None:
     """(what sets the model field a flag names, how close the name is: 0..1) for a field typed as a flag
     (--pos-threshold, --shot-noise, v2e's --pos_thres): "--dvs FIELD=VALUE", "--camera FIELD=VALUE" or
-    "--sensor-size NAME"; None when it is near no field."""
+    "--sensor-size NAME".
+
+    Parameters
+    ----------
+    flag : str
+        The unknown flag.
+
+    Returns
+    -------
+    tuple of (str, float) or None
+        (what sets the field, how close the name is: 0..1); None when it is near no field.
+    """
     name = flag.lstrip("-").replace("-", "_").lower()
     if name in V2E_FLAGS:
         return V2E_FLAGS[name], 1.0

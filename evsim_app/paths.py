@@ -25,7 +25,13 @@ MAX_NAME_BYTES = 255  # per path component (NAME_MAX of Linux, macOS and Windows
 
 def check_paths(args: argparse.Namespace) -> None:
     """--config and the outputs, before any work: EvsimInputError (exit 2, one line) naming the flag, the path and
-    the problem. The configuration file itself is read by generators.config.read_text_file."""
+    the problem. The configuration file itself is read by generators.config.read_text_file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+    """
     config = getattr(args, "config", None)
     if config is not None and not str(config):
         raise sim.EvsimInputError("--config is empty: give a TOML configuration file")
@@ -39,7 +45,18 @@ def check_paths(args: argparse.Namespace) -> None:
 
 
 def check_output(flag: str, text: str, *, folder: bool | None) -> None:
-    """An output path that can be created (or, for a folder, exists as one) and written; folder=None: either."""
+    """Check an output path: it can be created (or, for a folder, exists as one) and written; EvsimInputError
+    naming the flag otherwise.
+
+    Parameters
+    ----------
+    flag : str
+        The flag that gave it, for the message.
+    text : str
+        The path.
+    folder : bool or None
+        True for a folder, False for a file, None for either.
+    """
     from generators.config import missing_path_reason
 
     kind = "folder" if folder else "file"
@@ -78,7 +95,18 @@ def check_output(flag: str, text: str, *, folder: bool | None) -> None:
 
 def writable(folder: Path) -> bool:
     """Whether a file can be created in `folder`: tried (a temporary file, removed at once), since permission bits
-    do not tell for root, read-only mounts or virtual file systems such as /proc."""
+    do not tell for root, read-only mounts or virtual file systems such as /proc.
+
+    Parameters
+    ----------
+    folder : Path
+        An existing folder.
+
+    Returns
+    -------
+    bool
+        Whether a file could be created there.
+    """
     import tempfile
 
     if not os.access(folder, os.W_OK | os.X_OK):

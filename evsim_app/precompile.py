@@ -25,7 +25,13 @@ if TYPE_CHECKING:
 
 
 def start_background_compile() -> subprocess.Popen | None:
-    """Start the child when the numba cache lacks the AKF's kernels; None when there is nothing to compile."""
+    """Start the child when the numba cache lacks the AKF's kernels.
+
+    Returns
+    -------
+    subprocess.Popen or None
+        The child process; None when there is nothing to compile.
+    """
     if _akf_cached():
         return None
     root = str(Path(__file__).resolve().parents[1])  # the child imports the same evsim as this process
@@ -40,7 +46,15 @@ def start_background_compile() -> subprocess.Popen | None:
 
 
 def wait(proc: subprocess.Popen | None, timeout_s: float = 600.0) -> None:
-    """Wait for the child (its kernels are then in the cache; if it failed, the caller compiles them itself)."""
+    """Wait for the child (its kernels are then in the cache; if it failed, the caller compiles them itself).
+
+    Parameters
+    ----------
+    proc : subprocess.Popen or None
+        The child (None: nothing to wait for).
+    timeout_s : float, optional
+        The longest wait (s; default 600), after which the child is stopped.
+    """
     if proc is not None:
         try:
             proc.wait(timeout_s)
@@ -70,7 +84,24 @@ def _akf_cached() -> bool:
 def toy_recording(height: int = 16, width: int = 16, n_frames: int = 4, n_events: int = 400,
                   seed: int = 0) -> Recording:
     """A small hybrid recording with the array types of a generated one (events, 8-bit frames, HDR reference,
-    threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses."""
+    threshold maps, window CRF): running the reconstruction on it compiles the kernels a real one uses.
+
+    Parameters
+    ----------
+    height, width : int, optional
+        Sensor size (pixels; default 16 x 16).
+    n_frames : int, optional
+        Frames (default 4).
+    n_events : int, optional
+        Events (default 400).
+    seed : int, optional
+        Seed of the random events (default 0).
+
+    Returns
+    -------
+    Recording
+        The recording.
+    """
     import sim
     from generators.formats.recording import Recording
 
@@ -109,14 +140,35 @@ class _FlatSource:
 
 def toy_capture(camera_params: CameraParams, crf: CRF, height: int = 16, width: int = 16) -> list:
     """The frames of 0.1 s of a flat scene through the LDR camera (compiles its kernels for camera_params' bit
-    depth)."""
+    depth).
+
+    Parameters
+    ----------
+    camera_params : CameraParams
+        The camera's parameters.
+    crf : CRF
+        Its response curve.
+    height, width : int, optional
+        Image size (pixels; default 16 x 16).
+
+    Returns
+    -------
+    list
+        The captured frames (sim.LDRFrame).
+    """
     import sim
 
     return list(sim.LDRCamera(height, width, camera_params, crf, 0).capture(_FlatSource(height, width, 100_000)))
 
 
 def main() -> int:
-    """The demo's kernels, in the order it needs them after the DVS: the camera's, then the reconstruction's."""
+    """The demo's kernels, in the order it needs them after the DVS: the camera's, then the reconstruction's.
+
+    Returns
+    -------
+    int
+        The child's exit code (0).
+    """
     import crf_models
     from evsim_eval.evaluate import evaluate_recording
     from generators.builtin import ahdr_suite_config

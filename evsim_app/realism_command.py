@@ -13,7 +13,13 @@ import sim
 
 
 def add_realism_flags(parser: argparse.ArgumentParser) -> None:
-    """The --task realism flags of the evaluate parser."""
+    """The --task realism flags of the evaluate parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser to add the flags to.
+    """
     g = parser.add_argument_group("--task realism: how real a simulation's events are (DATASET is the real "
                                   "recording: AEDAT4, IJRR folder, native HDF5, ...)")
     g.add_argument("--against", type=Path, metavar="SIM",
@@ -25,7 +31,13 @@ def add_realism_flags(parser: argparse.ArgumentParser) -> None:
 
 
 def check_realism_args(args: argparse.Namespace) -> None:
-    """EvsimInputError for flags of the other tasks, a missing --against or a bad --window."""
+    """EvsimInputError for flags of the other tasks, a missing --against or a bad --window.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+    """
     if args.against is None:
         raise sim.EvsimInputError("--task realism needs --against SIM, the simulated recording to score")
     if args.workers is not None or args.scheduler is not None or args.tune:
@@ -36,7 +48,18 @@ def check_realism_args(args: argparse.Namespace) -> None:
 
 
 def evaluate_realism(args: argparse.Namespace) -> int:
-    """Print the realism table of --against against DATASET and write --json."""
+    """Print the realism table of --against against DATASET and write --json.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command-line flags.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.realism import format_comparison, load_one, score_recordings, write_comparison_json
 
     check_realism_args(args)

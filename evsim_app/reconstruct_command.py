@@ -13,7 +13,13 @@ from .flags import EPILOG, add_akf_flags, akf_options
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register `reconstruct` on the evsim subparsers."""
+    """Register `reconstruct` on the evsim subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The evsim subparsers.
+    """
     rc = sub.add_parser("reconstruct", help="reconstruct HDR frames and write them as EXR (with timestamps.txt)",
                         epilog=EPILOG)
     rc.add_argument("dataset", type=Path, help="as for evaluate")
@@ -35,7 +41,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """`evsim reconstruct DATASET --out DIR`: EXR frames of every sequence, written atomically."""
+    """`evsim reconstruct DATASET --out DIR`: EXR frames of every sequence, written atomically.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed flags of `evsim reconstruct`.
+
+    Returns
+    -------
+    int
+        The exit code (0: success; errors are raised, for evsim_app.main to report).
+    """
     from evsim_eval.reconstruct import reconstruct_dataset
 
     if args.leak_hz is not None and args.method not in KALMAN_METHODS:

@@ -77,7 +77,13 @@ class Watchdog:
 
 
 def end_now(reported: bool = False) -> None:
-    """Delete this process's temporaries, stop its child processes, exit 143 (the SIGTERM deadline)."""
+    """Delete this process's temporaries, stop its child processes, exit 143 (the SIGTERM deadline).
+
+    Parameters
+    ----------
+    reported : bool, optional
+        The SIGTERM message is printed already (default False: print it).
+    """
     from generators.formats.atomic import discard_live
     from generators.runner import stop_child_processes
 
@@ -98,7 +104,15 @@ class Terminated(BaseException):
 
 
 def on_sigterm(signum: int, frame: object) -> None:
-    """The CLI's SIGTERM handler: raise Terminated in the main thread."""
+    """The CLI's SIGTERM handler: raise Terminated in the main thread.
+
+    Parameters
+    ----------
+    signum : int
+        The signal number.
+    frame : object
+        The interrupted frame (unused).
+    """
     raise Terminated()
 
 

@@ -25,10 +25,36 @@ class SuggestingParser(argparse.ArgumentParser):
 
     def parse_known_args(self, args: list[str] | None = None, namespace: argparse.Namespace | None = None
                          ) -> tuple[argparse.Namespace, list[str]]:
+        """argparse's, noting that this parser took part in the parse (its flags are then compared).
+
+        Parameters
+        ----------
+        args : list of str, optional
+            The arguments (default sys.argv[1:]).
+        namespace : argparse.Namespace, optional
+            The namespace to fill.
+
+        Returns
+        -------
+        tuple of (argparse.Namespace, list of str)
+            The namespace and the arguments not recognised.
+        """
         self._took_part = True
         return super().parse_known_args(args, namespace)
 
     def error(self, message: str) -> NoReturn:
+        """argparse's usage error (exit 2), with the closest allowed name added.
+
+        Parameters
+        ----------
+        message : str
+            argparse's message.
+
+        Returns
+        -------
+        NoReturn
+            Never returns: exits with status 2.
+        """
         match = _INVALID_CHOICE.search(message)
         if match:
             choices = [c.strip().strip("'") for c in match["choices"].split(",")]
@@ -64,8 +90,19 @@ class SuggestingParser(argparse.ArgumentParser):
 
     @staticmethod
     def flag_hint(flag: str) -> tuple[str, float] | None:
-        """(what to type instead of an unknown flag, how close: 0..1) or None; set on the top-level parser (e.g.
-        evsim_app.model_flags.flag_hint: a model field -> --dvs FIELD=VALUE)."""
+        """What to type instead of an unknown flag; set on the top-level parser (e.g.
+        evsim_app.model_flags.flag_hint: a model field -> --dvs FIELD=VALUE).
+
+        Parameters
+        ----------
+        flag : str
+            The unknown flag.
+
+        Returns
+        -------
+        tuple of (str, float) or None
+            (what to type, how close: 0..1), or None (this default: no hint).
+        """
         return None
 
     def _deepest_in_use(self) -> argparse.ArgumentParser:

@@ -63,27 +63,58 @@ _CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of floa
 class AHDRConfig:
     """How to turn a scene into a sequence.
 
-    dvs, camera: the sensor parameters (sim.DVSParams, sim.CameraParams).
-    sensor: the sensor model they came from, as sim.Sensor.describe() gives it (name, base, file, provenance; {}
-        when the parameters were given directly); recorded in the metadata.
-    crf, crf_params: the camera response (crf_models.get(crf, **crf_params)); default the AHDR "window".
-    auto_exposure: set camera.reference_radiance so that the scene's median radiance at t=0 gives the mid response
-        (crf.inverse(0.5)); auto_illumination: set dvs.full_illumination to the scene's 99th-percentile radiance at
-        t=0 (the DVS bandwidth and dark level are relative to it). Both adapt the sensors to the scene's arbitrary
-        radiance units; the resolved values are recorded in the metadata.
-    sampling: "adaptive" (fraction of the smaller mean threshold allowed per sample for the sampling_quantile of
-        the per-pixel log change (1.0: the worst pixel, about 10x denser; on the built-in 346x260 pans
-        and zooms 0.95 gives the same event count within 0.2 %, per-pixel count correlation 0.9998, event times
-        within 14 us median, 277 us at the 99th percentile), min/max step in microseconds)
-        or "fixed" (rate_hz samples per second, at most MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
-    reference_times_us: extra HDR reference times (microseconds); reference_rate_hz: extra references on a
-        regular grid (0: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES references per sequence).
-    outputs: what the file holds, of generators.choices.OUTPUTS: "events" (always), "frames" (the LDR camera's
-        frames; without it the camera is not run) and "reference" (the HDR reference frames). The events are the
-        same whatever the outputs (the DVS input is sampled at the frame and reference times either way).
-    threshold_maps, labels: store the per-pixel thresholds / per-event labels.
-    compression: of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by
-        ISA-L, generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
+    auto_exposure and auto_illumination adapt the sensors to the scene's arbitrary radiance units; the resolved
+    values are recorded in the metadata. The events are the same whatever the outputs (the DVS input is sampled at
+    the frame and reference times either way).
+
+    Attributes
+    ----------
+    dvs : sim.DVSParams
+        The DVS parameters (default the davis346 preset).
+    camera : sim.CameraParams
+        The LDR camera's parameters (default CameraParams()).
+    sensor : dict
+        The sensor model they came from, as sim.Sensor.describe() gives it (name, base, file, provenance; {} when
+        the parameters were given directly); recorded in the metadata.
+    crf : str
+        The camera response's name (``crf_models.get(crf, **crf_params)``); default the AHDR "window".
+    crf_params : dict
+        Its parameters (default {}).
+    auto_exposure : bool
+        Set camera.reference_radiance so that the scene's median radiance at t = 0 gives the mid response
+        (crf.inverse(0.5)); default True.
+    auto_illumination : bool
+        Set dvs.full_illumination to the scene's 99th-percentile radiance at t = 0 (the DVS bandwidth and dark level
+        are relative to it); default True.
+    sampling : {"adaptive", "fixed"}
+        How the DVS input is sampled in time: adaptive steps (default) or rate_hz samples per second (at most
+        MAX_RATE_HZ and MAX_FIXED_SAMPLES per sequence).
+    sampling_fraction : float
+        Adaptive: the fraction of the smaller mean threshold (log units) allowed per sample (default 0.5).
+    sampling_quantile : float
+        Adaptive: the quantile of the per-pixel log change that fraction bounds, in [0.5, 1] (default 0.95; 1.0:
+        the worst pixel, about 10x denser; on the built-in 346x260 pans and zooms 0.95 gives the same event count
+        within 0.2 %, per-pixel count correlation 0.9998, event times within 14 us median, 277 us at the 99th
+        percentile).
+    min_step_us, max_step_us : int
+        Adaptive: the bounds of a step (us; default 10 and 5000).
+    rate_hz : float
+        Fixed: samples per second (Hz, in (0, MAX_RATE_HZ]; default 2000).
+    reference_times_us : tuple of int
+        Extra HDR reference times (us; default none).
+    reference_rate_hz : float
+        Extra references on a regular grid (Hz; 0, the default: none; at most MAX_RATE_HZ, and MAX_REFERENCE_FRAMES
+        references per sequence).
+    threshold_maps : bool
+        Store the per-pixel contrast thresholds (default True).
+    labels : bool
+        Store the per-event labels (default False).
+    compression : {"gzip", "lzf", None}
+        Of the HDF5 datasets: "gzip" (default: HDF5's standard shuffle + deflate filters, compressed by ISA-L,
+        generators.formats.native), "lzf" (h5py's filter: other HDF5 tools need a plugin) or None.
+    outputs : tuple of str
+        What the file holds, of generators.choices.OUTPUTS: "events" (always), "frames" (the LDR camera's frames;
+        without it the camera is not run) and "reference" (the HDR reference frames). Default all.
     """
 
     dvs: sim.DVSParams = field(default_factory=lambda: sim.DVSParams.preset("davis346"))
@@ -123,13 +154,29 @@ class AHDRConfig:
             raise InvalidParameterError(f"sampling must be 'adaptive' or 'fixed', got {self.sampling!r}")
 
     def to_dict(self) -> dict:
-        """JSON-serialisable form (tuples as lists)."""
+        """JSON-serialisable form, recorded in the metadata and hashed into a dataset's spec_hash.
+
+        Returns
+        -------
+        dict
+            The fields by name (units as the Attributes), the sensor parameters as dicts, tuples as lists.
+        """
         return _jsonable(dataclasses.asdict(self))
 
 
 def check_outputs(outputs: Iterable[str]) -> tuple[str, ...]:
-    """outputs as a tuple in OUTPUTS order: names of OUTPUTS, "events" among them; InvalidParameterError naming
-    an unknown one."""
+    """The outputs checked: names of OUTPUTS, "events" among them; InvalidParameterError naming an unknown one.
+
+    Parameters
+    ----------
+    outputs : iterable of str
+        Output names.
+
+    Returns
+    -------
+    tuple of str
+        The outputs in OUTPUTS order.
+    """
     if isinstance(outputs, str) or not all(isinstance(o, str) for o in outputs):
         raise InvalidParameterError(f"outputs must be a list of names ({', '.join(OUTPUTS)}), got {outputs!r}")
     unknown = [o for o in outputs if o not in OUTPUTS]
@@ -152,10 +199,23 @@ def _jsonable(v):
 
 @dataclass
 class GenerationResult:
-    """What generate_ahdr wrote: the file, counts, and the split of the work in seconds by stage: scene (scene
-    rendering and sampling-step control), dvs (the emulator), camera (exposure, noise, CRF; without rendering),
-    writing (the HDF5 file), total (the whole call). timings_s is wall-clock time; cpu_s is CPU time of the
-    process (time.process_time: all threads, so a stage on 2 threads counts twice its wall time)."""
+    """What generate_ahdr wrote: the file, counts, and the split of the work in seconds by stage.
+
+    Attributes
+    ----------
+    path : Path
+        The native file.
+    n_events, n_frames, n_references : int
+        Events, LDR frames and HDR reference frames written.
+    n_dvs_samples : int
+        Radiance samples the DVS was fed.
+    timings_s : dict
+        Wall-clock seconds by stage: "scene" (scene rendering and sampling-step control), "dvs" (the emulator),
+        "camera" (exposure, noise, CRF; without rendering), "writing" (the HDF5 file), "total" (the whole call).
+    cpu_s : dict
+        CPU seconds of the process by the same stages (time.process_time: all threads, so a stage on 2 threads
+        counts twice its wall time).
+    """
 
     path: Path
     n_events: int
@@ -196,13 +256,36 @@ def _versions() -> tuple:
 
 
 def package_versions() -> dict:
-    """Versions of Python and the packages that determine the output (read once per process)."""
+    """Versions of Python and the packages that determine the output (read once per process).
+
+    Returns
+    -------
+    dict
+        Name -> version string ("python" and the packages; None for a package that is not installed).
+    """
     return dict(_versions())
 
 
 def resolve_sensors(scene: RadianceSource,
                     config: AHDRConfig) -> tuple[sim.DVSParams, sim.CameraParams, crf_models.CRF]:
-    """The DVS and camera parameters after auto exposure / illumination, and the CRF object."""
+    """The DVS and camera parameters after auto exposure / illumination, and the CRF object.
+
+    Parameters
+    ----------
+    scene : RadianceSource
+        The scene (its radiance at t = 0 sets the exposure and illumination).
+    config : AHDRConfig
+        The configuration.
+
+    Returns
+    -------
+    dvs : sim.DVSParams
+        With full_illumination set when config.auto_illumination (radiance units).
+    camera : sim.CameraParams
+        With reference_radiance set when config.auto_exposure (radiance units).
+    crf : crf_models.CRF
+        The camera response.
+    """
     try:
         crf = crf_models.get(config.crf, **config.crf_params)
     except crf_models.CRFError as e:

@@ -95,9 +95,22 @@ def ahdr_suite(height: int = 180, width: int = 240, duration_s: float = 1.0, *, 
 
 def ahdr_suite_config(sensor: str | Path | sim.Sensor = "davis346", *, dvs: dict | None = None,
                       camera: dict | None = None) -> AHDRConfig:
-    """generators.ahdr.AHDRConfig of the suite: the sensor (a preset name or a sensor file, see sim.load_sensor)
-    with the dvs and camera field overrides over it, the window CRF, x = reference radiance (reference_fill =
-    reference_radiance = 1, no auto exposure, unless camera sets them), one reference per frame."""
+    """The configuration of the suite: the sensor with the overrides over it, the window CRF, x = reference
+    radiance (reference_fill = reference_radiance = 1, no auto exposure, unless camera sets them), one reference
+    per frame.
+
+    Parameters
+    ----------
+    sensor : str, Path or sim.Sensor, optional
+        A preset name or a sensor file, see sim.load_sensor (default "davis346").
+    dvs, camera : dict, optional
+        sim.DVSParams / sim.CameraParams field overrides (the fields' units).
+
+    Returns
+    -------
+    AHDRConfig
+        The configuration.
+    """
     sensor = sim.load_sensor(sensor)
     settings = {**DEFAULTS, "sensor": sensor, "dvs": dict(dvs or {}),
                 "camera": {"reference_radiance": 1.0, "reference_fill": 1.0, **(camera or {})}}
@@ -108,9 +121,31 @@ def generate_ahdr_suite(out_dir: str | Path, *, height: int = 180, width: int = 
                         seed: int = 0, sensor: str | Path | sim.Sensor = "davis346", overwrite: bool = False,
                         progress: bool = False, include_hdr: bool = True, workers: int | None = None,
                         scheduler: str | None = None, resume: bool = False) -> Path:
-    """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset, with the
-    same workers, scheduler and resume options); return the index path. Sequence i is seeded with child i of
-    SeedSequence(seed)."""
+    """Generate ahdr_suite() into a dataset folder (native files and index.json, as generate_dataset). Sequence i
+    is seeded with child i of SeedSequence(seed).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The dataset folder.
+    height, width : int, optional
+        Sensor size (pixels; default 180 x 240).
+    duration_s : float, optional
+        Duration of each sequence (s; default 1).
+    seed : int, optional
+        The root seed (default 0).
+    sensor : str, Path or sim.Sensor, optional
+        As ahdr_suite_config's.
+    overwrite, progress, workers, scheduler, resume
+        As generate_dataset's.
+    include_hdr : bool, optional
+        As ahdr_suite's (default True).
+
+    Returns
+    -------
+    Path
+        The index.json written.
+    """
     scenes = ahdr_suite(height, width, duration_s, include_hdr=include_hdr)
     root = np.random.SeedSequence(seed)
     config = ahdr_suite_config(sensor)

@@ -111,7 +111,18 @@ DEFAULTS = {
 
 @dataclass
 class SequenceSpec:
-    """One sequence of a dataset, fully resolved: settings as in DEFAULTS plus name and scene."""
+    """One sequence of a dataset, fully resolved.
+
+    Attributes
+    ----------
+    name : str
+        The sequence's name (its file-name stem).
+    scene : dict
+        Its scene table (see SCENE_TYPES; speeds in pixels or degrees per second).
+    settings : dict
+        Its settings as in DEFAULTS (duration_s in seconds, sizes in pixels, dvs / camera tables in the fields'
+        units).
+    """
 
     name: str
     scene: dict
@@ -124,6 +135,22 @@ class SequenceSpec:
 
 @dataclass
 class DatasetConfig:
+    """A dataset configuration, validated (parse_config, load_config).
+
+    Attributes
+    ----------
+    seed : int
+        The root seed: sequence i is seeded with child i of SeedSequence(seed).
+    format : str
+        The output format ("native" or an export format).
+    sequences : list of SequenceSpec
+        The sequences, resolved.
+    sweep : dict
+        The [sweep] table (SWEEP_KEYS name -> list of values), or {}.
+    source : str
+        Where the configuration comes from (a file's path, or "<flags>"), for messages and index.json.
+    """
+
     seed: int
     format: str
     sequences: list[SequenceSpec]
@@ -231,7 +258,20 @@ MAX_NAME_LEN = 200
 
 def check_sequence_name(where: str, name: object) -> str:
     """A sequence name is a plain file-name stem: not empty, no path separator, no leading dot (hidden files,
-    "..") and at most MAX_NAME_LEN characters, so that <out>/<name>.h5 stays inside the output folder."""
+    "..") and at most MAX_NAME_LEN characters, so that <out>/<name>.h5 stays inside the output folder.
+
+    Parameters
+    ----------
+    where : str
+        Where the name comes from, for the error message.
+    name : object
+        The name to check.
+
+    Returns
+    -------
+    str
+        The name; InvalidParameterError naming where otherwise.
+    """
     name = _check_type(where, name, str)
     if not name or len(name) > MAX_NAME_LEN:
         raise _fail(where, f"must be 1..{MAX_NAME_LEN} characters, got {name!r:.80}")
@@ -289,7 +329,22 @@ def _check_scene(where: str, scene, base_dir: Path) -> dict:
 
 
 def parse_config(data: dict, *, source: str = "<config>", base_dir: Path | None = None) -> DatasetConfig:
-    """Validate a configuration already parsed from TOML (a dict) and resolve every sequence."""
+    """Validate a configuration already parsed from TOML (a dict) and resolve every sequence.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML (see the module docstring for its tables).
+    source : str, optional
+        Where it comes from, for the messages (default "<config>").
+    base_dir : Path, optional
+        The folder relative paths (images, videos, sensor files) are resolved against (default the current one).
+
+    Returns
+    -------
+    DatasetConfig
+        The configuration; InvalidParameterError naming the key otherwise.
+    """
     base_dir = Path.cwd() if base_dir is None else base_dir
     top = {"seed": int, "format": str, "defaults": dict, "sequence": list, "sweep": dict}
     for key in data:
@@ -414,7 +469,18 @@ def read_toml(path: str | Path) -> dict:
 
 
 def load_config(path: str | Path) -> DatasetConfig:
-    """Read and validate a TOML dataset configuration (see the module docstring and read_toml)."""
+    """Read and validate a TOML dataset configuration (see the module docstring and read_toml).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file; relative paths in it are resolved against its folder.
+
+    Returns
+    -------
+    DatasetConfig
+        The configuration.
+    """
     path = Path(path)
     return parse_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())
 
@@ -428,8 +494,25 @@ def _as_tuples(v):
 
 
 def build_scene(scene: dict, height: int, width: int, duration_us: int, *, where: str = "scene") -> scenes.Scene:
-    """Construct the radiance source described by a scene table (see SCENE_TYPES) at the given size/duration; a
-    `lighting` table (scenes.LIGHTING_KEYS) puts it under flickering light (scenes.FlickerLighting)."""
+    """Construct the radiance source described by a scene table; a `lighting` table (scenes.LIGHTING_KEYS) puts it
+    under flickering light (scenes.FlickerLighting).
+
+    Parameters
+    ----------
+    scene : dict
+        The scene table: "type" (one of SCENE_TYPES) and its keys.
+    height, width : int
+        Sensor size (pixels).
+    duration_us : int
+        Duration (us).
+    where : str, optional
+        Where the table comes from, for the error messages (default "scene").
+
+    Returns
+    -------
+    Scene
+        The scene.
+    """
     lighting = scene.get("lighting")
     base = _build_scene({k: v for k, v in scene.items() if k != "lighting"}, height, width, duration_us, where)
     if lighting is None:
@@ -467,8 +550,21 @@ def _build_scene(scene: dict, height: int, width: int, duration_us: int, where: 
 
 
 def to_ahdr_config(settings: dict, *, where: str = "settings") -> AHDRConfig:
-    """The generators.ahdr.AHDRConfig for resolved sequence settings (see DEFAULTS): the sensor's DVS parameters
-    with the dvs table over them, the sensor's camera defaults with the camera table over them."""
+    """The generation configuration of resolved sequence settings: the sensor's DVS parameters with the dvs table
+    over them, the sensor's camera defaults with the camera table over them.
+
+    Parameters
+    ----------
+    settings : dict
+        Resolved settings (see DEFAULTS).
+    where : str, optional
+        Where they come from, for the error messages (default "settings").
+
+    Returns
+    -------
+    AHDRConfig
+        The configuration.
+    """
     try:
         sensor = sim.load_sensor(settings["sensor"])
     except EvsimInputError as e:

@@ -39,8 +39,19 @@ DEFAULT_CRF = {"name": "srgb", "params": {}}
 
 
 def clips(inputs: str | Path | Iterable[str | Path]) -> list[Path]:
-    """The clips of `inputs` (a path or a list of paths): each video file, image folder or .npy stack is one
-    clip; a folder that holds video files and no images stands for its videos, in name order."""
+    """The clips of the inputs: each video file, image folder or .npy stack is one clip; a folder that holds video
+    files and no images stands for its videos, in name order.
+
+    Parameters
+    ----------
+    inputs : str, Path or iterable of them
+        A path or a list of paths.
+
+    Returns
+    -------
+    list of Path
+        The clips.
+    """
     paths = [Path(inputs)] if isinstance(inputs, (str, Path)) else [Path(p) for p in inputs]
     if not paths:
         raise EvsimInputError("no input given")
@@ -74,13 +85,28 @@ def _sensor_size(path: Path, height: int | None, width: int | None) -> tuple[int
 def convert_config(inputs: str | Path | Iterable[str | Path], *, settings: dict | None = None,
                    height: int | None = None, width: int | None = None, seed: int = 0,
                    **scene_options: Any) -> DatasetConfig:
-    """The DatasetConfig that converts `inputs` (see clips): one sequence per clip, named after it.
+    """The DatasetConfig that converts the inputs: one sequence per clip, named after it.
 
-    settings: sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; the crf is
-    DEFAULT_CRF, sRGB, unless given; output.outputs defaults to CONVERT_OUTPUTS, the events only: add "frames" and
-    "reference" for the LDR frames and the HDR reference of the clip); height,
-    width: sensor size in pixels (default: each clip's own); scene_options: keys of SCENE_OPTIONS (None: the
-    VideoScene default; black_level defaults to the [input] table of a sensor file given as settings["sensor"]).
+    Parameters
+    ----------
+    inputs : str, Path or iterable of them
+        Clips, as clips() takes them.
+    settings : dict, optional
+        Sequence settings as in generators.config (sensor, dvs, camera, crf, sampling, output; the crf is
+        DEFAULT_CRF, sRGB, unless given; output.outputs defaults to CONVERT_OUTPUTS, the events only: add "frames"
+        and "reference" for the LDR frames and the HDR reference of the clip).
+    height, width : int, optional
+        Sensor size (pixels; default: each clip's own; one alone keeps the clip's aspect ratio).
+    seed : int, optional
+        The root seed (default 0).
+    **scene_options
+        Keys of SCENE_OPTIONS (the video scene table's units: seconds, Hz, DN; None: the VideoScene default;
+        black_level defaults to the [input] table of a sensor file given as settings["sensor"]).
+
+    Returns
+    -------
+    DatasetConfig
+        The configuration.
     """
     unknown = set(scene_options) - set(SCENE_OPTIONS)
     if unknown:
@@ -124,9 +150,22 @@ def convert(inputs: str | Path | Iterable[str | Path], out_dir: str | Path, *, s
             overwrite: bool = False, progress: bool = True, workers: int | None = None, scheduler: str | None = None,
             resume: bool = False, **scene_options: Any) -> Path:
     """Convert video(s) into a dataset folder (one native HDF5 file per clip, with the events only unless
-    settings["output"]["outputs"] asks for frames and reference; an optional export; index.json);
-    return the index path. Arguments as for convert_config; fmt, workers, scheduler, resume: as for
-    generate_dataset (one task per clip)."""
+    settings["output"]["outputs"] asks for frames and reference; an optional export; index.json).
+
+    Parameters
+    ----------
+    inputs, settings, height, width, seed, **scene_options
+        As for convert_config.
+    out_dir : str or Path
+        The dataset folder.
+    fmt, overwrite, progress, workers, scheduler, resume
+        As for generate_dataset (one task per clip; fmt default "native").
+
+    Returns
+    -------
+    Path
+        The index.json written.
+    """
     cfg = convert_config(inputs, settings=settings, height=height, width=width, seed=seed, **scene_options)
     return generate_dataset(cfg, out_dir, overwrite=overwrite, progress=progress, fmt=fmt, workers=workers,
                             scheduler=scheduler, resume=resume)

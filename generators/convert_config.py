@@ -35,8 +35,20 @@ _DICT_SETTINGS = ("dvs", "camera", "sampling", "output")  # merged key by key; t
 
 
 def merge_settings(base: dict, over: dict) -> dict:
-    """Sequence settings `over` over `base`: the dvs, camera, sampling and output tables key by key, the others
-    replaced."""
+    """Sequence settings over others: the dvs, camera, sampling and output tables key by key, the others replaced.
+
+    Parameters
+    ----------
+    base : dict
+        Sequence settings (as generators.config.DEFAULTS).
+    over : dict
+        Settings that take precedence.
+
+    Returns
+    -------
+    dict
+        The merged settings (a new dict; base and over are unchanged).
+    """
     out = dict(base)
     for key, value in over.items():
         out[key] = {**base.get(key, {}), **value} if key in _DICT_SETTINGS else value
@@ -44,9 +56,23 @@ def merge_settings(base: dict, over: dict) -> dict:
 
 
 def parse_convert_config(data: dict, *, source: str = "<convert config>", base_dir: Path | None = None) -> dict:
-    """{"seed": int | None, "format": str | None, "settings": {...}, "video": {...}} from a conversion
-    configuration already parsed from TOML: only the keys it sets, checked (sensor and timestamps paths made
-    absolute, relative to base_dir, default the current folder)."""
+    """Check a conversion configuration already parsed from TOML: only the keys it sets.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed TOML (top-level keys of CONVERT_KEYS).
+    source : str, optional
+        Where it comes from, for the messages (default "<convert config>").
+    base_dir : Path, optional
+        Sensor and timestamps paths are made absolute relative to it (default the current folder).
+
+    Returns
+    -------
+    dict
+        {"seed": int or None, "format": str or None, "settings": {...}, "video": {...}}: the sequence settings and
+        the video scene options it sets (the units of generators.config's tables).
+    """
     base_dir = Path.cwd() if base_dir is None else base_dir
     for key in data:
         if key not in CONVERT_KEYS:
@@ -86,6 +112,17 @@ def _table(source: str, key: str, value: object) -> dict:
 
 
 def load_convert_config(path: str | Path) -> dict:
-    """Read and check a conversion configuration file (see the module docstring and parse_convert_config)."""
+    """Read and check a conversion configuration file (see the module docstring and parse_convert_config).
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file; relative paths in it are resolved against its folder.
+
+    Returns
+    -------
+    dict
+        As parse_convert_config's.
+    """
     path = Path(path)
     return parse_convert_config(read_toml(path), source=str(path), base_dir=path.parent.resolve())

@@ -443,8 +443,23 @@ def _run_into(out: Path, jobs: list[tuple[SequenceTask, Scene | SceneRecipe]], h
 
 def dataset_jobs(config: DatasetConfig, *, fmt: str | None = None,
                  seed: int | None = None) -> tuple[list[tuple[SequenceTask, SceneRecipe]], dict]:
-    """The (task, scene recipe) of every sequence of a configuration (all validated first) and the index header.
-    Sequence i is seeded with child i of the root SeedSequence."""
+    """The work of a configuration, every sequence validated first. Sequence i is seeded with child i of the root
+    SeedSequence.
+
+    Parameters
+    ----------
+    config : DatasetConfig
+        The configuration.
+    fmt, seed : optional
+        As generate_dataset's.
+
+    Returns
+    -------
+    jobs : list of (SequenceTask, SceneRecipe)
+        The task and scene recipe of every sequence.
+    header : dict
+        The index header (generator, seed record, format, config_source).
+    """
     fmt = config.format if fmt is None else fmt
     if fmt not in ("native", *EXPORT_SUFFIX):
         raise EvsimInputError(f"unknown format {fmt!r}; one of native, {', '.join(EXPORT_SUFFIX)}")
@@ -462,14 +477,37 @@ def dataset_jobs(config: DatasetConfig, *, fmt: str | None = None,
 def generate_dataset(config: DatasetConfig, out_dir: str | Path, *, overwrite: bool = False, progress: bool = True,
                      fmt: str | None = None, seed: int | None = None, workers: int | None = None,
                      scheduler: str | None = None, resume: bool = False) -> Path:
-    """Generate every sequence of a dataset configuration into out_dir; return the index path.
+    """Generate every sequence of a dataset configuration into out_dir.
 
-    fmt and seed override the configuration's format and root seed. Sequence i is seeded with child i of the root
-    SeedSequence (recorded in index.json and in each file's metadata). workers=N runs the sequences on a local
-    Dask cluster of N processes, scheduler=ADDRESS on an existing one (see generators.runner); resume=True keeps
-    the sequences of an earlier run with the same configuration and seed whose files match their manifests
-    (verify_sequence) and generates the others again. Failed sequences raise
-    generators.runner.TasksFailed once the others are written.
+    Sequence i is seeded with child i of the root SeedSequence (recorded in index.json and in each file's
+    metadata). Failed sequences raise generators.runner.TasksFailed once the others are written.
+
+    Parameters
+    ----------
+    config : DatasetConfig
+        The configuration (generators.config.load_config / parse_config).
+    out_dir : str or Path
+        The dataset folder (see the module for its layout).
+    overwrite : bool, optional
+        Write into a folder that holds files already (default False: refused).
+    progress : bool, optional
+        Show progress bars (default True).
+    fmt : str, optional
+        Override the configuration's format ("native" or an export format).
+    seed : int, optional
+        Override the configuration's root seed.
+    workers : int, optional
+        Run the sequences on a local Dask cluster of this many processes (see generators.runner); default serial.
+    scheduler : str, optional
+        The address of an existing Dask scheduler to run them on.
+    resume : bool, optional
+        Keep the sequences of an earlier run with the same configuration and seed whose files match their
+        manifests (verify_sequence) and generate the others again (default False).
+
+    Returns
+    -------
+    Path
+        The index.json written.
     """
     jobs, header = dataset_jobs(config, fmt=fmt, seed=seed)
     return run_sequences(out_dir, jobs, header, overwrite=overwrite, resume=resume, workers=workers,

@@ -30,7 +30,21 @@ MAX_FIXED_SAMPLES = 10_000_000  # DVS input frames of fixed-rate sampling per se
 
 
 class SamplingSettings(Protocol):
-    """What the DVS pass reads of a generators.ahdr.AHDRConfig: how the scene is sampled."""
+    """What the DVS pass reads of a generators.ahdr.AHDRConfig: how the scene is sampled.
+
+    Attributes
+    ----------
+    sampling : str
+        "adaptive" or "fixed".
+    sampling_fraction : float
+        Adaptive: the fraction of the smaller mean threshold (log units) allowed per sample.
+    sampling_quantile : float
+        Adaptive: the quantile of the per-pixel log change that fraction bounds.
+    min_step_us, max_step_us : int
+        Adaptive: the bounds of a step (us).
+    rate_hz : float
+        Fixed: samples per second (Hz).
+    """
 
     sampling: str
     sampling_fraction: float
@@ -126,8 +140,13 @@ class DVSInput:
         self.time_origin_us = int(getattr(scene, "time_origin_us", 0))
 
     def sampler(self) -> Iterator[tuple[int, np.ndarray]]:
-        """The sampler over the whole scene: (t_us, radiance) pairs from t = 0 to the end, with the breakpoints
-        (its n_samples counts them)."""
+        """The sampler over the whole scene, from t = 0 to the end, with the breakpoints.
+
+        Returns
+        -------
+        iterator of (int, numpy.ndarray)
+            (t_us, radiance) pairs: scene time (us) and (H, W) float32 linear radiance; its n_samples counts them.
+        """
         return make_sampler(self.source, self.mode, breakpoints_us=self.breakpoints_us, **self.options)
 
     def warm_up(self) -> tuple[list, np.ndarray]:

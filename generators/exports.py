@@ -31,8 +31,19 @@ __all__ = ["ExportedSequence", "export_path", "folder_sequences", "export_suffix
 
 @dataclass
 class ExportedSequence:
-    """One export: the sequence's name, its source, the file or folder written, and the parts of the recording
-    that the format cannot hold (left out)."""
+    """One export.
+
+    Attributes
+    ----------
+    name : str
+        The sequence's name.
+    source : Path
+        Its source file or folder.
+    out : Path
+        The file or folder written.
+    dropped : list of str
+        The parts of the recording that the format cannot hold (left out).
+    """
 
     name: str
     source: Path
@@ -41,15 +52,36 @@ class ExportedSequence:
 
 
 def export_suffix(fmt: str) -> str:
-    """The name suffix of a sequence's export in format fmt ("<name><suffix>"), as `generate --format` names it
-    (generators.formats.registry)."""
+    """The name suffix of a sequence's export, as `generate --format` names it (generators.formats.registry).
+
+    Parameters
+    ----------
+    fmt : str
+        An export format.
+
+    Returns
+    -------
+    str
+        The suffix ("<name><suffix>", e.g. "_e2vid.h5").
+    """
     return format_record(fmt).export_suffix
 
 
 def folder_sequences(folder: str | Path) -> list[tuple[str, Path]] | None:
     """(name, path) of the sequences of a folder of sequences: a dataset folder's index.json entries (their
     native files), else every entry of the folder that load() reads (sorted by name); None when `folder` is
-    itself one recording (an IJRR or EXR folder) or not a folder. DatasetFormatError for a folder with neither."""
+    itself one recording (an IJRR or EXR folder) or not a folder. DatasetFormatError for a folder with neither.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The folder.
+
+    Returns
+    -------
+    list of (str, Path) or None
+        (name, path) of each sequence, or None.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         return None
@@ -83,9 +115,28 @@ def folder_sequences(folder: str | Path) -> list[tuple[str, Path]] | None:
 
 def export_path(source: str | Path, dst: str | Path, fmt: str, *, overwrite: bool = False,
                 progress: bool = False, **options: Any) -> list[ExportedSequence]:
-    """Export `source` (a readable file or folder, or a folder of sequences: see the module docstring) to `dst` in
-    format `fmt` (one of generators.choices.FORMATS); return what was written. The drop warnings of the single
-    exports are gathered into one ExportDropWarning for the whole call. options: as for generators.formats.export.
+    """Export a recording or a folder of sequences. The drop warnings of the single exports are gathered into one
+    ExportDropWarning for the whole call.
+
+    Parameters
+    ----------
+    source : str or Path
+        A readable file or folder, or a folder of sequences (see the module docstring).
+    dst : str or Path
+        The file or folder to write (a folder of exports for a folder of sequences).
+    fmt : str
+        One of generators.choices.FORMATS.
+    overwrite : bool, optional
+        Replace an existing dst (default False).
+    progress : bool, optional
+        Show progress bars (default False).
+    **options
+        As for generators.formats.export.
+
+    Returns
+    -------
+    list of ExportedSequence
+        What was written.
     """
     source, dst = Path(source), Path(dst)
     if fmt not in FORMATS:

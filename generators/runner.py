@@ -46,10 +46,26 @@ _SIMPLE = (str, bytes, int, float, bool, type(None), os.PathLike)
 
 @dataclass
 class TaskOutcome:
-    """What one task gave: its value, or its error ("Type: message") and traceback; cli_error: the error in
-    command-line flags where it names options (sim.OptionError.cli_message), else None. stats: pid (the process that
-    ran it), seconds (wall clock), rss_mb and peak_rss_mb (resident memory of that process after the task, and its
-    peak so far; MB)."""
+    """What one task gave: its value, or its error.
+
+    Attributes
+    ----------
+    name : str
+        The task's name.
+    value : object
+        What the task returned (None when it failed).
+    error : str or None
+        Its error, "Type: message"; None when it succeeded (ok).
+    traceback : str
+        The error's traceback ("" when none).
+    kind : str
+        Of an error: "input" (sim.EvsimInputError), "lost" (its worker died), "bug" or "disk full".
+    stats : dict
+        "pid" (the process that ran it), "seconds" (wall clock, s), "rss_mb" and "peak_rss_mb" (resident memory of
+        that process after the task, and its peak so far; MB).
+    cli_error : str or None
+        The error in command-line flags where it names options (sim.OptionError.cli_message), else None.
+    """
 
     name: str
     value: object = None
@@ -65,8 +81,21 @@ class TaskOutcome:
 
 
 class TasksFailed(RuntimeError):
-    """Some tasks failed, the others completed. failures: their TaskOutcomes; n_tasks: how many were run;
-    cli_message: the message with cli_hint (the remedy in command-line flags) in place of hint (in keywords)."""
+    """Some tasks failed, the others completed.
+
+    Parameters
+    ----------
+    what : str
+        What the tasks are, for the message (e.g. "sequences").
+    failures : list of TaskOutcome
+        The failed tasks' outcomes (attribute failures).
+    n_tasks : int
+        How many were run (attribute n_tasks).
+    hint : str, optional
+        The remedy, in keywords.
+    cli_hint : str, optional
+        The remedy in command-line flags: cli_message is the message with it in place of hint.
+    """
 
     def __init__(self, what: str, failures: list[TaskOutcome], n_tasks: int, hint: str = "",
                  cli_hint: str | None = None):
@@ -107,9 +136,27 @@ def check_run_options(workers: int | None, scheduler: str | None) -> None:
 
 def run_tasks(fn: Callable, tasks: Sequence[tuple[str, tuple, dict]], *, workers: int | None = None,
               scheduler: str | None = None, progress: bool | None = True, desc: str = "sequences") -> list[TaskOutcome]:
-    """Run fn(*args, **kwargs) for every (name, args, kwargs) of tasks; return their TaskOutcomes in task order.
+    """Run fn(*args, **kwargs) for every task, serially or on a Dask cluster.
 
-    progress: True shows the bar, False hides it, None shows it on a terminal only.
+    Parameters
+    ----------
+    fn : callable
+        The task function (picklable for a cluster).
+    tasks : sequence of (str, tuple, dict)
+        (name, args, kwargs) of every task.
+    workers : int, optional
+        Run on a local cluster of this many processes (local_cluster); default: here, serially.
+    scheduler : str, optional
+        The address of an existing Dask scheduler (e.g. tcp://host:8786) to run on instead.
+    progress : bool or None, optional
+        True (default) shows the bar, False hides it, None shows it on a terminal only.
+    desc : str, optional
+        The bar's label (default "sequences").
+
+    Returns
+    -------
+    list of TaskOutcome
+        The outcomes, in task order.
     """
     check_run_options(workers, scheduler)
     tasks = list(tasks)
@@ -134,7 +181,26 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, tuple, dict]], *, workers
 
 
 def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | None) -> TaskOutcome:
-    """Run one task where this is called (in a worker: with `threads` numba/OpenCV threads), catching its error."""
+    """Run one task where this is called, catching its error.
+
+    Parameters
+    ----------
+    name : str
+        The task's name.
+    fn : callable
+        The task function.
+    args : tuple
+        Its positional arguments.
+    kwargs : dict
+        Its keyword arguments.
+    threads : int or None
+        In a worker: the numba/OpenCV threads to use; None here.
+
+    Returns
+    -------
+    TaskOutcome
+        Its outcome, with stats.
+    """
     if threads is not None:  # in a worker process
         limit_threads(threads)
         _guard_resource_tracker()  # (a worker relaunches the tracker too when it was killed)
@@ -159,7 +225,13 @@ def run_one(name: str, fn: Callable, args: tuple, kwargs: dict, threads: int | N
 
 
 def limit_threads(n: int) -> None:
-    """Let numba's parallel kernels and OpenCV use n threads in the calling thread (numba's setting is per thread)."""
+    """Let numba's parallel kernels and OpenCV use n threads in the calling thread (numba's setting is per thread).
+
+    Parameters
+    ----------
+    n : int
+        Threads (at least 1; numba's at most NUMBA_NUM_THREADS).
+    """
     import cv2
     import numba
 
@@ -168,7 +240,13 @@ def limit_threads(n: int) -> None:
 
 
 def usable_cores() -> int:
-    """The cores this process may run on."""
+    """The cores this process may run on.
+
+    Returns
+    -------
+    int
+        Their number (its CPU affinity on Linux, else os.cpu_count()).
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -194,8 +272,19 @@ def _rss_mb() -> float | None:
 
 @contextmanager
 def local_cluster(workers: int) -> Iterator[LocalCluster]:
-    """A dask.distributed LocalCluster of `workers` processes of one thread each, whose numba/OpenCV/BLAS pools
-    share the cores (cores // workers threads each); yields the cluster."""
+    """A dask.distributed LocalCluster of worker processes of one thread each, whose numba/OpenCV/BLAS pools share
+    the cores (cores // workers threads each).
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes.
+
+    Yields
+    ------
+    LocalCluster
+        The cluster, closed at the end of the with block.
+    """
 
     import dask
     from distributed import LocalCluster

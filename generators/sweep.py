@@ -30,8 +30,19 @@ DEFAULT_GRID = {"threshold_sigma": [0.0, 0.05], "shot_noise_hz": [0.0, 2.0]}
 
 
 def grid_points(grid: dict) -> list[dict]:
-    """The Cartesian product of the grid, in the order of the keys (the last key varies fastest); every value is
-    checked as its sim.DVSParams field (InvalidParameterError naming sweep.<key>[i])."""
+    """The Cartesian product of the grid; every value is checked as its sim.DVSParams field (InvalidParameterError
+    naming sweep.<key>[i]).
+
+    Parameters
+    ----------
+    grid : dict
+        GRID_KEYS name -> non-empty list of values (in the field's units, sim.dvs_params.FIELD_UNITS).
+
+    Returns
+    -------
+    list of dict
+        One {name: value} per point, in the order of the keys (the last key varies fastest).
+    """
     for key, values in grid.items():
         if key not in GRID_KEYS:
             raise InvalidParameterError(f"sweep: unknown parameter {key!r}; one of {', '.join(GRID_KEYS)}")
@@ -46,8 +57,30 @@ def generate_sweep(scene: Scene | SceneRecipe, out_dir: str | Path, grid: dict |
                    config: AHDRConfig | None = None, seed: int | np.random.SeedSequence = 0, *, overwrite: bool = False,
                    progress: bool = True, fmt: str = "native", workers: int | None = None, scheduler: str | None = None,
                    resume: bool = False) -> Path:
-    """Write one sequence per grid point of `grid` (default DEFAULT_GRID) for `scene`; return the index path.
-    workers, scheduler and resume as for generators.dataset.generate_dataset (the scene is sent to a cluster once)."""
+    """Write one sequence per grid point for a scene.
+
+    Parameters
+    ----------
+    scene : Scene or SceneRecipe
+        The scene (sent to a cluster once).
+    out_dir : str or Path
+        The output folder (sweep_<i>.h5 per point and index.json).
+    grid : dict, optional
+        GRID_KEYS name -> list of values (the fields' units; default DEFAULT_GRID).
+    config : AHDRConfig, optional
+        The base configuration (default AHDRConfig()); each point replaces its DVS fields.
+    seed : int or numpy.random.SeedSequence, optional
+        The root seed (default 0): point i is seeded with child i.
+    overwrite, progress, workers, scheduler, resume
+        As for generators.dataset.generate_dataset.
+    fmt : str, optional
+        "native" (default) or an export format.
+
+    Returns
+    -------
+    Path
+        The index.json written.
+    """
     grid = DEFAULT_GRID if grid is None else grid
     config = config or AHDRConfig()
     points = grid_points(grid)

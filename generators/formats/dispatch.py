@@ -56,7 +56,18 @@ def load(path: str | Path) -> Recording:
 
     What a reader returns is checked by generators.formats.recording.validate_recording; every problem (an invalid
     recording, or what h5py, zlib, json, scipy.io or numpy raise on malformed content) is a DatasetFormatError
-    naming the file."""
+    naming the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file or folder in a layout detect() recognises.
+
+    Returns
+    -------
+    Recording
+        The recording (times int64 us, frames raw DN, reference in radiance units, thresholds in log units).
+    """
     with reading(path):  # detection reads the content too
         rec = resolve(format_record(detect(path)).read)(path)
     return validated(path, rec)
@@ -64,16 +75,32 @@ def load(path: str | Path) -> Recording:
 
 def export(source: Recording | str | Path, out_path: str | Path, fmt: str, *, progress: bool = False,
            **options: Any) -> list[str]:
-    """Write a Recording, or a file or folder in any layout load() reads, to out_path in format `fmt` (one of
-    FORMATS).
+    """Write a Recording, or a file or folder in any layout load() reads, to out_path in format `fmt`.
 
     A native HDF5 source is streamed: events in chunks of EVENT_CHUNK, frames and reference one image at a time,
-    so memory stays flat whatever its length (progress=True shows a bar of the events written); other layouts are
-    loaded whole first (their readers decode whole files). options: akf-mat takes ct= and f_q= (see
-    akfmat.write_akf_mat); exr takes half=True for float16 files. "exr" writes the reference frames as an EXR
-    folder with a timestamps.txt sidecar; "e2vid-txt" is zipped when out_path ends in .zip. Atomic for every
-    format. Returns the parts of the recording that `fmt` cannot hold (see HOLDS), also said by an
-    ExportDropWarning; [] when nothing is dropped.
+    so memory stays flat whatever its length; other layouts are loaded whole first (their readers decode whole
+    files). "exr" writes the reference frames as an EXR folder with a timestamps.txt sidecar; "e2vid-txt" is zipped
+    when out_path ends in .zip. Atomic for every format.
+
+    Parameters
+    ----------
+    source : Recording, str or Path
+        A Recording, or a file or folder in any layout load() reads.
+    out_path : str or Path
+        The file or folder to write.
+    fmt : str
+        One of FORMATS.
+    progress : bool, optional
+        Show a progress bar of the events written (a native source; default False).
+    **options
+        The writer's options: akf-mat takes ct= and f_q= (see akfmat.write_akf_mat); exr takes half=True for
+        float16 files.
+
+    Returns
+    -------
+    list of str
+        The parts of the recording that `fmt` cannot hold (see HOLDS), also said by an ExportDropWarning; [] when
+        nothing is dropped.
     """
     if fmt not in FORMATS:
         raise EvsimInputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")

@@ -15,13 +15,8 @@ Precision: ts are float64 seconds; times read back as rint(ts * 1e6) microsecond
 refused, not read as seconds. Frames are 8-bit by layout: deeper frames lose their low bits (frame >>
 (bit_depth - 8)).
 
-References (full citations also in docs/models/references.md):
-
-- Rebecq H, Ranftl R, Koltun V, Scaramuzza D (2021). High speed and high dynamic range video with an event
-  camera (E2VID). IEEE Transactions on Pattern Analysis and Machine Intelligence 43(6):1964-1980.
-- Stoffregen T, Scheerlinck C, Scaramuzza D, Drummond T, Barnes N, Kleeman L, Mahony R (2020). Reducing the
-  sim-to-real gap for event cameras (event_cnn_minimal). European Conference on Computer Vision (ECCV).
-  doi:10.1007/978-3-030-58583-9_32
+References (docs/models/references.md): Rebecq et al. 2021 [Rebecq2021], E2VID; Stoffregen et al. 2020
+[Stoffregen2020], event_cnn_minimal.
 """
 
 from __future__ import annotations

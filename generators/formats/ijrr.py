@@ -1,4 +1,4 @@
-"""The IJRR "Event Camera Dataset" text layout (Mueggler et al. 2017), plus evsim's extensions.
+"""The IJRR "Event Camera Dataset" text layout (Mueggler et al. 2017 [Mueggler2017]), plus evsim's extensions.
 
 A folder holding:
     events.txt      lines "t x y p": t in seconds written with exactly 6 decimals (so microseconds round-trip
@@ -20,13 +20,8 @@ The E2VID text flavour ("e2vid-txt", rpg_e2vid's input) is one file: a first lin
 same "t x y p" event lines; written zipped (one member, as rpg_e2vid's extract_events_from_rosbag.py does) when
 the path ends in .zip, else plain text. It holds events and the sensor size only.
 
-References (full citations also in docs/models/references.md):
-
-- Mueggler E, Rebecq H, Gallego G, Delbruck T, Scaramuzza D (2017). The event-camera dataset and simulator:
-  event-based data for pose estimation, visual odometry, and SLAM. The International Journal of Robotics
-  Research 36(2):142-149. doi:10.1177/0278364917691115
-- Rebecq H, Ranftl R, Koltun V, Scaramuzza D (2021). High speed and high dynamic range video with an event
-  camera (E2VID). IEEE Transactions on Pattern Analysis and Machine Intelligence 43(6):1964-1980.
+References (docs/models/references.md): Mueggler et al. 2017 [Mueggler2017], the IJRR layout; Rebecq et al.
+2021 [Rebecq2021], E2VID and its text input.
 """
 
 from __future__ import annotations

@@ -4,10 +4,7 @@ tonic (tonic.io.events_struct) takes events as a structured array x, y (int16), 
 Its transforms index channels by p: ToFrame(sensor_size=(W, H, 2)) with evsim's p = -1 would put every OFF
 event into the ON channel (index -1 is the last one). to_tonic gives p = 0 (OFF) / 1 (ON) as tonic's own datasets.
 
-References (full citations also in docs/models/references.md):
-
-- Lenz G, Chaney K, Shrestha SB, Oubari O, Picaud S, Zarrella G (2021). Tonic: event-based datasets and
-  transformations. Zenodo. doi:10.5281/zenodo.5079802
+References (docs/models/references.md): Lenz et al. 2021 [Lenz2021], tonic.
 """
 
 from __future__ import annotations
@@ -20,8 +17,18 @@ TONIC_DTYPE = np.dtype([("x", np.int16), ("y", np.int16), ("t", np.int64), ("p",
 
 
 def to_tonic(events: np.ndarray) -> np.ndarray:
-    """sim.EVENT_DTYPE events (p = -1/+1, t in us) as tonic's structured array (p False = OFF, True = ON; t in
-    us). Sensor size for tonic is (width, height, 2)."""
+    """evsim's events as tonic's structured array. Sensor size for tonic is (width, height, 2).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        sim.EVENT_DTYPE events (t int64 us, p = -1/+1).
+
+    Returns
+    -------
+    numpy.ndarray
+        TONIC_DTYPE events (t int64 us, x, y int16, p False = OFF, True = ON).
+    """
     validate_events(events, name="events")
     out = np.empty(events.size, TONIC_DTYPE)
     out["x"], out["y"], out["t"], out["p"] = events["x"], events["y"], events["t"], events["p"] > 0
@@ -29,7 +36,18 @@ def to_tonic(events: np.ndarray) -> np.ndarray:
 
 
 def from_tonic(events: np.ndarray) -> np.ndarray:
-    """tonic's structured events (p bool or 0/1, t in us) as time-sorted-checked sim.EVENT_DTYPE (p = -1/+1)."""
+    """tonic's structured events as evsim's, checked (time-sorted, coordinates valid).
+
+    Parameters
+    ----------
+    events : numpy.ndarray
+        Structured events with fields t (us), x, y and p (bool or 0/1, True / 1 = ON).
+
+    Returns
+    -------
+    numpy.ndarray
+        sim.EVENT_DTYPE events (t int64 us, p = -1/+1).
+    """
     out = np.empty(events.size, EVENT_DTYPE)
     out["t"], out["x"], out["y"] = events["t"], events["x"], events["y"]
     out["p"] = np.where(np.asarray(events["p"]).astype(np.int64) > 0, 1, -1)

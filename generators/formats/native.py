@@ -24,10 +24,7 @@ which every HDF5 reader has); each add_* call appends, so memory stays flat. The
 images itself, chunk by chunk, with ISA-L's deflate (the isal package, about 8x faster than the zlib inside HDF5
 for a few % larger files) and stores the chunks as they are (h5py write_direct_chunk).
 
-References (full citations also in docs/models/references.md):
-
-- Gehrig M, Aarents W, Gehrig D, Scaramuzza D (2021). DSEC: a stereo event camera dataset for driving
-  scenarios. IEEE Robotics and Automation Letters 6(3):4947-4954. doi:10.1109/LRA.2021.3068942
+References (docs/models/references.md): Gehrig et al. 2021 [Gehrig2021], DSEC.
 """
 
 from __future__ import annotations
@@ -119,7 +116,18 @@ COMPRESSIONS = ("gzip", "lzf", None)
 
 
 def check_compression(compression: str | None) -> str | None:
-    """compression if it is one of COMPRESSIONS, else InvalidParameterError naming them."""
+    """compression if it is one of COMPRESSIONS, else InvalidParameterError naming them.
+
+    Parameters
+    ----------
+    compression : str or None
+        "gzip", "lzf" or None.
+
+    Returns
+    -------
+    str or None
+        compression.
+    """
     if compression not in COMPRESSIONS:
         raise InvalidParameterError(f"compression must be 'gzip', 'lzf' or None, got {compression!r}")
     return compression
@@ -132,7 +140,20 @@ class NativeWriter:
     Everything goes to a temporary file beside `path`, renamed onto `path` by close() (or a clean `with` exit);
     on an exception inside the `with` block the temporary file is deleted and `path` is left as it was.
     A full disk (or file size limit) raises atomic.DiskFullError naming `path`, from the add_* call or close()
-    that met it. frame_bit_depth: 8..16 bits per LDR sample. compression: "gzip" (default), "lzf" or None.
+    that met it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    height, width : int
+        Sensor size (pixels), > 0.
+    metadata : dict
+        JSON-serialisable metadata (more can be merged with update_metadata until close).
+    frame_bit_depth : int, optional
+        Bits per LDR sample, 8..16 (default 8).
+    compression : {"gzip", "lzf", None}, optional
+        Dataset compression (default "gzip").
     """
 
     def __init__(self, path: str | Path, height: int, width: int, *, metadata: dict, frame_bit_depth: int = 8,
@@ -197,8 +218,16 @@ class NativeWriter:
 
     # -- appending ------------------------------------------------------------------------------------------
     def add_events(self, events: np.ndarray, labels: np.ndarray | None = None) -> None:
-        """Append a time-sorted chunk of sim.EVENT_DTYPE events (later than every earlier chunk), with optional
-        per-event uint8 labels. Either every chunk has labels or none has."""
+        """Append a chunk of events. Either every chunk has labels or none has.
+
+        Parameters
+        ----------
+        events : numpy.ndarray
+            Time-sorted sim.EVENT_DTYPE events (t int64 us, none before the previous chunk's last), inside the
+            sensor.
+        labels : numpy.ndarray, optional
+            uint8 per-event labels (0 signal, 1 shot, 2 leak, 3 hot), of events' shape.
+        """
         validate_events(events, name="event chunk")
         if events.size == 0:
             return
@@ -246,7 +275,15 @@ class NativeWriter:
         self._t_last = int(events["t"][-1])
 
     def add_frame(self, image: np.ndarray, t_start_us: int, t_mid_us: int, t_end_us: int) -> None:
-        """Append one LDR frame (unsigned integer (H, W), values < 2**frame_bit_depth) with its exposure window."""
+        """Append one LDR frame with its exposure window (frames in order of t_mid_us).
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            Unsigned integer (H, W) raw frame (DN), values < 2**frame_bit_depth.
+        t_start_us, t_mid_us, t_end_us : int
+            Exposure start, middle and end (us).
+        """
         image = np.asarray(image)
         if image.shape != (self.height, self.width) or image.dtype.kind != "u":
             raise EvsimInputError(f"frame must be unsigned integer ({self.height}, {self.width}), got "
@@ -263,7 +300,15 @@ class NativeWriter:
         self._last_frame_t = ts[1]
 
     def add_reference(self, image: np.ndarray, t_us: int) -> None:
-        """Append one HDR reference frame (linear radiance, float (H, W), finite, >= 0) at time t_us."""
+        """Append one HDR reference frame (reference frames in time order).
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            Float (H, W) linear radiance (radiance units), finite, >= 0.
+        t_us : int
+            Its time (us).
+        """
         image = np.asarray(image, dtype=np.float32)
         if image.shape != (self.height, self.width):
             raise EvsimInputError(f"reference must be ({self.height}, {self.width}), got {image.shape}")
@@ -299,7 +344,13 @@ class NativeWriter:
             raise disk_full_error(e, self.path) from e
 
     def set_threshold_maps(self, maps: np.ndarray) -> None:
-        """Store the (2, H, W) ON and OFF contrast threshold maps (log units)."""
+        """Store the contrast threshold maps (replacing any stored before).
+
+        Parameters
+        ----------
+        maps : numpy.ndarray
+            (2, H, W) ON and OFF contrast thresholds (log units).
+        """
         maps = np.asarray(maps, dtype=np.float32)
         if maps.shape != (2, self.height, self.width):
             raise EvsimInputError(f"threshold maps must be (2, {self.height}, {self.width}), got {maps.shape}")
@@ -308,14 +359,26 @@ class NativeWriter:
         self._f.create_dataset("threshold_maps", data=maps, **self._kw)
 
     def set_crf(self, crf: dict | None) -> None:
-        """Record the CRF as {"name": ..., "params": {...}} (crf_models.get(name, **params) rebuilds it)."""
+        """Record the camera response curve.
+
+        Parameters
+        ----------
+        crf : dict or None
+            {"name": ..., "params": {...}} (``crf_models.get(name, **params)`` rebuilds it; JSON-serialisable), or None.
+        """
         if crf is not None and not (isinstance(crf, dict) and "name" in crf):
             raise EvsimInputError(f"crf must be a dict with 'name' and 'params', got {crf!r}")
         to_json(crf)
         self._crf = crf
 
     def update_metadata(self, metadata: dict) -> None:
-        """Merge keys into the metadata (written when the file is closed; must be JSON-serialisable)."""
+        """Merge keys into the metadata (written when the file is closed).
+
+        Parameters
+        ----------
+        metadata : dict
+            JSON-serialisable keys and values.
+        """
         try:
             to_json(metadata)
         except (TypeError, ValueError) as e:
@@ -370,8 +433,19 @@ class NativeWriter:
 def write_native(rec: Recording, path: str | Path, *,
                  event_source: Iterator[tuple[np.ndarray, np.ndarray | None]] | None = None,
                  compression: str | None = "gzip") -> None:
-    """Write a Recording as a native file. event_source, when given, yields (events, labels) chunks instead of
-    rec.events / rec.event_labels."""
+    """Write a Recording as a native file, atomically.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    path : str or Path
+        The file to write.
+    event_source : iterator of (numpy.ndarray, numpy.ndarray or None), optional
+        (events, labels) chunks to write instead of rec.events / rec.event_labels (a stream).
+    compression : {"gzip", "lzf", None}, optional
+        As NativeWriter's.
+    """
     validate_recording(rec)
     with NativeWriter(path, rec.height, rec.width, metadata=rec.metadata, frame_bit_depth=rec.frame_bit_depth,
                       compression=compression) as w:
@@ -389,21 +463,58 @@ def write_native(rec: Recording, path: str | Path, *,
 
 
 def recording_event_chunks(rec: Recording, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
-    """(events, labels) chunks of a Recording's events."""
+    """A Recording's events in chunks.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    size : int, optional
+        Events per chunk (default EVENT_CHUNK).
+
+    Yields
+    ------
+    tuple of numpy.ndarray
+        (events, labels): sim.EVENT_DTYPE events and their uint8 labels, or None when the recording has none.
+    """
     for i, ev in enumerate(event_chunks(rec.events, size)):
         yield ev, None if rec.event_labels is None else rec.event_labels[i * size : i * size + ev.size]
 
 
 # -- reading ----------------------------------------------------------------------------------------------------
 def is_native(f: h5py.File) -> bool:
-    """True for files in the native layout (by format attribute, or DSEC-like events/t)."""
+    """Whether an open HDF5 file is in the native layout (by format attribute, or DSEC-like events/t).
+
+    Parameters
+    ----------
+    f : h5py.File
+        The open file.
+
+    Returns
+    -------
+    bool
+        True for the native layout.
+    """
     fmt = f.attrs.get("format")
     return (fmt.decode() if isinstance(fmt, bytes) else fmt) == FORMAT_NAME or "events/t" in f
 
 
 def iter_native_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
-    """Stream (events, labels) chunks from a native file without loading the whole stream. Each chunk is checked
-    as load() checks a whole recording (coordinates inside the sensor, sorted across chunks, labels in range)."""
+    """Stream the events of a native file without loading the whole stream. Each chunk is checked as load()
+    checks a whole recording (coordinates inside the sensor, sorted across chunks, labels in range).
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+    size : int, optional
+        Events per chunk (default EVENT_CHUNK).
+
+    Yields
+    ------
+    tuple of numpy.ndarray
+        (events, labels): sim.EVENT_DTYPE events (absolute t, int64 us) and their uint8 labels, or None.
+    """
     with open_h5(path) as f:
         with reading(path):
             _require_complete(f, path)
@@ -426,8 +537,19 @@ def iter_native_events(path: str | Path, size: int = EVENT_CHUNK) -> Iterator[tu
 def event_summary(path: str | Path) -> dict | None:
     """The event summary a native file records (see the layout: count, on, t_first_us, t_last_us, labels), when
     it agrees with the file: the count equals the event datasets' length and the first and last times equal the
-    stored first and last events' (two reads). None when the file records none (older files) or it disagrees:
-    then stream the events (iter_native_events)."""
+    stored first and last events' (two reads).
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+
+    Returns
+    -------
+    dict or None
+        {"count", "on", "t_first_us", "t_last_us" (absolute us), "labels" (count per label, or None)}; None when
+        the file records none (older files) or it disagrees: then stream the events (iter_native_events).
+    """
     with open_h5(path) as f:
         with reading(path):
             _require_complete(f, path)
@@ -451,10 +573,24 @@ def event_summary(path: str | Path) -> dict | None:
 
 def iter_native_columns(path: str | Path, names: tuple[str, ...] = ("t", "p"),
                         size: int = EVENT_CHUNK) -> Iterator[dict[str, np.ndarray]]:
-    """Stream some event columns of a native file in chunks, {name: array}: t absolute int64 microseconds, x and
-    y uint16, p int8 -1/+1, label uint8. Lighter than iter_native_events (which builds and checks whole events)
-    for a pass that needs a few columns, e.g. an event rate from t and p; times are checked to be sorted, x and y
-    to be inside the sensor."""
+    """Stream some event columns of a native file in chunks. Lighter than iter_native_events (which builds and
+    checks whole events) for a pass that needs a few columns, e.g. an event rate from t and p; times are checked
+    to be sorted, x and y to be inside the sensor.
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+    names : tuple of str, optional
+        The columns: of "t", "x", "y", "p", "label" (default ("t", "p")).
+    size : int, optional
+        Events per chunk (default EVENT_CHUNK).
+
+    Yields
+    ------
+    dict of str to numpy.ndarray
+        {name: array}: t absolute int64 us, x and y uint16, p int8 -1/+1, label uint8.
+    """
     with open_h5(path) as f:
         with reading(path):
             _require_complete(f, path)
@@ -480,9 +616,21 @@ def iter_native_columns(path: str | Path, names: tuple[str, ...] = ("t", "p"),
 
 
 def read_native_window(path: str | Path, t_start_us: int, t_end_us: int) -> np.ndarray:
-    """The events with t_start_us <= t < t_end_us (absolute microseconds) of a native file, read through its
-    ms_to_idx index (only the milliseconds that overlap the window are read; a file without the index is
-    searched by binary search on events/t)."""
+    """The events of a time window of a native file, read through its ms_to_idx index (only the milliseconds that
+    overlap the window are read; a file without the index is searched by binary search on events/t).
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+    t_start_us, t_end_us : int
+        The window [t_start_us, t_end_us) (absolute us).
+
+    Returns
+    -------
+    numpy.ndarray
+        sim.EVENT_DTYPE events with t_start_us <= t < t_end_us.
+    """
     with open_h5(path) as f:
         with reading(path):
             _require_complete(f, path)
@@ -522,7 +670,20 @@ def _search(t: h5py.Dataset, value: int) -> int:
 
 
 def read_native(path: str | Path, *, events: bool = True) -> Recording:
-    """Read a native file into a Recording (events=False skips the event stream and labels)."""
+    """Read a native file into a Recording.
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+    events : bool, optional
+        Read the event stream and labels (default True; False skips them).
+
+    Returns
+    -------
+    Recording
+        The recording.
+    """
     with open_h5(path) as f, reading(path):
         return validated(path, _native_recording(f, path, events=events, lazy_images=False))
 
@@ -531,7 +692,18 @@ def read_native(path: str | Path, *, events: bool = True) -> Recording:
 def open_native_images(path: str | Path) -> Iterator[Recording]:
     """A Recording of a native file without its events, whose frames and reference are the file's HDF5 datasets
     (read one image at a time when indexed or iterated, so memory does not grow with the sequence length); valid
-    inside the with block. Exporters stream the events alongside with iter_native_events."""
+    inside the with block. Exporters stream the events alongside with iter_native_events.
+
+    Parameters
+    ----------
+    path : str or Path
+        The native file.
+
+    Yields
+    ------
+    Recording
+        The recording without events, its images lazy.
+    """
     with open_h5(path) as f:
         with reading(path):
             rec = validated(path, _native_recording(f, path, events=False, lazy_images=True))

@@ -30,10 +30,27 @@ TIME_HIGH_MAX_STEP = 8  # TIME_HIGH steps (of 4096 us) in a silence: Metavision 
 
 @njit(cache=True)
 def encode_evt3(t, x, y, p, state, out):
-    """Encode events (t relative us, non-decreasing; x, y < 2048; p > 0 = ON) into out (uint16, large enough:
-    4 words per event plus (t_gap >> 12) // TIME_HIGH_MAX_STEP at most). state = [time_high (unwrapped
-    t >> 12), time, y] of the previous word written, -1 before the first; updated in place. Returns the number
-    of words written."""
+    """Encode events into EVT 3.0 words.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        int64 event times relative to the file's offset (us), non-decreasing.
+    x, y : numpy.ndarray
+        Pixel coordinates, < 2048.
+    p : numpy.ndarray
+        Polarities (> 0 = ON).
+    state : numpy.ndarray
+        int64 [time_high (unwrapped t >> 12), time, y] of the previous word written, -1 before the first; updated
+        in place, carried between chunks.
+    out : numpy.ndarray
+        uint16 words, large enough: 4 words per event plus (t_gap >> 12) // TIME_HIGH_MAX_STEP at most.
+
+    Returns
+    -------
+    int
+        The number of words written to out.
+    """
     k = 0
     th_prev, t_prev, y_prev = state[0], state[1], state[2]
     for i in range(t.size):
@@ -69,12 +86,25 @@ STATE_SIZE = 7  # decode_evt3's state: time_high, time_low, y, base_x, polarity,
 
 @njit(cache=True)
 def decode_evt3(words, state, t, x, y, p):
-    """Decode EVT 3.0 words into t (int64 us, from the unwrapped 24-bit time), x, y (uint16), p (int8 -1/+1),
-    each as long as the words' events (ADDR_X words plus the set bits of vector words). state = [time_high
-    (unwrapped), time_low, y, base_x, polarity, seen time_high, time of the last event (-1 before the first)],
-    np.int64 of STATE_SIZE, carried between chunks. Returns the number of events decoded, or -1 - i when word i
-    makes time go back: a TIME_HIGH step that time_step_ok refuses, or an event earlier than the one before it;
-    state then holds the state before word i."""
+    """Decode EVT 3.0 words into events.
+
+    Parameters
+    ----------
+    words : numpy.ndarray
+        uint16 EVT 3.0 words.
+    state : numpy.ndarray
+        np.int64 of STATE_SIZE: [time_high (unwrapped), time_low, y, base_x, polarity, seen time_high, time of the
+        last event (-1 before the first)], carried between chunks; updated in place.
+    t, x, y, p : numpy.ndarray
+        Outputs, each as long as the words' events (ADDR_X words plus the set bits of vector words): t int64 us
+        (from the unwrapped 24-bit time, relative to the file's offset), x, y uint16, p int8 -1/+1.
+
+    Returns
+    -------
+    int
+        The number of events decoded, or -1 - i when word i makes time go back (a TIME_HIGH step that time_step_ok
+        refuses, or an event earlier than the one before it); state then holds the state before word i.
+    """
     th, tl, yy, base, pol, seen, last = state[0], state[1], state[2], state[3], state[4], state[5], state[6]
     n = 0
     bad = -1

@@ -101,6 +101,16 @@ def validate_recording(rec: Recording) -> Recording:
     t_mid non-decreasing; reference float (R, H, W), finite and >= 0, with non-decreasing times; threshold maps
     float (2, H, W), finite and > 0; crf None or {"name": str, "params": dict}; metadata a dict. Frames and
     reference that are lazy (HDF5 datasets) are checked for shape and dtype only, not value by value.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording to check.
+
+    Returns
+    -------
+    Recording
+        rec, unchanged.
     """
     from sim import EvsimInputError, validate_events
 

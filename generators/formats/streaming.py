@@ -40,13 +40,37 @@ __all__ = ["EventStream", "open_event_stream"]
 class EventStream:
     """The events of one recording, read a chunk or a window at a time.
 
-    height, width: sensor size (pixels). streamed: whether chunks() reads the file a chunk at a time (False: the
-    events are in memory). chunks(columns=None): a new iterator over the events in time order, sim.EVENT_DTYPE
-    arrays; with columns, e.g. ("t", "p"), chunks that need hold only those fields (indexable by name: a native
-    file reads only those columns). window(t0, t1): the events with t0 <= t < t1 (microseconds). count and
-    t_range (first and last event time, us; None without events): known without a pass over the stream for
-    native files and events in memory, else counted by one pass the first time they are asked for.
-    known_t_range: t_range when it is known without a pass, else None."""
+    count and t_range are known without a pass over the stream for native files and events in memory, else counted
+    by one pass the first time they are asked for. Build one with open_event_stream or EventStream.of_array.
+
+    Parameters
+    ----------
+    height, width : int
+        Sensor size (pixels).
+    chunks : callable
+        chunks(columns) -> a new iterator over the events in time order (see the chunks method).
+    window : callable, optional
+        window(t0, t1) -> the events with t0 <= t < t1 (us); default: cut from the chunks.
+    count : int, optional
+        The number of events, when known.
+    t_range : tuple of int, optional
+        The first and last event times (us), when known.
+    streamed : bool, optional
+        Whether chunks() reads the file a chunk at a time (default True; False: the events are in memory).
+
+    Attributes
+    ----------
+    height, width : int
+        Sensor size (pixels).
+    streamed : bool
+        As the parameter.
+    count : int
+        The number of events.
+    t_range : tuple of int or None
+        First and last event time (us); None without events.
+    known_t_range : tuple of int or None
+        t_range when it is known without a pass, else None.
+    """
 
     def __init__(self, height: int, width: int, chunks: Callable[[tuple[str, ...] | None], Iterator[Chunk]], *,
                  window: Callable[[int, int], np.ndarray] | None = None, count: int | None = None,
@@ -57,7 +81,22 @@ class EventStream:
 
     @classmethod
     def of_array(cls, events: np.ndarray, height: int, width: int, size: int = EVENT_CHUNK) -> EventStream:
-        """The stream of events in memory (sim.EVENT_DTYPE, time-sorted), cut into chunks of `size` events."""
+        """The stream of events in memory.
+
+        Parameters
+        ----------
+        events : numpy.ndarray
+            sim.EVENT_DTYPE events (t int64 us), time-sorted.
+        height, width : int
+            Sensor size (pixels).
+        size : int, optional
+            Events per chunk (default EVENT_CHUNK).
+
+        Returns
+        -------
+        EventStream
+            The stream (streamed False).
+        """
         from sim import slice_time
 
         n = int(events.size)
@@ -66,11 +105,34 @@ class EventStream:
                    t_range=(int(events["t"][0]), int(events["t"][-1])) if n else None, streamed=False)
 
     def chunks(self, columns: tuple[str, ...] | None = None) -> Iterator[Chunk]:
-        """The events in time order, chunk by chunk (see the class docstring)."""
+        """The events in time order, chunk by chunk: a new iterator at each call.
+
+        Parameters
+        ----------
+        columns : tuple of str, optional
+            The fields needed, e.g. ("t", "p"): chunks then need hold only those fields (indexable by name: a
+            native file reads only those columns). Default None: whole events.
+
+        Returns
+        -------
+        iterator of numpy.ndarray or mapping
+            sim.EVENT_DTYPE chunks (t int64 us), or mappings of the named columns.
+        """
         return self._chunks(columns)
 
     def window(self, t_start_us: int, t_end_us: int) -> np.ndarray:
-        """The events with t_start_us <= t < t_end_us, as one sim.EVENT_DTYPE array."""
+        """The events of a time window.
+
+        Parameters
+        ----------
+        t_start_us, t_end_us : int
+            The window [t_start_us, t_end_us) (us).
+
+        Returns
+        -------
+        numpy.ndarray
+            sim.EVENT_DTYPE events with t_start_us <= t < t_end_us.
+        """
         if self._window is not None:
             return self._window(int(t_start_us), int(t_end_us))
         from sim import EVENT_DTYPE, slice_time
@@ -109,8 +171,20 @@ class EventStream:
 
 
 def open_event_stream(path: str | Path, size: int = EVENT_CHUNK) -> EventStream:
-    """The event stream of the file or folder `path` (any layout generators.formats.load reads); bad files raise
-    DatasetFormatError naming them, as load() does."""
+    """The event stream of a file or folder; bad files raise DatasetFormatError naming them, as load() does.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file or folder in any layout generators.formats.load reads.
+    size : int, optional
+        Events per chunk (default EVENT_CHUNK).
+
+    Returns
+    -------
+    EventStream
+        The stream.
+    """
     from . import detect, load
 
     path = Path(path)

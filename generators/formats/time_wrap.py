@@ -21,6 +21,19 @@ def time_step_ok(prev: int | np.ndarray, new: int | np.ndarray, period: int) -> 
     near its top), i.e. a corrupt file. So one corrupt value cannot pass for a wrap: a value just below an early
     time reads as near the top, and the step to it is refused. Works on ints and numpy arrays alike (in numba
     kernels as _time_step_ok). Metavision's EVT 3.0 decoder counts a wrap for a drop of at least 4085 of 4096
-    steps, which this rule accepts too."""
+    steps, which this rule accepts too.
+
+    Parameters
+    ----------
+    prev, new : int or numpy.ndarray
+        The counter's previous and new values, in [0, period) (counter ticks).
+    period : int
+        The counter's range (ticks).
+
+    Returns
+    -------
+    bool or numpy.ndarray
+        Whether each step is allowed (time forward, or a wrap).
+    """
     m = period // WRAP_WINDOW
     return ((new >= prev) & (new - prev < period - m)) | ((new < prev) & (prev - new >= period - m))

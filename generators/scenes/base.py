@@ -45,7 +45,18 @@ class Scene:
         self.duration_us = check_int(f"{owner}: duration_us", duration_us, minimum=1, unit="microseconds")
 
     def radiance(self, t_us: int) -> np.ndarray:
-        """Linear radiance at time t_us (microseconds, in [0, duration_us]): float32 (height, width), >= 0."""
+        """Linear radiance at a time, checked: finite everywhere.
+
+        Parameters
+        ----------
+        t_us : int
+            Scene time (us), in [0, duration_us]; EvsimInputError outside.
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 (height, width) linear radiance (the scene's radiance units), >= 0.
+        """
         if not 0 <= t_us <= self.duration_us:
             raise EvsimInputError(
                 f"{type(self).__name__}: t_us={t_us} is outside the source's time range [0, {self.duration_us}] us"
@@ -57,15 +68,40 @@ class Scene:
         return img
 
     def log_radiance(self, t_us: int) -> np.ndarray:
-        """Natural log of radiance(t_us) (float64); -inf where the radiance is exactly zero."""
+        """Natural log of radiance(t_us).
+
+        Parameters
+        ----------
+        t_us : int
+            Scene time (us), in [0, duration_us].
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 (height, width) log radiance (log units); -inf where the radiance is exactly zero.
+        """
         with np.errstate(divide="ignore"):
             return np.log(self.radiance(t_us).astype(np.float64))
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion of the scene, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            An upper bound of the speed of any image feature (pixels per second); 0 for a static scene.
+        """
         return 0.0
 
     def describe(self) -> dict:
-        """JSON-serialisable description: the class name and the parameters that define the scene."""
+        """JSON-serialisable description of the scene, recorded in the metadata.
+
+        Returns
+        -------
+        dict
+            "type" (the class name), "height", "width" (pixels), "duration_us" (us) and the parameters that define
+            the scene.
+        """
         return {"type": type(self).__name__, "height": self.height, "width": self.width,
                 "duration_us": self.duration_us, **self._params()}
 
@@ -78,7 +114,24 @@ class Scene:
 
 def positive(name: str, value: float, owner: str, *, allow_zero: bool = False) -> float:
     """A finite real number (not a bool or a string) > 0 (>= 0 with allow_zero), as a float; InvalidParameterError
-    naming owner and parameter otherwise."""
+    naming owner and parameter otherwise.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the error message.
+    value : float
+        The value to check (any unit).
+    owner : str
+        The scene class, for the error message.
+    allow_zero : bool, optional
+        Accept 0 too (default False).
+
+    Returns
+    -------
+    float
+        The value.
+    """
     return check_number(f"{owner}: {name}", value, positive=not allow_zero)
 
 
@@ -86,7 +139,18 @@ MAX_RADIANCE = 1e30  # radiance levels (and gains) at most this: rendered in flo
 
 
 def level(name: str, value: float, owner: str, *, allow_zero: bool = False) -> float:
-    """A radiance level or gain: as positive(), and at most MAX_RADIANCE."""
+    """A radiance level or gain: as positive(), and at most MAX_RADIANCE.
+
+    Parameters
+    ----------
+    name, value, owner, allow_zero
+        As positive's (value in radiance units, or a dimensionless gain).
+
+    Returns
+    -------
+    float
+        The value.
+    """
     v = positive(name, value, owner, allow_zero=allow_zero)
     if v > MAX_RADIANCE:
         raise InvalidParameterError(f"{owner}: {name} must be at most {MAX_RADIANCE:g} (radiance is rendered in "
@@ -95,12 +159,38 @@ def level(name: str, value: float, owner: str, *, allow_zero: bool = False) -> f
 
 
 def number(name: str, value: float, owner: str) -> float:
-    """A finite real number of any sign (not a bool or a string), as a float (speeds, angles, positions)."""
+    """A finite real number of any sign (not a bool or a string), as a float (speeds, angles, positions).
+
+    Parameters
+    ----------
+    name, value, owner
+        As positive's.
+
+    Returns
+    -------
+    float
+        The value.
+    """
     return check_real(f"{owner}: {name}", value)
 
 
 def numbers(name: str, values: tuple[float, ...], owner: str, n: int = 2) -> tuple[float, ...]:
-    """A sequence of n finite real numbers (a velocity, a position), as a tuple of floats."""
+    """A sequence of n finite real numbers (a velocity, a position), as a tuple of floats.
+
+    Parameters
+    ----------
+    name, owner
+        As positive's.
+    values : sequence of float
+        The numbers to check (any unit).
+    n : int, optional
+        How many there must be (default 2).
+
+    Returns
+    -------
+    tuple of float
+        The values.
+    """
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") or len(values) != n:
         raise InvalidParameterError(f"{owner}: {name} must be {n} numbers, got {values!r}")
     return tuple(number(f"{name}[{i}]", v, owner) for i, v in enumerate(values))

@@ -25,7 +25,18 @@ WINDOW_GAIN, SUN_RADIANCE, SHADOW_GAIN, FLOOR = 8.0, 30.0, 0.02, 1e-3
 
 
 def builtin_hdr_image(name: str = "astronaut") -> np.ndarray:
-    """float32 (H, W) linear radiance made from skimage.data.<name>() (see the module docstring)."""
+    """An HDR radiance map made from a scikit-image sample photo (see the module docstring).
+
+    Parameters
+    ----------
+    name : str, optional
+        One of BUILTIN_IMAGES (default "astronaut"): the photo skimage.data.<name>().
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (H, W) linear radiance (relative units: the photo's own range is about 1e-3..1, the sun 30).
+    """
     if name not in BUILTIN_IMAGES:
         raise InvalidParameterError(f"unknown built-in image {name!r}; one of {', '.join(BUILTIN_IMAGES)}")
     import skimage.data
@@ -51,6 +62,25 @@ def builtin_hdr_image(name: str = "astronaut") -> np.ndarray:
 
 def builtin_image_scene(height: int, width: int, duration_us: int, trajectory: Trajectory | None = None, *,
                         image: str = "astronaut", **kwargs: Any) -> ImageMotionScene:
-    """An ImageMotionScene of builtin_hdr_image(image) at the requested output size."""
+    """An ImageMotionScene of builtin_hdr_image(image) at the requested output size.
+
+    Parameters
+    ----------
+    height, width : int
+        Output size (pixels).
+    duration_us : int
+        Duration (us).
+    trajectory : Trajectory, optional
+        The camera motion (default: none).
+    image : str, optional
+        One of BUILTIN_IMAGES (default "astronaut").
+    **kwargs
+        ImageMotionScene's other keywords.
+
+    Returns
+    -------
+    ImageMotionScene
+        The scene.
+    """
     return ImageMotionScene(builtin_hdr_image(image), duration_us, trajectory, height=height, width=width,
                             name=f"skimage.data.{image} (HDR boosted)", **kwargs)

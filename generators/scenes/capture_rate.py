@@ -103,7 +103,19 @@ def _meta_capture_fps(buf: bytes, start: int, end: int, path: Path, where: str) 
 
 
 def capture_fps(path: str | Path) -> tuple[float, str] | None:
-    """(capture rate in frames per second, metadata key) of an MP4/QuickTime file that records one, else None."""
+    """The capture rate an MP4/QuickTime file records.
+
+    Parameters
+    ----------
+    path : str or Path
+        The video file.
+
+    Returns
+    -------
+    tuple of (float, str) or None
+        (capture rate in frames per second, the metadata key that holds it), or None for a file that records none
+        (or is not an ISO base media file).
+    """
     path = Path(path)
     with open(path, "rb") as f:
         head = f.read(8)

@@ -10,13 +10,12 @@ conditioning it becomes a stream of noise events, and key frames become whole-fr
 InputConditioner is one per-pixel temporal filter for both, applied to each frame in order, in the input's code
 values (DN: 0..255 for 8-bit video and images, 0..65535 for 16-bit), before any interpolation:
 
-- a hold band (the "play" or backlash operator of hysteresis models; Krasnosel'skii & Pokrovskii, "Systems with
-  Hysteresis", 1989): the output stays put while the input is within +-tau of it, and follows with a lag of tau
+- a hold band (the "play" or backlash operator of hysteresis models; Krasnosel'skii and Pokrovskii 1989
+  [Krasnoselskii1989]): the output stays put while the input is within +-tau of it, and follows with a lag of tau
   when the input leaves the band. A change larger than the band (a moving edge, a light switched on) passes at
   once, less tau; noise and codec wander inside the band never reach the DVS. Optionally (`track` > 0, default 0)
   the output also moves that fraction of the way to the input per frame inside the band (a first-order recursive
-  filter, as in motion-adaptive temporal noise filters; Brailean, Kleihorst, Efstratiadis, Katsaggelos &
-  Lagendijk, "Noise reduction filters for dynamic image sequences: a review", Proc. IEEE 1995): slow changes
+  filter, as in motion-adaptive temporal noise filters; Brailean et al. 1995 [Brailean1995]): slow changes
   smaller than tau then pass as ramps, and so does codec wander;
 - motion passes whole: a pixel whose mean |change| over the 5 x 5 window around it exceeds 2 noise rms (noise
   alone gives 1.13 on average, and the window's mean varies by about 0.25) is moving and follows its input
@@ -41,6 +40,9 @@ values (DN: 0..255 for 8-bit video and images, 0..65535 for 16-bit), before any 
 The filter holds four frames of state (height x width float32) and is deterministic: reset() and the same frames give
 the same output. describe() states the settings; stats() what was measured (noise estimate, key frames found,
 the fraction of pixel updates held in the band).
+
+References (docs/models/references.md): Krasnosel'skii and Pokrovskii 1989 [Krasnoselskii1989], the play operator;
+Brailean et al. 1995 [Brailean1995], temporal noise filters.
 """
 
 from __future__ import annotations
@@ -71,16 +73,26 @@ _DECILE = 90  # percentile of |frame difference| above which pixels count as mov
 class ConditioningParams:
     """Settings of InputConditioner (module docstring).
 
-    mode: "temporal" (the hold band with tracking) or "off" (frames pass unchanged).
-    noise_dn: temporal noise rms of a static pixel in input code values (DN) at the sensor size, or None to estimate
-        it from the clip.
-    threshold_sigmas: half-width of the hold band in units of the noise rms.
-    track: fraction of the in-band difference followed per frame (0..1; 0 holds until the band is left).
-    key_frame_ratio: a frame pair whose noise estimate exceeds this multiple of the running median is a key frame.
-    min_noise_dn, max_noise_dn: bounds of the estimated noise (DN; 8-bit quantisation alone gives 0.29; motion
-        over most of the picture inflates the estimate, hence the ceiling).
-    key_frames: detect key frames (compressed video); False for the frames of a camera (no codec).
-    max_artefact_dn: a frame pair whose change spreads wider than this (DN) is never taken for a key frame.
+    Attributes
+    ----------
+    mode : str
+        "temporal" (the hold band with tracking; default) or "off" (frames pass unchanged).
+    noise_dn : float or None
+        Temporal noise rms of a static pixel in input code values (DN) at the sensor size, or None (default) to
+        estimate it from the clip.
+    threshold_sigmas : float
+        Half-width of the hold band in units of the noise rms (default 3).
+    track : float
+        Fraction of the in-band difference followed per frame, in [0, 1] (default 0: held until the band is left).
+    key_frame_ratio : float
+        A frame pair whose noise estimate exceeds this multiple of the running median is a key frame (default 2).
+    min_noise_dn, max_noise_dn : float
+        Bounds of the estimated noise (DN; default 1 and 2; 8-bit quantisation alone gives 0.29; motion over most of
+        the picture inflates the estimate, hence the ceiling).
+    key_frames : bool
+        Detect key frames (compressed video; default True); False for the frames of a camera (no codec).
+    max_artefact_dn : float
+        A frame pair whose change spreads wider than this (DN) is never taken for a key frame (default 16).
     """
 
     mode: str = "temporal"
@@ -109,8 +121,19 @@ class ConditioningParams:
 
     @classmethod
     def from_option(cls, option: ConditioningParams | dict | str | None) -> ConditioningParams:
-        """From a scene option: None (the defaults), a mode name ("temporal", "off"), a table of fields or an
-        instance. Unknown keys raise InvalidParameterError listing the allowed ones."""
+        """From a scene option. Unknown keys raise InvalidParameterError listing the allowed ones.
+
+        Parameters
+        ----------
+        option : ConditioningParams, dict, str or None
+            None (the defaults), a mode name ("temporal", "off"), a table of fields (units as the Attributes) or an
+            instance.
+
+        Returns
+        -------
+        ConditioningParams
+            The settings.
+        """
         if option is None:
             return cls()
         if isinstance(option, cls):
@@ -129,7 +152,13 @@ class ConditioningParams:
 
 class InputConditioner:
     """The per-pixel temporal filter of the module docstring. Call it on each frame (float DN, (H, W)) in order;
-    it returns the conditioned frame (float32, DN). reset() starts again from the next frame."""
+    it returns the conditioned frame (float32, DN). reset() starts again from the next frame.
+
+    Parameters
+    ----------
+    params : ConditioningParams, dict, str or None, optional
+        The settings, as ConditioningParams.from_option takes them (default: the defaults).
+    """
 
     def __init__(self, params: ConditioningParams | dict | str | None = None):
         self.params = ConditioningParams.from_option(params)
@@ -204,7 +233,14 @@ class InputConditioner:
         return sigma, False
 
     def describe(self) -> dict:
-        """The settings (JSON-serialisable; the same before and after frames are processed)."""
+        """The settings (the same before and after frames are processed).
+
+        Returns
+        -------
+        dict
+            JSON-serialisable: the ConditioningParams fields (DN where a noise level), the domain and the method;
+            {"mode": "off"} when off.
+        """
         p = self.params
         if p.mode == "off":
             return {"mode": "off"}
@@ -213,8 +249,15 @@ class InputConditioner:
                           "changes > key_frame_ratio x the running median) absorbed into a per-pixel codec bias"}
 
     def stats(self) -> dict:
-        """What was measured over the frames so far: frames, median noise rms used (DN), key frames found (count
-        and the first 8 frame indices), the fraction of pixel updates held in the band."""
+        """What was measured over the frames so far.
+
+        Returns
+        -------
+        dict
+            "frames" (count), "noise_dn_median" (the median noise rms used, DN, or None before a pair),
+            "key_frames" (count found), "first_key_frames" (the first 8 frame indices), "held_fraction" (of the
+            pixel updates held in the band).
+        """
         return {"frames": self.n_frames, "noise_dn_median": float(np.median(self._sigmas)) if self._sigmas else None,
                 "key_frames": len(self.key_frames), "first_key_frames": self.key_frames[:8],
                 "held_fraction": self._held / max(self._updates, 1)}
@@ -291,8 +334,22 @@ _GUIDE_BINS = 4096
 
 
 def condition_linear(conditioner: InputConditioner, y: np.ndarray, lut: np.ndarray) -> np.ndarray:
-    """Condition a frame of linear values y (float32) whose input codes map to linear values through lut (the
-    linearisation table: lut[code], non-decreasing): to codes, through the conditioner, back to linear."""
+    """Condition a frame of linear values: to codes, through the conditioner, back to linear.
+
+    Parameters
+    ----------
+    conditioner : InputConditioner
+        The filter (its state advances by one frame).
+    y : numpy.ndarray
+        (H, W) linear values (the linearisation's units), as float32.
+    lut : numpy.ndarray
+        The linearisation table, non-decreasing: lut[code] is the linear value of input code value code (DN).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (H, W) conditioned linear values.
+    """
     lut = np.ascontiguousarray(lut, dtype=np.float32)
     flat = np.ascontiguousarray(y, dtype=np.float32).ravel()
     scale = _GUIDE_BINS / max(float(lut[-1] - lut[0]), 1e-30)

@@ -29,11 +29,27 @@ TIMESTAMPS_FILE = "timestamps.txt"
 
 
 class FrameSequenceScene(Scene):
-    """Interpolated HDR frames. frames: (N, H, W[, C]) array or a list of paths to images readable by load_image.
+    """Interpolated HDR frames.
 
-    times_us: (N,) strictly increasing int64 microseconds (N >= 2). max_speed_px_per_s: an upper bound of the motion
-    if known; by default the source reports one pixel per shortest frame interval, so that a consumer sampling at
-    one pixel of motion samples at least once per input frame (the interpolation holds no finer information).
+    Parameters
+    ----------
+    frames : numpy.ndarray or sequence
+        (N, H, W[, C]) linear radiance (radiance units), or a list of arrays or of paths to images readable by
+        load_image.
+    times_us : array_like
+        (N,) strictly increasing integer times (us), N >= 2; shifted so that the first frame is t = 0.
+    interpolation : {"log", "linear"}, optional
+        Between frames: linear in log(I + log_eps) (default) or in radiance (see the module).
+    log_eps : float, optional
+        eps of the log interpolation (radiance units, > 0; default 1e-6).
+    channel : str or int, optional
+        As to_luminance's.
+    max_speed_px_per_s : float, optional
+        An upper bound of the motion (pixels per second) if known; by default the source reports one pixel per
+        shortest frame interval, so that a consumer sampling at one pixel of motion samples at least once per input
+        frame (the interpolation holds no finer information).
+    name : str, optional
+        The frames' name in describe() (e.g. their folder).
     """
 
     def __init__(self, frames: np.ndarray | Sequence[np.ndarray | str | Path], times_us: ArrayLike, *,
@@ -64,8 +80,23 @@ class FrameSequenceScene(Scene):
 
     @classmethod
     def from_folder(cls, folder: str | Path, *, fps: float | None = None, **kwargs: Any) -> FrameSequenceScene:
-        """All *.exr files of a folder in name order. Times: from timestamps.txt in the folder (one integer
-        microsecond time per line, in the same order) or, when it is absent, from fps (frames per second)."""
+        """All *.exr files of a folder in name order.
+
+        Parameters
+        ----------
+        folder : str or Path
+            The folder; its times come from timestamps.txt in it (one integer microsecond time per line, in the
+            same order) or, when it is absent, from fps.
+        fps : float, optional
+            Frames per second, when the folder has no timestamps.txt.
+        **kwargs
+            The constructor's other keywords (name defaults to the folder).
+
+        Returns
+        -------
+        FrameSequenceScene
+            The scene.
+        """
         folder = Path(folder)
         paths = sorted(folder.glob("*.exr"))
         if len(paths) < 2:
@@ -107,6 +138,13 @@ class FrameSequenceScene(Scene):
         return np.maximum(out, 0.0, out=out)
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            max_speed_px_per_s as given, else one pixel per shortest frame interval (pixels per second).
+        """
         return self._speed
 
     def _params(self):

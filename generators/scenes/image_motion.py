@@ -45,13 +45,24 @@ MAX_TRAVEL_PX = 1e7
 class Trajectory:
     """A smooth camera motion, as seen in the output image.
 
-    pan_px_per_s: (vx, vy) velocity of the view over the source, in output pixels per second (the content moves
-        the opposite way).
-    zoom_per_s: magnification rate: magnification(t) = exp(zoom_per_s * t) (t in seconds; > 0 zooms in).
-    rotation_deg_per_s: rotation of the view about the image centre, degrees per second.
-    shake_px, shake_deg: amplitudes of hand-held shake in translation (output pixels) and rotation (degrees):
-        a sum of three sinusoids per axis at shake_hz * (1, 1.7, 2.9) with relative amplitudes (1, 0.5, 0.25) and
-        phases drawn from shake_seed.
+    Hand-held shake is a sum of three sinusoids per axis at shake_hz * (1, 1.7, 2.9) with relative amplitudes
+    (1, 0.5, 0.25) and phases drawn from shake_seed.
+
+    Attributes
+    ----------
+    pan_px_per_s : tuple of float
+        (vx, vy) velocity of the view over the source (output pixels per second; the content moves the opposite
+        way). Default (0, 0).
+    zoom_per_s : float
+        Magnification rate (1/s): magnification(t) = exp(zoom_per_s * t), t in seconds; > 0 zooms in. Default 0.
+    rotation_deg_per_s : float
+        Rotation of the view about the image centre (degrees per second). Default 0.
+    shake_px, shake_deg : float
+        Amplitudes of hand-held shake in translation (output pixels) and rotation (degrees), >= 0. Default 0.
+    shake_hz : float
+        The shake's base frequency (Hz, > 0). Default 2.
+    shake_seed : int
+        Seed of the shake's phases (>= 0). Default 0.
     """
 
     pan_px_per_s: tuple[float, float] = (0.0, 0.0)
@@ -81,10 +92,23 @@ class Trajectory:
 
     def homography(self, t_us: int, out_size: tuple[int, int], src_centre: tuple[float, float],
                    scale: float) -> np.ndarray:
-        """3x3 matrix mapping output (x, y, 1) to source coordinates at t_us.
+        """The matrix mapping output (x, y, 1) to source coordinates at a time.
 
-        out_size: (height, width) of the output; src_centre: source point shown at the output centre at t=0;
-        scale: source pixels per output pixel at t=0.
+        Parameters
+        ----------
+        t_us : int
+            Scene time (us).
+        out_size : tuple of int
+            (height, width) of the output (pixels).
+        src_centre : tuple of float
+            (x, y) source point shown at the output centre at t = 0 (source pixels).
+        scale : float
+            Source pixels per output pixel at t = 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 (3, 3) homography, output pixel coordinates -> source pixel coordinates.
         """
         t = t_us * 1e-6
         dx, dy, dtheta = self._shake(t)
@@ -101,7 +125,20 @@ class Trajectory:
         return m
 
     def max_speed_px_per_s(self, out_size: tuple[int, int], duration_us: int) -> float:
-        """Upper bound of image-plane speed (output pixels per second) over [0, duration_us]."""
+        """Upper bound of the image-plane speed over a duration.
+
+        Parameters
+        ----------
+        out_size : tuple of int
+            (height, width) of the output (pixels).
+        duration_us : int
+            The motion is bounded over [0, duration_us] (us).
+
+        Returns
+        -------
+        float
+            The bound (output pixels per second).
+        """
         r = math.hypot(out_size[0], out_size[1]) / 2
         w = 2 * np.pi * self.shake_hz * _SHAKE_HARMONICS
         shake_v = float((_SHAKE_WEIGHTS * w).sum())
@@ -111,6 +148,13 @@ class Trajectory:
         return mag * trans + (abs(self.zoom_per_s) + rot) * r
 
     def describe(self) -> dict:
+        """JSON-serialisable description, recorded in the metadata.
+
+        Returns
+        -------
+        dict
+            The fields by name (units as the Attributes), pan_px_per_s as a list.
+        """
         d = asdict(self)
         d["pan_px_per_s"] = list(self.pan_px_per_s)
         return d
@@ -118,11 +162,28 @@ class Trajectory:
 
 def load_image(path: str | Path, *, channel: str | int | None = None, crf: str | object = "srgb",
                crf_params: dict | None = None) -> np.ndarray:
-    """Load an image as float32 (H, W) linear luminance (or the selected channel).
+    """Load an image as linear luminance (or the selected channel).
 
     .exr (OpenEXR), .hdr/.pic (Radiance) and .npy are taken as linear radiance. Any other format OpenCV reads is an
     LDR image: its values are normalised to [0, 1] by the integer type's maximum and linearised with the inverse of
-    `crf` (a crf_models name, built with crf_params, or an object with an inverse(response) method).
+    `crf`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The image file.
+    channel : str or int, optional
+        As to_luminance's: None (default) for Rec. 709 luminance, or "R"/"G"/"B"/an index.
+    crf : str or object, optional
+        For LDR images: a crf_models name (default "srgb"), built with crf_params, or an object with an
+        inverse(response) method.
+    crf_params : dict, optional
+        Parameters of the named CRF.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (H, W) linear luminance (the file's radiance units; an LDR image's in the CRF's linear units), >= 0.
     """
     path = Path(path)
     if not path.is_file():
@@ -174,7 +235,20 @@ def _read_exr(path: Path) -> np.ndarray:
 
 
 def linearise_ldr(image: np.ndarray, crf: str | object = "srgb", crf_params: dict | None = None) -> np.ndarray:
-    """Linearise an integer LDR image (any channels) with the inverse CRF; returns float32 in the CRF's linear units."""
+    """Linearise an integer LDR image (any channels) with the inverse CRF.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        Integer image (any shape); its values are normalised to [0, 1] by the dtype's maximum.
+    crf, crf_params
+        As load_image's.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 linear values of the same shape, in the CRF's linear units.
+    """
     img = np.asarray(image)
     if not np.issubdtype(img.dtype, np.integer):
         raise EvsimInputError(f"an LDR image must have an integer dtype, got {img.dtype}")
@@ -217,9 +291,7 @@ def _box_taps_with_variance(variance: float) -> np.ndarray:
 class ImageMotionScene(Scene):
     """A still linear image seen by a moving camera.
 
-    image: (H, W) linear radiance (or (H, W, C) colour, reduced with `channel` as in to_luminance).
-    height, width: output size (default: the source size). scale: source pixels per output pixel at t=0
-    (default: the largest view that fits inside the source). When scale > 1 the source has detail finer than an
+    When scale > 1 the source has detail finer than an
     output pixel, and each output pixel integrates the image over its area: the warp renders a grid `supersample`
     times finer in each axis, which is then area-averaged (the source is first area-reduced to at most `supersample`
     source pixels per output pixel, so the warp never decimates, which would alias). Point-sampling a source reduced
@@ -232,8 +304,35 @@ class ImageMotionScene(Scene):
     grid's image exactly; on the built-in photos and Desk.exr at 346x260 it gives the fine grid's event count
     within 0.2 % at about a tenth of the rendering cost. False, cubic interpolation and perspective views render
     the fine grid.
-    interpolation: "linear" (bilinear) or "cubic" (bicubic; negative overshoots are clipped to 0).
-    border: "reflect" (mirror without repeating the edge pixel) or "constant" (border_value).
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        (H, W) linear radiance (radiance units), or (H, W, C) colour, reduced with `channel` as in to_luminance.
+    duration_us : int
+        Duration (us), >= 1.
+    trajectory : Trajectory, optional
+        The camera motion (default Trajectory(): none).
+    height, width : int, optional
+        Output size (pixels; default: the source size).
+    scale : float, optional
+        Source pixels per output pixel at t = 0 (default: the largest view that fits inside the source).
+    channel : str or int, optional
+        As to_luminance's.
+    interpolation : {"linear", "cubic"}, optional
+        Bilinear (default) or bicubic (negative overshoots are clipped to 0).
+    border : {"reflect", "constant"}, optional
+        Mirror without repeating the edge pixel (default), or border_value.
+    border_value : float, optional
+        Radiance outside the image with border "constant" (radiance units, >= 0; default 0).
+    gain : float, optional
+        Factor applied to the image's radiance (dimensionless, > 0; default 1).
+    supersample : int, optional
+        Fine-grid factor per axis when scale > 1 (>= 1; default 3).
+    prefilter : bool, optional
+        Render bilinear affine views from a box-filtered source (default True).
+    name : str, optional
+        The image's name in describe() (e.g. its path).
     """
 
     def __init__(self, image: np.ndarray, duration_us: int, trajectory: Trajectory | None = None, *,
@@ -320,13 +419,41 @@ class ImageMotionScene(Scene):
     def from_file(cls, path: str | Path, duration_us: int, trajectory: Trajectory | None = None, *,
                   channel: str | int | None = None, crf: str | object = "srgb", crf_params: dict | None = None,
                   **kwargs: Any) -> ImageMotionScene:
-        """Build from an image file (see load_image); kwargs as for the constructor."""
+        """Build from an image file (see load_image).
+
+        Parameters
+        ----------
+        path : str or Path
+            The image file.
+        duration_us, trajectory
+            As the constructor's.
+        channel, crf, crf_params
+            As load_image's.
+        **kwargs
+            The constructor's other keywords (name defaults to the path).
+
+        Returns
+        -------
+        ImageMotionScene
+            The scene.
+        """
         img = load_image(path, channel=channel, crf=crf, crf_params=crf_params)
         return cls(img, duration_us, trajectory, name=kwargs.pop("name", str(path)), **kwargs)
 
     def homography(self, t_us: int) -> np.ndarray:
-        """The output-to-source homography at t_us; source coordinates in view units: pixels of the source when
-        scale <= 1, else of the source area-reduced to one pixel per output pixel at t=0."""
+        """The output-to-source homography at a time.
+
+        Parameters
+        ----------
+        t_us : int
+            Scene time (us).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64 (3, 3) matrix, output pixel coordinates -> source coordinates in view units: pixels of the
+            source when scale <= 1, else of the source area-reduced to one pixel per output pixel at t = 0.
+        """
         return self.trajectory.homography(t_us, (self.height, self.width), self._src_centre, self._src_scale)
 
     def _render(self, t_us):
@@ -373,6 +500,13 @@ class ImageMotionScene(Scene):
                               borderMode=_BORDER[self.border], borderValue=self.border_value * self.gain)
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The trajectory's bound over the duration (output pixels per second).
+        """
         return self.trajectory.max_speed_px_per_s((self.height, self.width), self.duration_us)
 
     def _params(self):

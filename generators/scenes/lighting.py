@@ -11,10 +11,7 @@ cosine over a fraction 1 - rise_fraction of the period and rises back as a half 
 rise_fraction 0.5 it is cos(2 pi flicker_hz t + phase_rad), t in seconds of scene time. Frames integrate it over
 their exposures and the DVS input samples it finely (max_frequency_hz: the frequency of the shorter half).
 
-References (full citations also in docs/models/references.md):
-
-- IEEE (2015). IEEE Std 1789-2015, Recommended Practices for Modulating Current in High-Brightness LEDs for
-  Mitigating Health Risks to Viewers.
+References (docs/models/references.md): IEEE Std 1789-2015 [IEEE1789].
 """
 
 from __future__ import annotations
@@ -39,9 +36,26 @@ LIGHTING_KEYS = ("flicker_hz", "depth", "phase_rad", "rise_fraction")
 
 def checked_lighting(flicker_hz: float = 100.0, depth: float = 0.2, phase_rad: float = 0.0,
                      rise_fraction: float = 0.5, *, owner: str = "lighting") -> tuple[float, float, float, float]:
-    """(flicker_hz, depth, phase_rad, rise_fraction) as floats, checked: flicker_hz > 0, depth in [0, 1),
-    phase_rad finite, rise_fraction in [0.05, 0.95]; InvalidParameterError naming owner and the parameter
-    otherwise."""
+    """The flicker's parameters checked; InvalidParameterError naming owner and the parameter otherwise.
+
+    Parameters
+    ----------
+    flicker_hz : float, optional
+        Flicker frequency (Hz, > 0; default 100: 50 Hz mains).
+    depth : float, optional
+        Percent flicker as a fraction, in [0, 1) (default 0.2).
+    phase_rad : float, optional
+        Phase at t = 0 (radians, finite; default 0).
+    rise_fraction : float, optional
+        The share of the period in which the light rises, in [0.05, 0.95] (default 0.5: a cosine).
+    owner : str, optional
+        Who takes them, for the error messages (default "lighting").
+
+    Returns
+    -------
+    tuple of float
+        (flicker_hz, depth, phase_rad, rise_fraction).
+    """
     depth = number("depth", depth, owner)
     if not 0 <= depth < 1:
         raise InvalidParameterError(f"{owner}: depth must be in [0, 1), got {depth!r}")
@@ -53,7 +67,20 @@ def checked_lighting(flicker_hz: float = 100.0, depth: float = 0.2, phase_rad: f
 
 def flicker_gain(t_us: npt.ArrayLike, flicker_hz: float, depth: float, phase_rad: float = 0.0,
                  rise_fraction: float = 0.5) -> np.ndarray:
-    """1 + depth w(t) at scene times t_us (us; array or scalar): the light relative to its mean (see the module)."""
+    """1 + depth w(t): the light relative to its mean (see the module).
+
+    Parameters
+    ----------
+    t_us : array_like
+        Scene times (us; an array or a scalar).
+    flicker_hz, depth, phase_rad, rise_fraction
+        As checked_lighting's (Hz, fraction, radians, fraction).
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 gain (dimensionless, mean 1) at each time, of t_us's shape.
+    """
     cycle = (flicker_hz * np.asarray(t_us, np.float64) * 1e-6 + phase_rad / (2 * math.pi)) % 1.0  # 0 at the peak
     fall = 1.0 - rise_fraction
     w = np.where(cycle < fall, np.cos(math.pi * cycle / fall),
@@ -62,9 +89,21 @@ def flicker_gain(t_us: npt.ArrayLike, flicker_hz: float, depth: float, phase_rad
 
 
 class FlickerLighting(Scene):
-    """`scene` lit by a lamp whose light is 1 + depth w(t) times its mean (see the module). depth in [0, 1);
-    flicker_hz > 0 (100 for 50 Hz mains, 120 for 60 Hz); rise_fraction: the share of the period in which the
-    light rises (0.5: a cosine)."""
+    """`scene` lit by a lamp whose light is 1 + depth w(t) times its mean (see the module).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene under the lamp (its radiance at the lamp's mean).
+    flicker_hz : float, optional
+        Flicker frequency (Hz, > 0; 100 for 50 Hz mains, the default, 120 for 60 Hz).
+    depth : float, optional
+        Percent flicker as a fraction, in [0, 1) (default 0.2).
+    phase_rad : float, optional
+        Phase at t = 0 (radians; default 0).
+    rise_fraction : float, optional
+        The share of the period in which the light rises, in [0.05, 0.95] (default 0.5: a cosine).
+    """
 
     def __init__(self, scene: Scene, *, flicker_hz: float = 100.0, depth: float = 0.2, phase_rad: float = 0.0,
                  rise_fraction: float = 0.5):
@@ -77,24 +116,54 @@ class FlickerLighting(Scene):
                 setattr(self, name, getattr(scene, name))
 
     def gain(self, t_us: float) -> float:
-        """The light's level at scene time t_us, relative to its mean: 1 + depth w(t) (see the module)."""
+        """The light's level at a time, relative to its mean: 1 + depth w(t) (see the module).
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        float
+            The gain (dimensionless, mean 1).
+        """
         return float(flicker_gain(t_us, self.frequency, self.depth, self.phase, self.rise))
 
     def _render(self, t_us: int) -> np.ndarray:
         return self.scene.radiance(t_us) * np.float32(self.gain(t_us))
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion: the lit scene's (light moves nothing).
+
+        Returns
+        -------
+        float
+            scene.max_speed_px_per_s() (pixels per second).
+        """
         return self.scene.max_speed_px_per_s()
 
     def max_frequency_hz(self) -> float:
-        """The highest temporal frequency of the radiance (Hz): that of the flicker's shorter half cosine
-        (flicker_hz at rise_fraction 0.5; 0 at depth 0), or the scene's own if higher."""
+        """The highest temporal frequency of the radiance, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            That of the flicker's shorter half cosine (Hz; flicker_hz at rise_fraction 0.5, 0 at depth 0), or the
+            scene's own if higher.
+        """
         own = getattr(self.scene, "max_frequency_hz", None)
         flicker = self.frequency / (2 * min(self.rise, 1 - self.rise)) if self.depth > 0 else 0.0
         return max(flicker, float(own()) if own is not None else 0.0)
 
     def describe(self) -> dict:
-        """The scene's description with a `lighting` entry."""
+        """The scene's description with a `lighting` entry.
+
+        Returns
+        -------
+        dict
+            scene.describe() and "lighting": flicker_hz (Hz), depth, phase_rad (radians), rise_fraction.
+        """
         return {**self.scene.describe(), "lighting": self._params()}
 
     def _params(self) -> dict:

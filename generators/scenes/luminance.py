@@ -21,13 +21,24 @@ _CHANNELS = {"R": 0, "G": 1, "B": 2}
 
 
 def to_luminance(image: np.ndarray, channel: str | int | None = None) -> np.ndarray:
-    """Reduce an (H, W) or (H, W, C) linear image to float32 (H, W) luminance.
+    """Reduce a linear image to luminance.
 
-    channel: None for Rec. 709 luminance of the first three channels (a fourth, alpha, is ignored; a 1-channel
-    image is returned as is), or "R"/"G"/"B"/an integer index to select one channel. Small negative values
-    (EXR files may hold them from merging or filtering: at most NEGATIVE_TOLERANCE times the image's maximum) are
-    clipped to 0; larger ones, NaN/inf and values that are not real numbers (bool, complex, object) raise
-    EvsimInputError.
+    Small negative values (EXR files may hold them from merging or filtering: at most NEGATIVE_TOLERANCE times the
+    image's maximum) are clipped to 0; larger ones, NaN/inf and values that are not real numbers (bool, complex,
+    object) raise EvsimInputError.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        (H, W) or (H, W, C) linear image (radiance units), integer or float.
+    channel : str or int, optional
+        None (default) for Rec. 709 luminance of the first three channels (a fourth, alpha, is ignored; a 1-channel
+        image is returned as is), or "R"/"G"/"B"/an integer index to select one channel.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (H, W) luminance (the image's radiance units), >= 0.
     """
     img = np.asarray(image)
     if img.dtype.kind not in "iuf":

@@ -50,6 +50,19 @@ class MovingEdge(Scene):
     x_e(t) = x0 + speed * t (pixels; x0 defaults to a quarter of the width). Rendering is exact: a pixel's value is
     low + (high - low) * coverage, so sum over a row of (I - low) / (high - low) equals x_e + 0.5 while the edge is in
     the image.
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    speed_px_per_s : float, optional
+        Edge speed (pixels per second, either sign; default 100).
+    x0 : float, optional
+        Edge position at t = 0 (pixel x coordinate; default width / 4).
+    low, high : float, optional
+        Radiance of the dark and the bright parts (radiance units, high > low > 0; default 0.05 and 1).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, speed_px_per_s: float = 100.0,
@@ -60,7 +73,18 @@ class MovingEdge(Scene):
         self.low, self.high = _levels("MovingEdge", low, high)
 
     def edge_x(self, t_us: float) -> float:
-        """Analytic edge position (pixel x coordinate) at time t_us."""
+        """Analytic edge position at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        float
+            x_e(t_us), the edge's pixel x coordinate.
+        """
         return self.x0 + self.speed * t_us * 1e-6
 
     def _render(self, t_us):
@@ -69,6 +93,13 @@ class MovingEdge(Scene):
         return np.broadcast_to(row.astype(np.float32), (self.height, self.width))
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The edge's speed abs(speed_px_per_s) (pixels per second).
+        """
         return abs(self.speed)
 
     def _params(self):
@@ -89,6 +120,21 @@ class Checkerboard(Scene):
 
     The board's origin moves as (x0 + vx t, y0 + vy t). Exact rendering: the checkerboard is (1 + a(x) a(y)) / 2 for
     a square wave a, and the pixel-box mean of a separable product is the product of the 1-D means (closed form).
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    square_px : float, optional
+        Side of a square (pixels, > 0; default 8).
+    velocity_px_per_s : tuple of float, optional
+        (vx, vy) of the board (pixels per second; default (40, 0)).
+    low, high : float, optional
+        Radiance of the dark and the bright squares (radiance units, high > low > 0; default 0.05 and 1000).
+    origin : tuple of float, optional
+        (x0, y0), the board's origin corner at t = 0 (pixels; default (0, 0)).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, square_px: float = 8.0,
@@ -105,7 +151,18 @@ class Checkerboard(Scene):
         return self.high / self.low
 
     def offset(self, t_us: float) -> tuple[float, float]:
-        """Analytic (x, y) position of the board's origin corner at time t_us, in pixels."""
+        """Analytic position of the board's origin corner at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        tuple of float
+            (x, y) of the corner (pixels).
+        """
         s = t_us * 1e-6
         return self.origin[0] + self.vx * s, self.origin[1] + self.vy * s
 
@@ -117,6 +174,13 @@ class Checkerboard(Scene):
         return self.low + (self.high - self.low) * frac
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The board's speed, the norm of velocity_px_per_s (pixels per second).
+        """
         return math.hypot(self.vx, self.vy)
 
     def _params(self):
@@ -128,6 +192,21 @@ class RotatingBar(Scene):
     """A bright bar (length x thickness pixels) rotating about the image centre on a dark background.
 
     angle(t) = angle0 + angular_speed * t, in degrees, measured from the +x axis towards +y (image rows).
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    angular_speed_deg_s : float, optional
+        Angular speed (degrees per second, either sign; default 90).
+    length_px, thickness_px : float, optional
+        The bar's size (pixels, > 0; default 0.8 min(height, width) and 4).
+    angle0_deg : float, optional
+        Angle at t = 0 (degrees; default 0).
+    low, high : float, optional
+        Radiance of the background and of the bar (radiance units, high > low > 0; default 0.05 and 1).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, angular_speed_deg_s: float = 90.0,
@@ -142,7 +221,18 @@ class RotatingBar(Scene):
         self.centre = ((width - 1) / 2, (height - 1) / 2)
 
     def angle_deg(self, t_us: float) -> float:
-        """Analytic bar angle in degrees at time t_us."""
+        """Analytic bar angle at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        float
+            angle(t_us) (degrees, not wrapped).
+        """
         return self.angle0 + self.omega * t_us * 1e-6
 
     def _render(self, t_us):
@@ -155,6 +245,13 @@ class RotatingBar(Scene):
         return self.low + (self.high - self.low) * cov
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The speed of the bar's ends, abs(angular speed) (rad/s) x length / 2 (pixels per second).
+        """
         return math.radians(abs(self.omega)) * self.length / 2
 
     def _params(self):
@@ -168,6 +265,25 @@ class RotatingDisk(Scene):
     Bright sector k spans angles [angle(t) + 2k pi / sectors, angle(t) + (2k+1) pi / sectors) (radians, from +x
     towards +y); angle(t) = angle0 + angular_speed * t in degrees. Outside the disk the radiance is `background`.
     With sectors=1 the bright half-disk's centroid lies at angle(t) + 90 degrees, 4 R / (3 pi) from the centre.
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    angular_speed_deg_s : float, optional
+        Angular speed (degrees per second, either sign; default 180).
+    radius_px : float, optional
+        The disk's radius R (pixels, > 0; default 0.45 min(height, width)).
+    sectors : int, optional
+        Number of bright sectors (>= 1; default 4).
+    angle0_deg : float, optional
+        Angle at t = 0 (degrees; default 0).
+    low, high : float, optional
+        Radiance of the dark and the bright sectors (radiance units, high > low > 0; default 0.05 and 1).
+    background : float, optional
+        Radiance outside the disk (radiance units, > 0; default 0.2).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, angular_speed_deg_s: float = 180.0,
@@ -184,7 +300,18 @@ class RotatingDisk(Scene):
         self.centre = ((width - 1) / 2, (height - 1) / 2)
 
     def angle_deg(self, t_us: float) -> float:
-        """Analytic disk angle in degrees at time t_us."""
+        """Analytic disk angle at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        float
+            angle(t_us) (degrees, not wrapped).
+        """
         return self.angle0 + self.omega * t_us * 1e-6
 
     def _render(self, t_us):
@@ -201,6 +328,13 @@ class RotatingDisk(Scene):
         return self.background + disk * (self.low + (self.high - self.low) * bright - self.background)
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The rim's speed, abs(angular speed) (rad/s) x radius (pixels per second).
+        """
         return math.radians(abs(self.omega)) * self.radius
 
     def _params(self):
@@ -213,6 +347,25 @@ class FlickeringLight(Scene):
 
     lamp(t) = mean * (1 + depth * sin(2 pi frequency t + phase)); pixel = background + coverage * lamp(t).
     depth < 1 keeps the lamp positive. Nothing moves: max_speed_px_per_s() is 0.
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    frequency_hz : float, optional
+        Flicker frequency (Hz, > 0; default 100).
+    mean : float, optional
+        The lamp's mean radiance (radiance units, > 0; default 10).
+    depth : float, optional
+        Modulation depth, in [0, 1) (dimensionless; default 0.8).
+    phase_rad : float, optional
+        Phase at t = 0 (radians; default 0).
+    background : float, optional
+        Radiance around the lamp (radiance units, > 0; default 0.1).
+    radius_px : float, optional
+        The lamp's radius (pixels, > 0; default 0.25 min(height, width)).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, frequency_hz: float = 100.0,
@@ -236,11 +389,28 @@ class FlickeringLight(Scene):
         return 1e6 / self.frequency
 
     def max_frequency_hz(self) -> float:
-        """The lamp's flicker frequency (Hz), the highest temporal frequency of the radiance; 0 at depth 0."""
+        """The highest temporal frequency of the radiance, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The lamp's flicker frequency (Hz); 0 at depth 0.
+        """
         return self.frequency if self.depth > 0 else 0.0
 
     def lamp_intensity(self, t_us: float) -> float:
-        """Analytic lamp radiance at time t_us."""
+        """Analytic lamp radiance at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        float
+            lamp(t_us) (radiance units).
+        """
         return self.mean * (1 + self.depth * math.sin(2 * math.pi * self.frequency * t_us * 1e-6 + self.phase))
 
     def _render(self, t_us):
@@ -256,6 +426,23 @@ class SunPatch(Scene):
 
     background(x, y) = dark * (1 + 0.5 sin(2 pi x / 23) sin(2 pi y / 17)); pixel = background + coverage * sun.
     centre(t) = start + velocity * t (pixels). The dynamic range sun / dark is 1e4:1 by default.
+
+    Parameters
+    ----------
+    height, width : int
+        Image size (pixels), >= 1.
+    duration_us : int
+        Duration (us), >= 1.
+    sun : float, optional
+        The sun's radiance (radiance units, > 0; default 1000).
+    dark : float, optional
+        The background's mean radiance (radiance units, > 0; default 0.1).
+    radius_px : float, optional
+        The sun's radius (pixels, > 0; default 0.08 min(height, width)).
+    start : tuple of float, optional
+        (x, y) centre at t = 0 (pixels; default a third of the width and of the height).
+    velocity_px_per_s : tuple of float, optional
+        (vx, vy) (pixels per second; default (30, 10)).
     """
 
     def __init__(self, height: int, width: int, duration_us: int, *, sun: float = 1000.0, dark: float = 0.1,
@@ -271,7 +458,18 @@ class SunPatch(Scene):
         self._background = self.dark * (1 + 0.5 * np.sin(2 * np.pi * xx / 23) * np.sin(2 * np.pi * yy / 17))
 
     def centre(self, t_us: float) -> tuple[float, float]:
-        """Analytic (x, y) centre of the sun at time t_us, in pixels."""
+        """Analytic centre of the sun at a time.
+
+        Parameters
+        ----------
+        t_us : float
+            Scene time (us).
+
+        Returns
+        -------
+        tuple of float
+            (x, y) of the centre (pixels).
+        """
         s = t_us * 1e-6
         return self.start[0] + self.vx * s, self.start[1] + self.vy * s
 
@@ -280,6 +478,13 @@ class SunPatch(Scene):
         return self._background + self.sun * cov
 
     def max_speed_px_per_s(self) -> float:
+        """The fastest image motion, for the adaptive DVS sampling.
+
+        Returns
+        -------
+        float
+            The sun's speed, the norm of velocity_px_per_s (pixels per second).
+        """
         return math.hypot(self.vx, self.vy)
 
     def _params(self):

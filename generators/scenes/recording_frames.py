@@ -23,7 +23,18 @@ if TYPE_CHECKING:
 
 
 def sha256_of(paths: list[Path]) -> str:
-    """sha256 of one file's bytes, or of the names and bytes of several files in order."""
+    """sha256 of one file's bytes, or of the names and bytes of several files in order.
+
+    Parameters
+    ----------
+    paths : list of Path
+        The files.
+
+    Returns
+    -------
+    str
+        The hex digest.
+    """
     h = hashlib.sha256()
     for p in paths:
         if len(paths) > 1:
@@ -39,7 +50,18 @@ def is_recording(path: Path) -> bool:
     generators.formats.registry holding events recognises (native or E2VID HDF5, AEDAT4, AKF .mat, an IJRR folder,
     ...; one without frames is then refused by RecordingFrames). Files of other suffixes are not read; a folder no
     format recognises (images) is not a recording; a file whose suffix a format claims but whose content is wrong
-    raises DatasetFormatError (naming what is wrong)."""
+    raises DatasetFormatError (naming what is wrong).
+
+    Parameters
+    ----------
+    path : Path
+        A scene input (file or folder).
+
+    Returns
+    -------
+    bool
+        Whether it is an event recording.
+    """
     from ..formats import DatasetFormatError, detect
     from ..formats.registry import format_record, suffix_claimed
 
@@ -58,10 +80,24 @@ def is_recording(path: Path) -> bool:
 class RecordingFrames:
     """Sequential access to the frames of a recording, as the video scene's other inputs (scenes.video._Frames).
 
-    times_us: mid-exposure times from the first frame (int64); time_origin_us: the first frame's mid-exposure time
-    in the recording's time base; exposures_us: (F,) exposure times (int64; 0 where the layout records none);
-    crf: the recorded camera response {"name", "params"} (a simulated recording's), else linear (a DAVIS's APS
-    frames are linear in DN).
+    Parameters
+    ----------
+    path : Path
+        The recording (file or folder).
+    recording : Recording, optional
+        The recording already loaded from path (else it is loaded).
+
+    Attributes
+    ----------
+    times_us : numpy.ndarray
+        (F,) int64 mid-exposure times from the first frame (us).
+    time_origin_us : int
+        The first frame's mid-exposure time in the recording's time base (us).
+    exposures_us : numpy.ndarray
+        (F,) int64 exposure times (us; 0 where the layout records none).
+    crf : dict
+        The recorded camera response {"name", "params"} (a simulated recording's), else linear (a DAVIS's APS
+        frames are linear in DN).
     """
 
     kind = "recording"
@@ -89,5 +125,17 @@ class RecordingFrames:
         self.rate = {"timestamps": "the recording's frame mid-exposure times", "unit": "us"}
 
     def frames(self, first: int = 0) -> Iterator[np.ndarray]:
+        """The frames in order.
+
+        Parameters
+        ----------
+        first : int, optional
+            Index of the first frame (default 0).
+
+        Yields
+        ------
+        numpy.ndarray
+            (H, W) raw frame (DN, unsigned integers of the recording's bit depth).
+        """
         for k in range(first, self._frames.shape[0]):
             yield self._frames[k]
