@@ -28,8 +28,14 @@ from generators.scenes.video import VideoScene
 class InputSettings:
     """How the recording's frames become radiance (what a sensor file's [input] table holds).
 
-    black_level: the frames' value for no light (DN, subtracted before linearising); upsample, flow_preset,
-    conditioning: as for generators.scenes.VideoScene (conditioning None: temporal for a recording's frames).
+    Attributes
+    ----------
+    black_level : float
+        The frames' value for no light (DN, subtracted before linearising).
+    upsample, flow_preset : str
+        As for generators.scenes.VideoScene ("flow", "medium").
+    conditioning : str or None
+        As for generators.scenes.VideoScene (None: temporal for a recording's frames).
     """
 
     black_level: float = 0.0
@@ -41,10 +47,20 @@ class InputSettings:
 class RecordingSimulation:
     """The upsampled radiance of a recording's frames, ready for repeated DVS simulation.
 
-    path: an AEDAT4 file or IJRR folder with frames; recording: the Recording at path when the caller has loaded it
-    (not read again). max_pixel_samples bounds the memory (float32 samples x pixels).
-    times_us: sample times in scene time (from the first frame; the warm-up's negative); full_illumination: the
-    resolved radiance of "full illumination" (DVSParams.full_illumination is replaced by it in every simulation).
+    After construction, times_us holds the sample times in scene time (from the first frame; the warm-up's are
+    negative), radiance the (N, H, W) float32 samples, and full_illumination the resolved radiance of "full
+    illumination" (DVSParams.full_illumination is replaced by it in every simulation).
+
+    Parameters
+    ----------
+    path : str or Path
+        An AEDAT4 file, IJRR folder or other hybrid recording with frames.
+    settings : InputSettings, optional
+        How its frames become radiance (default InputSettings()).
+    recording : Recording, optional
+        The Recording at path when the caller has loaded it (not read again).
+    max_pixel_samples : int
+        Bound of the memory held: float32 samples x pixels (EvsimInputError beyond it).
     """
 
     def __init__(self, path: str | Path, settings: InputSettings | None = None, *,
@@ -76,18 +92,64 @@ class RecordingSimulation:
         self.time_origin_us = scene.time_origin_us
 
     def offset_dn(self, dvs: sim.DVSParams) -> float:
-        """The log offset b of `dvs` in frame DN (the pixel responds to log(DN - black level + b))."""
+        """The log offset b of `dvs` in frame DN (the pixel responds to log(DN - black level + b)).
+
+        Parameters
+        ----------
+        dvs : sim.DVSParams
+            The sensor (its dark_fraction).
+
+        Returns
+        -------
+        float
+            b in frame DN.
+        """
         return dvs.dark_fraction * self.full_illumination * self.dn_per_radiance
 
     def dark_fraction(self, offset_dn: float) -> float:
-        """DVSParams.dark_fraction of a log offset in frame DN (the inverse of offset_dn)."""
+        """DVSParams.dark_fraction of a log offset in frame DN (the inverse of offset_dn).
+
+        Parameters
+        ----------
+        offset_dn : float
+            The log offset b in frame DN.
+
+        Returns
+        -------
+        float
+            The dark fraction (relative to this input's full illumination).
+        """
         return offset_dn / self.dn_per_radiance / self.full_illumination
 
     def params(self, dvs: sim.DVSParams) -> sim.DVSParams:
-        """dvs with this input's full illumination (what convert's auto illumination gives)."""
+        """dvs with this input's full illumination (what convert's auto illumination gives).
+
+        Parameters
+        ----------
+        dvs : sim.DVSParams
+            The sensor.
+
+        Returns
+        -------
+        sim.DVSParams
+            The same sensor with full_illumination resolved on this input.
+        """
         return dvs.replace(full_illumination=self.full_illumination)
 
     def simulate(self, dvs: sim.DVSParams, seed: int | np.random.SeedSequence = 0) -> np.ndarray:
-        """The events of sensor `dvs` on this input (sim.EVENT_DTYPE, times in the recording's time base)."""
+        """The events of sensor `dvs` on this input.
+
+        Parameters
+        ----------
+        dvs : sim.DVSParams
+            The sensor (its full illumination replaced by this input's).
+        seed : int or numpy.random.SeedSequence
+            The simulation's seed.
+
+        Returns
+        -------
+        numpy.ndarray
+            sim.EVENT_DTYPE events, times in the recording's time base (the warm-up's dropped).
+        """
         events = sim.emulate(self.radiance, self.times_us, self.params(dvs), seed)
         return self._input.scene_events(events)[0]
