@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim import EvsimInputError, OptionError
+from sim import EvsimInputError, EvsimNote, OptionError
 from sim.seeding import seed_record
 
 from .ahdr import AHDRConfig, generate_ahdr
@@ -134,6 +134,9 @@ def write_sequence(out: Path, name: str, scene: RadianceSource, ahdr_config: AHD
     """Generate one sequence into out/<name>.h5 (and its export); return its index entry."""
     path = out / f"{check_sequence_name('sequence name', name)}.h5"
     metadata = metadata or {}
+    config = ahdr_config or AHDRConfig()
+    for note in getattr(scene, "generation_notes", lambda camera, outputs: [])(config.camera, config.outputs):
+        warnings.warn(note, EvsimNote, stacklevel=2)
     generate_ahdr(scene, path, ahdr_config, seed, progress=progress, metadata={"name": name, **metadata})
     if fmt != "native":
         with warnings.catch_warnings():  # said once per run by run_sequences (export_note)

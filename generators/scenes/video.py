@@ -78,6 +78,8 @@ from .luminance import REC709_WEIGHTS, to_luminance
 from .recording_frames import RecordingFrames, is_recording, sha256_of
 
 if TYPE_CHECKING:
+    import sim
+
     from ..formats.recording import Recording
 
 LDR_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
@@ -733,6 +735,37 @@ class VideoScene(Scene):
             if prev is not None and np.isnan(self._pair_motion[i - 1]):
                 self._pair_motion[i - 1] = self._flow.pair(prev, cur).max_motion_px
             prev = cur
+
+    def generation_notes(self, camera: sim.CameraParams, outputs: tuple[str, ...]) -> list[str]:
+        """What a user converting this clip should know, before the work (generators.dataset says them as notes):
+        a sensor larger than the input (upscaled) and LDR frames at another rate than the input's.
+
+        Parameters
+        ----------
+        camera : sim.CameraParams
+            The LDR camera of the generation.
+        outputs : tuple of str
+            What the generation writes (generators.choices.OUTPUTS).
+
+        Returns
+        -------
+        list of str
+            The notes (in command-line flags), [] when there is nothing to say.
+        """
+        notes = []
+        h0, w0 = self._input.size
+        y0, y1, x0, x1 = self._crop
+        if self.height > y1 - y0 or self.width > x1 - x0:
+            notes.append(f"{self.path.name}: its {w0}x{h0} frames are upscaled to the {self.width}x{self.height} "
+                         "sensor (--height/--width/--sensor-size): neighbouring pixels see interpolated radiance, so "
+                         "their events are more alike than a real sensor's")
+        rate = self.capture_fps
+        if "frames" in outputs and camera.frame_times_us is None and abs(camera.fps - rate) > 0.01 * rate:
+            exposure = camera.exposure_us if isinstance(camera.exposure_us, int) else list(camera.exposure_us)
+            notes.append(f"{self.path.name}: the input is {rate:.4g} fps; the LDR camera writes {camera.fps:.4g} fps "
+                         f"with {exposure} us exposures (--camera-fps and --exposure-us, or a sensor file's "
+                         "[camera], set them)")
+        return notes
 
     def _params(self):
         inp = self._input
