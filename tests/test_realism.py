@@ -265,3 +265,23 @@ def test_without_frames_the_noise_rates_are_not_scored(sims):
     assert abs(c.scores["count_ratio"] - 1) <= 4 * c.seed_noise["count_ratio"]
     assert any("no frames" in n for n in c.notes)
 
+
+
+def test_a_conversion_on_the_recordings_clock_is_scored_from_the_recordings_time_zero():
+    """A conversion of a recording's frames holds no frames and starts its events at the first frame's mid-exposure
+    (the scene's time zero), not at the exposure start (the recording's): scored on the recording's clock, the same
+    events give a perfect rate curve (before, the windows were shifted by the first event's delay)."""
+    from dataclasses import replace
+
+    from evsim_eval.realism.stats import same_clock
+
+    from recordings import make_recording
+
+    real = make_recording(n_events=20000)
+    late = real.events[real.events["t"] > real.frame_t_mid_us[0]]  # a conversion's events start at time zero
+    real = replace(real, events=late)
+    converted = Recording(events=late.copy(), height=real.height, width=real.width,
+                          metadata={"time_origin_us": int(real.frame_t_mid_us[0])})
+    assert same_clock(real, converted) and not same_clock(converted, real)
+    scores = score_recordings(real, converted).scores
+    assert scores["count_ratio"] == 1.0 and scores["rate_rel_rmse"] == pytest.approx(0.0, abs=1e-12)

@@ -11,7 +11,7 @@ from sim import EvsimInputError
 
 from ..protocols import dataset_sequences
 from .comparison import Comparison, compare
-from .stats import cut, measure, measure_recording, shifted
+from .stats import cut, measure, measure_recording, same_clock, shifted
 
 
 def score_recordings(real: object, sim: object, window_s: tuple[float, float] | None = None) -> Comparison:
@@ -32,7 +32,8 @@ def score_recordings(real: object, sim: object, window_s: tuple[float, float] | 
         The realism scores.
     """
     real_stats = measure_recording(real, window_s)
-    sim_stats = measure_recording(sim, like=real_stats)
+    sim_stats = measure_recording(sim, like=real_stats,
+                                  origin_us=real_stats.origin_us if same_clock(real, sim) else None)
     if sim_stats.gaps_us.size:  # the simulation misses time the real recording covers: score both without it
         windows = cut(real_stats.windows_us, shifted(sim_stats, real_stats.origin_us).gaps_us)
         again = measure(real.events, windows, height=real.height, width=real.width, masks=real_stats.masks)

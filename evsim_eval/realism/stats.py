@@ -394,8 +394,30 @@ def recording_origin_us(rec: object) -> int:
     return int(rec.events["t"][0]) if rec.events.size else 0
 
 
+def same_clock(real: object, sim: object) -> bool:
+    """Whether `sim` is evsim's conversion of `real`'s frames on `real`'s own clock: sim has no frames and its
+    scene's time zero (metadata time_origin_us) is one of real's frames' mid-exposure times. Its first event is then
+    no time zero: its origin is real's (recording_origin_us of a frame-less recording is its first event).
+
+    Parameters
+    ----------
+    real, sim : Recording
+        The real recording and the simulation.
+
+    Returns
+    -------
+    bool
+        True for a conversion on the same clock.
+    """
+    origin = (getattr(sim, "metadata", None) or {}).get("time_origin_us")
+    if origin is None or getattr(sim, "frames", None) is not None or getattr(real, "frames", None) is None:
+        return False
+    return bool(np.isin(int(origin), np.asarray(real.frame_t_mid_us, np.int64)))
+
+
 def measure_recording(rec: object, window_s: tuple[float, float] | None = None, *,
-                      like: RealismStats | None = None, detect_gaps: bool = True) -> RealismStats:
+                      like: RealismStats | None = None, detect_gaps: bool = True,
+                      origin_us: int | None = None) -> RealismStats:
     """measure of a generators.formats Recording, with the pixel classes of its frames (if any), or with like=.
     Coverage gaps are cut out (detect_gaps).
 
@@ -409,13 +431,16 @@ def measure_recording(rec: object, window_s: tuple[float, float] | None = None, 
         Another recording's statistics, whose windows are taken from that recording's origin to this one's.
     detect_gaps : bool, optional
         Cut coverage gaps out of the windows (default True).
+    origin_us : int, optional
+        Its time zero, when known to be another's (a conversion on the recording's own clock: same_clock); default
+        recording_origin_us.
 
     Returns
     -------
     RealismStats
         The statistics, origin_us set to the recording's origin.
     """
-    origin = recording_origin_us(rec)
+    origin = recording_origin_us(rec) if origin_us is None else int(origin_us)
     if like is not None:
         if (rec.height, rec.width) != (like.height, like.width):
             raise EvsimInputError(f"the simulation is {rec.width}x{rec.height} pixels, the real recording "
