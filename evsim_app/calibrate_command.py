@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                     conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
                     progress=not args.no_progress, log=print)
     given = "--window" if args.window is not None else "the recording less a settling start (default)"
-    print(f"window: {cal.window_s[0]:g}-{cal.window_s[1]:g} s from the first frame's exposure start ({given})")
+    print(f"window: {cal.window_s[0]:.4g}-{cal.window_s[1]:.4g} s from the first frame's exposure start ({given})")
     print(fit_table(cal))
     print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
     out = write_calibration(cal, args.out, args.name)

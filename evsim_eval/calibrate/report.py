@@ -60,8 +60,8 @@ def fit_table(cal: Calibration) -> str:
     def count(total, ratio):
         return f"{total * ratio / 1000:.1f} k" if total is not None and math.isfinite(ratio) else "-"
 
-    rows.append((f"events {cal.window_s[0]:g}-{cal.window_s[1]:g} s", f"{n / 1000:.1f} k", count(n, pre["count_ratio"]),
-                 count(n, fit["count_ratio"])))
+    rows.append((f"events {cal.window_s[0]:.4g}-{cal.window_s[1]:.4g} s", f"{n / 1000:.1f} k",
+                 count(n, pre["count_ratio"]), count(n, fit["count_ratio"])))
     rows.append(("ON / OFF events", f"{n_on / 1000:.1f} k / {n_off / 1000:.1f} k",
                  f"{count(n_on, pre['on_ratio'])} / {count(n_off, pre['off_ratio'])}",
                  f"{count(n_on, fit['on_ratio'])} / {count(n_off, fit['off_ratio'])}"))
