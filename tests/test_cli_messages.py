@@ -228,3 +228,34 @@ def test_progress_bars_count_frames_and_events_per_second(capsys):
     assert result.n_events > 0
     assert re.search(r"events: 100%.*0\.2/0\.2 s of scene, [0-9.e+]+ frames/s, [0-9.e+]+ events/s", err), err[-500:]
     assert re.search(r"frames: .*/6 .*frame/s", err) and "us/s" not in err
+
+
+@pytest.mark.parametrize("args,says", [
+    (["convert", "in.mp4", "--output", "d"], "unrecognized arguments: --output d ('--output': did you mean '--out' or "
+                                             "'--outputs'?)"),
+    (["generate", "ahdr", "--dur", "1"], "unrecognized arguments: --dur 1"),
+])
+def test_abbreviated_flags_are_refused_not_expanded(capsys, args, says):
+    assert main(args) == 2
+    assert says in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args,says", [
+    (["generate", "ahdr", "--duration-s", "-1"], "argument --duration-s: must be a finite number > 0, got '-1'"),
+    (["demo", "--height", "0"], "argument --height: must be a positive integer, got '0'"),
+    (["convert", "in.mp4", "--camera-fps", "nan"], "argument --camera-fps: must be a finite number > 0, got 'nan'"),
+])
+def test_bad_numbers_are_refused_naming_the_flag(capsys, args, says):
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert says in err and "defaults." not in err
+
+
+def test_a_clip_window_that_ends_before_it_starts_is_refused_in_flags_before_any_work(tmp_path, capsys):
+    from video_clips import encode_mp4, slow_motion_frames
+
+    clip = encode_mp4(tmp_path / "c.mp4", slow_motion_frames(6)[:, :24, :32])
+    assert main(["convert", str(clip), "--out", str(tmp_path / "o"), "--start-s", "0.2", "--stop-s", "0.1"]) == 2
+    out, err = capsys.readouterr()
+    assert err == "evsim: error: --start-s 0.2 must come before --stop-s 0.1 (seconds from the input's first frame)\n"
+    assert out == "" and not (tmp_path / "o").exists()
