@@ -14,7 +14,7 @@ Two rules, each from the events alone (and the frames' exposure windows where gi
 - Exposure-gated export: when no event at all falls between the frames' exposures (from the first exposure's start
   to the last one's end) while the stream's mean rate over the exposures would put at least SIGNIFICANCE events
   there, every span between two exposures, [end of exposure k, start of exposure k + 1), is a gap, whatever its
-  length.
+  length (a busy-stream gap around one is replaced by it: the exposures bound it exactly).
 
 Gaps are [start, end) int64 microseconds: no event has start <= t < end, and end is the time the stream resumes
 (the first event after the gap, or the next exposure's start).
@@ -112,7 +112,9 @@ def find_gaps(events: np.ndarray, frame_t_start_us: npt.ArrayLike | None = None,
     gaps = _busy_gaps(t)
     if frame_t_start_us is not None and frame_t_end_us is not None:
         gated = _gated_gaps(t, np.asarray(frame_t_start_us, np.int64), np.asarray(frame_t_end_us, np.int64))
-        gaps = _merged(np.concatenate([gaps, gated]))
+        if gated.shape[0]:  # the exposures bound the gated gaps exactly: a busy gap around one is that gap
+            near = np.any((gaps[:, None, 0] < gated[None, :, 1]) & (gaps[:, None, 1] > gated[None, :, 0]), axis=1)
+            gaps = _merged(np.concatenate([gaps[~near], gated]))
     return gaps
 
 
