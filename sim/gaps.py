@@ -166,12 +166,15 @@ def describe_gaps(gaps_us: np.ndarray, span_us: tuple[int, int]) -> str:
     Returns
     -------
     str
-        E.g. "events: 12 gaps (0.22 s of 1.3 s) read as missing data: 0.104-0.122 s, ...".
+        E.g. "events: 12 gaps (0.22 s of 1.3 s) read as missing data (...): 0.104-0.122, ... s after the first
+        event" (times from span_us[0]).
     """
     if gaps_us.shape[0] == 0:
         return ""
     total = float(np.sum(gaps_us[:, 1] - gaps_us[:, 0])) / 1e6
-    listed = ", ".join(f"{a / 1e6:.4g}-{b / 1e6:.4g}" for a, b in gaps_us[:4]) + (", ..." if len(gaps_us) > 4 else "")
+    t0 = span_us[0]
+    listed = ", ".join(f"{(a - t0) / 1e6:.3f}-{(b - t0) / 1e6:.3f}" for a, b in gaps_us[:4]) + \
+        (", ..." if len(gaps_us) > 4 else "")
     n = gaps_us.shape[0]
-    return (f"events: {n} gap{'s' * (n != 1)} ({total:.3g} s of {(span_us[1] - span_us[0]) / 1e6:.3g} s) read as "
-            f"missing data (unknown change: the next frame decides): {listed} s")
+    return (f"events: {n} gap{'s' * (n != 1)} ({total:.3g} s of {(span_us[1] - t0) / 1e6:.3g} s) read as missing "
+            f"data (unknown change: the next frame decides): {listed} s after the first event")
