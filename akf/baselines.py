@@ -13,6 +13,7 @@ high-pass filters; Wang et al. 2021 [Wang2021].
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,7 @@ import numpy as np
 
 from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
+from sim.gaps import resolve_gaps
 from sim.parallel import in_parallel
 
 from . import kernels
@@ -77,8 +79,8 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
                          frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                          contrast: npt.ArrayLike = 0.2, crossover_hz: float | None = None, alpha: float | None = None,
                          adaptive_gain: bool = False, adaptive_factor: float = 0.1, adaptive_margin: float = 0.05,
-                         max_intensity: float | None = 1.0, i0: float = _I0,
-                         bit_depth: int = 8) -> npt.NDArray[np.float32]:
+                         max_intensity: float | None = 1.0, i0: float = _I0, bit_depth: int = 8,
+                         gaps_us: npt.ArrayLike | str | None = None) -> npt.NDArray[np.float32]:
     """Complementary filter (Scheerlinck et al. 2018 [Scheerlinck2018]) on the log image L = log(I + I0).
 
     dL/dt = E(t) - alpha (L - L^F): events E are high-passed, the latest frame's log L^F low-passed; per event
@@ -93,6 +95,10 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     (log of CRF^-1(0) and CRF^-1(1) in frame 0's exposure units); L_low / L_high lie adaptive_margin * (L_max -
     L_min) inside them. Events thus dominate where the frame is (nearly) clipped; the bound keeps the state
     finite even for lambda = 0 (an integrator there).
+    Gaps (spans where events are missing: dropped packets, exposure-gated exports; sim.gaps): the state then misses
+    the change of the gap, which the slow crossover would carry for seconds; at the first frame after a gap's end
+    every pixel's state is reset to that frame's log (the next frame decides). Not in the original filter; a
+    complete stream is filtered as before, bit for bit.
 
     Parameters
     ----------
@@ -115,6 +121,9 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
         Bound of the output (x units; default 1, the top of the CRF's input range: the full well); None: unbounded.
     i0 : float, optional
         The log offset I0 (x units), > 0 (default AKFParams().i0).
+    gaps_us : array_like, "none" or None, optional
+        As akf.reconstruct's: None (default) detects the gaps (sim.find_gaps), "none" reads every empty span as no
+        change, or (G, 2) int64 [start, end) us.
 
     Returns
     -------
@@ -131,6 +140,7 @@ def complementary_filter(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     check_max_intensity(max_intensity)
     check_number("i0", i0, positive=True)
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
+    inp = dataclasses.replace(inp, gaps=resolve_gaps(gaps_us, inp.events, inp.t_start, inp.t_end))
     crf = as_crf(crf)
     bounds = (math.log(i0), math.log(max_intensity + i0)) if max_intensity is not None else _UNBOUNDED
 
@@ -165,9 +175,15 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
     tl = np.full(x.shape[0], t0, np.int64)
     lo, hi = float(bounds[0]), float(bounds[1])
 
+    switches = [int(math.floor(t)) for t in inp.tau[1:]]
+    gap_ends = inp.gaps[:, 1]
+
     def on_switch(k):
         lf = log_frame(k)
         state["lf"], state["alpha"] = lf, gains(k, lf)
+        since = switches[k - 2] if k > 1 else t0
+        if np.any((gap_ends > since) & (gap_ends <= switches[k - 1])):  # a gap since the last frame: unknown change
+            x[:] = lf
 
     h = inp.shape[0]
 
@@ -179,7 +195,6 @@ def _cf(inp: Inputs, log_frame, gains, bounds, i0):
         in_parallel(lambda y0, y1: kernels.cf_publish(np.int64(t), x, tl, state["lf"], state["alpha"], i0, out,
                                                       y0 * w, y1 * w), h, MIN_PART_ROWS)
 
-    switches = [int(math.floor(t)) for t in inp.tau[1:]]
     return _run_log_filter(inp, t0, switches, lambda k: on_switch(k + 1), run_events, publish)
 
 

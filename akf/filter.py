@@ -17,6 +17,7 @@ import numpy as np
 
 from sim.errors import InvalidParameterError, check_number
 from sim.events import slice_time
+from sim.gaps import resolve_gaps
 from sim.parallel import in_parallel
 
 from . import kernels
@@ -83,6 +84,28 @@ class _Interval(NamedTuple):
     start: np.ndarray  # curve value at s_j, the exposure start of frame j (log)
     scale: np.ndarray  # contrast calibration (dimensionless): the interval's contrasts are scale * c_on, scale * c_off
     side: np.ndarray  # clip side: +1 / -1 where both frames are clipped high / low, else 0
+    missed: np.ndarray | None = None  # the change (log) the events missed in the interval's gaps (None: no gaps)
+    gap_ends: np.ndarray | None = None  # (G,) us: ends of the gaps whose change the curve takes, each at its end
+    shares: np.ndarray | None = None  # (G,) each gap's share of missed (its duration inside the interval / theirs)
+
+    def jump(self, t_us: int) -> np.ndarray | None:
+        """The curve's step (log, flat) at the end t_us of a gap: its share of the missed change (None: none)."""
+        if self.missed is None:
+            return None
+        at = np.flatnonzero(self.gap_ends == t_us)
+        return self.missed * float(self.shares[at].sum()) if at.size else None
+
+
+def interval_gaps(gaps: np.ndarray, a: int, b: int) -> tuple[bool, np.ndarray, np.ndarray]:
+    """(any gap overlaps [a, b), ends, shares) of the interval [a, b) (us): the gaps that end inside (a, b] take the
+    change the events missed, each in proportion to its duration inside [a, b) (an unknown change of a random walk
+    accrues in proportion to time: given its total, the share of each stretch is its share of the time)."""
+    if gaps.shape[0] == 0:
+        return False, gaps[:, 1], np.zeros(0)
+    overlaps = bool(np.any((gaps[:, 0] < b) & (gaps[:, 1] > a)))
+    mine = gaps[(gaps[:, 1] > a) & (gaps[:, 1] <= b)]
+    length = (np.minimum(mine[:, 1], b) - np.maximum(mine[:, 0], a)).astype(np.float64)
+    return overlaps, mine[:, 1], (length / length.sum() if length.sum() > 0 else length)
 
 
 class _Frames:
@@ -160,14 +183,26 @@ class _Frames:
         if j == inp.frames.shape[0] - 1:
             return _Interval(d_start.copy(), self._calibration.carried(), self.measurement(j).side.ravel())
         d_end = self.deblurred(j + 1).end
-        ev = slice_time(inp.events, int(inp.t_start[j]), int(inp.t_end[j + 1]))
+        a, b = int(inp.t_start[j]), int(inp.t_end[j + 1])
+        ev = slice_time(inp.events, a, b)
         change, net = event_change(ev, inp.c_on, inp.c_off, inp.shape[1])
         start_clipped = self.measurement(j).clipped.ravel()
         end_clipped = self.measurement(j + 1).clipped.ravel()
-        scale = self._calibration.interval(d_start, d_end, change, net, start_clipped | end_clipped)
+        gappy, ends, shares = interval_gaps(inp.gaps, a, b)
+        if gappy:  # the events missed part of the change: eq. 12's ratio would read that as the contrast
+            scale = self._calibration.carried()
+        else:
+            scale = self._calibration.interval(d_start, d_end, change, net, start_clipped | end_clipped)
         side_a, side_b = self.measurement(j).side.ravel(), self.measurement(j + 1).side.ravel()
         side = np.where(side_a == side_b, side_b, 0)
-        return _Interval(interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped), scale, side)
+        start = interval_start(d_start, d_end, change, scale, end_clipped & ~start_clipped)
+        if ends.size == 0:
+            return _Interval(start, scale, side)
+        # both frames measure the pixel: the curve starts at the earlier frame and takes the change the events
+        # missed (d_end - d_start - their change) in steps at the gaps' ends, so it ends at the later frame
+        both = ~(start_clipped | end_clipped)
+        missed = np.where(both, d_end - d_start - scale * change, 0.0)
+        return _Interval(np.where(both, d_start, start), scale, side, missed, ends, shares)
 
 
 @dataclass(frozen=True)
@@ -195,7 +230,8 @@ class AugmentedMeasurement:
 def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                           frame_t_end_us: npt.ArrayLike, crf: CRF | str, times_us: npt.ArrayLike,
                           pixels: npt.ArrayLike, *, contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0,
-                          params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8) -> AugmentedMeasurement:
+                          params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8,
+                          gaps_us: npt.ArrayLike | str | None = None) -> AugmentedMeasurement:
     """The augmented frame L^A(t) of reconstruct (same inputs) at times_us for the flat pixel indices `pixels`.
 
     Interval j's curve is M_j(t) = m_j + scale_j * (nominal event change of the pixel over [s_j, t)) - (the leak
@@ -211,8 +247,8 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
         Non-decreasing int64 us, none before the first exposure starts (as reconstruct's output_times_us).
     pixels : array_like
         Flat pixel indices y * W + x, in [0, H W).
-    contrast, leak_rate_hz, params, bit_depth
-        As reconstruct's.
+    contrast, leak_rate_hz, params, bit_depth, gaps_us
+        As reconstruct's (a curve takes its share of the change its events missed from the end of each gap on).
 
     Returns
     -------
@@ -224,7 +260,7 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
     check_number("leak_rate_hz", leak_rate_hz, positive=False)
     crf = as_crf(crf)
     inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, times_us, contrast, bit_depth, params,
-                          crf)
+                          crf, gaps_us)
     pixels = np.asarray(pixels, np.int64).ravel()
     h, w = inp.shape
     if np.any((pixels < 0) | (pixels >= h * w)):
@@ -232,15 +268,19 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
     fr = _Frames(inp, crf, params)
     nf, t = inp.frames.shape[0], inp.out_t.astype(np.int64)
     start, scale = np.empty((nf, pixels.size)), np.empty((nf, pixels.size))
+    missed, taken = np.zeros((nf, pixels.size)), np.zeros((nf, t.size))  # taken: share of missed stepped in by t
     for j in range(nf):
         iv = fr.interval(j)
         start[j], scale[j] = iv.start[pixels], iv.scale[pixels]
+        if iv.missed is not None:
+            missed[j] = iv.missed[pixels]
+            taken[j] = np.concatenate([[0.0], np.cumsum(iv.shares)])[np.searchsorted(iv.gap_ends, t, side="left")]
     s_k = inp.t_start.astype(np.int64)
     k = np.clip(np.searchsorted(s_k, t, side="right") - 1, 0, nf - 1)
     kp = np.maximum(k - 1, 0)
     wt = np.clip((t - s_k[k]) / np.maximum(inp.t_end[k] - s_k[k], 1), 0.0, 1.0)
     wt = np.where(k == 0, 1.0, wt)
-    ev = inp.events
+    ev, steps = inp.events, np.arange(t.size)
     ev_pix = ev["y"].astype(np.int64) * w + ev["x"]
     out = np.empty((t.size, pixels.size))
     for n, i in enumerate(pixels):
@@ -248,8 +288,10 @@ def augmented_measurement(events: np.ndarray, frames: npt.ArrayLike, frame_t_sta
         et = mine["t"]
         cum = np.concatenate([[0.0], np.cumsum(np.where(mine["p"] > 0, inp.c_on[i], -inp.c_off[i]))])
         leaked = np.concatenate([[0.0], np.cumsum(_leaked(et, scale[:, n] * inp.c_on[i], inp, leak_rate_hz))])
-        cur = start[k, n] + scale[k, n] * _change(et, s_k[k], t, cum) - _change(et, s_k[k], t, leaked)
-        prev = start[kp, n] + scale[kp, n] * _change(et, s_k[kp], t, cum) - _change(et, s_k[kp], t, leaked)
+        cur = start[k, n] + scale[k, n] * _change(et, s_k[k], t, cum) - _change(et, s_k[k], t, leaked) \
+            + missed[k, n] * taken[k, steps]
+        prev = start[kp, n] + scale[kp, n] * _change(et, s_k[kp], t, cum) - _change(et, s_k[kp], t, leaked) \
+            + missed[kp, n] * taken[kp, steps]
         out[:, n] = prev + wt * (cur - prev)
     deb = np.array([(d.start[pixels], d.end[pixels]) for d in map(fr.deblurred, range(nf))])
     intensity = np.array([fr.measurement(j).intensity.ravel()[pixels] for j in range(nf)])
@@ -283,7 +325,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
                 frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                 contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0, params: AKFParams = _DEFAULT_PARAMS,
                 bit_depth: int = 8, max_intensity: float | None = None, return_variance: bool = False,
-                return_gain: bool = False
+                return_gain: bool = False, gaps_us: npt.ArrayLike | str | None = None
                 ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], ...]:
     """Reconstruct linear HDR intensity at output_times_us with the Asynchronous Kalman Filter (Wang et al. 2021
     [Wang2021]; the model, equation by equation, is docs/models/akf.md).
@@ -326,6 +368,14 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     image gives it the median level, beyond its bound, of the pixels on that side that a frame did measure
     (akf.clip_prior), before the smoothing.
 
+    Gaps (not in the paper): an interval between two frames with a gap in its events is not calibrated (eq. 12 would
+    read the missed change as a larger contrast; it takes the calibration carried from complete intervals), and where
+    both frames measure a pixel its curve starts at the earlier deblurred frame and takes the change the events
+    missed, d_end - d_start - (their change), in steps at the ends of its gaps, each gap's share its share of the
+    interval's gap time (a random walk's change accrues with time), so the curve ends at the later frame. At a gap's
+    end every pixel's variance P grows by params.gap_variance (an unknown change): the state then follows the curve,
+    and the next frame decides what the events could not. On a complete stream nothing changes, bit for bit.
+
     Frame k+1 is needed to augment the interval after frame k, so the filter has one frame of latency; it streams
     window by window (events sliced by binary search), so memory does not grow with the sequence length. It runs
     blocks of pixel rows on numba's thread count (numba.set_num_threads), the output the same bit for bit whatever
@@ -364,6 +414,12 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
         Also return the state variance P (default False).
     return_gain : bool, optional
         Also return the Kalman gain K (default False).
+    gaps_us : array_like, "none" or None, optional
+        Spans of the event stream where events are missing (dropped packets, an export that keeps only the events
+        inside the exposures), read as unknown change: None (default) detects them (sim.find_gaps, with the frames'
+        exposures; a complete stream has none), "none" reads every empty span as no change (the paper's filter), or
+        a (G, 2) int64 array of [start, end) us. At each gap's end every pixel's P grows by params.gap_variance and
+        the interval's curve steps by the gap's share of the change its events missed (see the Gaps paragraph).
 
     Returns
     -------
@@ -378,7 +434,7 @@ def reconstruct(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt
     check_filter_options(params, leak_rate_hz, max_intensity)
     crf = as_crf(crf)
     inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
-                          params, crf)
+                          params, crf, gaps_us)
     nt, (h, w) = inp.out_t.shape[0], inp.shape
     out_i = np.zeros((nt, h, w), np.float32)
     out_p = np.zeros((nt, h, w), np.float32) if return_variance else None
@@ -399,12 +455,15 @@ def check_filter_options(params: AKFParams, leak_rate_hz: float, max_intensity: 
 
 def prepared_inputs(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                     frame_t_end_us: npt.ArrayLike, output_times_us: npt.ArrayLike, contrast: npt.ArrayLike,
-                    bit_depth: int, params: AKFParams, crf: CRF) -> Inputs:
+                    bit_depth: int, params: AKFParams, crf: CRF, gaps_us: npt.ArrayLike | str | None = "none"
+                    ) -> Inputs:
     """The validated inputs (akf.inputs.validate_inputs), with the thresholds flat-fielded from the event counts
-    (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair."""
+    (akf.flat_field) when params.flat_field and the contrast is a scalar or an (ON, OFF) pair, and the gaps of the
+    event stream (sim.resolve_gaps of gaps_us: None detects them, "none" has none)."""
     inp = validate_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth)
     c_on, c_off = thresholds(contrast, inp.events, inp.frames, inp.full_scale, crf, params)
-    return dataclasses.replace(inp, c_on=c_on, c_off=c_off)
+    gaps = resolve_gaps(gaps_us, inp.events, inp.t_start, inp.t_end)
+    return dataclasses.replace(inp, c_on=c_on, c_off=c_off, gaps=gaps)
 
 
 class Masks(NamedTuple):
@@ -481,7 +540,7 @@ def run_filter(inp: Inputs, crf: CRF, params: AKFParams, leak_rate_hz: float, ou
     mid0 = fr.at_mid(0)
 
     def run(ahead):
-        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params, out_i, out_p, out_k, mid0, post)
+        _filter(ahead, inp, fr, S, C, blocks, noise, strong, params, out_i, out_p, out_k, (iv0, mid0), post)
 
     if numba.get_num_threads() > 1:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="akf-frames", initializer=numba.set_num_threads,
@@ -514,8 +573,39 @@ def _next_interval(fr: _Frames, k: int) -> tuple[_Interval, np.ndarray | None, t
     return iv, (fr.measurement(k + 1).r.ravel() if k + 1 < fr.inp.frames.shape[0] else None), fr.at_mid(k)
 
 
+class _Feed:
+    """The events of one frame window (contiguous ev from s_k on) fed in order, the gap steps at their times."""
+
+    def __init__(self, ev: np.ndarray, s_k: int, events: Callable, steps: list[tuple[int, Callable]]):
+        self.ev, self.s_k, self.events, self.n0 = ev, s_k, events, 0
+        self.steps = [(g, slice_time(ev, s_k, g).shape[0], step) for g, step in steps]  # (time, events before, fn)
+
+    def until(self, t: int) -> None:
+        """The events before t (us) and the gap steps at times before t, in time order."""
+        n1 = slice_time(self.ev, self.s_k, max(t, self.s_k)).shape[0]
+        while self.steps and self.steps[0][0] < t:
+            g, n, step = self.steps.pop(0)
+            self.events(self.ev[self.n0:n])
+            self.n0 = n
+            step(g)
+        self.events(self.ev[self.n0:n1])
+        self.n0 = n1
+
+    def rest(self) -> None:
+        """Every remaining event and gap step of the window."""
+        self.until(np.iinfo(np.int64).max)
+
+
+def _gap_steps(gaps: np.ndarray, a: int, b: int, prev: _Interval, cur: _Interval, step: Callable
+               ) -> list[tuple[int, Callable]]:
+    """(time, fn) of the gap ends g in [a, b) (us), fn(g) calling step(g, the previous and current intervals'
+    curve steps at g)."""
+    ends = gaps[(gaps[:, 1] >= a) & (gaps[:, 1] < b), 1]
+    return [(int(g), lambda g: step(g, prev.jump(g), cur.jump(g))) for g in ends]
+
+
 def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, strong, params: AKFParams, out_i, out_p,
-            out_k, mid, post):
+            out_k, first, post):
     """The filter's window loop (see reconstruct and run_filter). The frame work of the next interval (deblurring,
     calibration) does not depend on the filter state: it runs on the executor `ahead`, a thread (which alone uses fr
     from now on) while this one processes the events, filling the cores left idle by the serial parts."""
@@ -535,6 +625,13 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
 
     def events(ev, win):  # ev: contiguous (one layout: one compiled kernel)
         blocks.run(lambda q, y0, y1: kernels.akf_events(ev, w, S, C, blocks.te[q], win, noise, y0, y1))
+
+    def gap_step(t, win, jump_prev, jump_cur):  # bring every pixel to the end t of a gap: unknown change
+        blocks.run(lambda q, y0, y1: kernels.akf_publish(t, S, C, win, strong, i0, none, none, none, y0 * w, y1 * w))
+        S[:, kernels.SP] += params.gap_variance
+        for col, jump in ((kernels.SMP, jump_prev), (kernels.SMC, jump_cur)):
+            if jump is not None:
+                S[:, col] += jump
 
     def publish(j, t, win, oi, op, ok):  # output images (flat) at t (us)
         if op.shape[0] == 0 and scratch_p is not None:
@@ -565,6 +662,7 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
     j = 0  # next output index
     prev_win = None  # the previous frame window (set at the end of every iteration)
     pending = ahead.submit(_next_interval, fr, 1) if nf > 1 else None
+    ivs, mid = (first[0], first[0]), first[1]  # the intervals ending and starting at the window's frame
     for k in range(nf):
         if j == nt:
             break
@@ -573,28 +671,26 @@ def _filter(ahead, inp: Inputs, fr: _Frames, S, C, blocks: _Blocks, noise, stron
             iv, r_next, mid = pending.result()
             pending = ahead.submit(_next_interval, fr, k + 1) if k + 1 < nf else None
             switch(float(inp.t_start[k]), prev_win, iv, S[:, kernels.SRC].copy() if r_next is None else r_next)
+            ivs = (ivs[1], iv)
         prev_win = win
         t_hi = int(inp.t_start[k + 1]) if k + 1 < nf else int(inp.out_t[-1])
         s_k = int(inp.t_start[k])
-        ev = np.ascontiguousarray(slice_time(inp.events, s_k, t_hi))
-        n0 = 0
+        steps = _gap_steps(inp.gaps, s_k, t_hi if k + 1 < nf else np.iinfo(np.int64).max, *ivs,
+                           lambda g, jp, jc, win=win: gap_step(float(g), win, jp, jc))
+        feed = _Feed(np.ascontiguousarray(slice_time(inp.events, s_k, t_hi)), s_k, lambda e, win=win: events(e, win),
+                     steps)
         while j < nt and (inp.out_t[j] < t_hi or k == nf - 1):
             t_out = int(inp.out_t[j])
             if mid is not None and t_out >= tau[k]:  # the frame update comes first (events before tau_k)
-                n1 = slice_time(ev, s_k, _events_before(tau[k])).shape[0]
-                events(ev[n0:n1], win)
+                feed.until(_events_before(tau[k]))
                 frame_update(float(tau[k]), win, *mid)
-                n0, mid = n1, None
-            n1 = slice_time(ev, s_k, max(t_out, s_k)).shape[0]  # the events before t_out
-            events(ev[n0:n1], win)
+                mid = None
+            feed.until(t_out)  # the events before t_out
             publish(j, float(t_out), win, out_i[j].reshape(-1), none if out_p is None else out_p[j].reshape(-1),
                     none if out_k is None else out_k[j].reshape(-1))
-            n0 = n1
             j += 1
         if j < nt:
             if mid is not None:
-                n1 = slice_time(ev, s_k, _events_before(tau[k])).shape[0]
-                events(ev[n0:n1], win)
+                feed.until(_events_before(tau[k]))
                 frame_update(float(tau[k]), win, *mid)
-                n0 = n1
-            events(ev[n0:], win)
+            feed.rest()

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,7 +17,8 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Inputs:
-    """Validated inputs. Contrast maps are flat float64 (H*W,), log units, both > 0 (c_off is the OFF magnitude)."""
+    """Validated inputs. Contrast maps are flat float64 (H*W,), log units, both > 0 (c_off is the OFF magnitude);
+    gaps: (G, 2) int64 us [start, end) spans of missing events (sim.gaps), sorted and disjoint."""
 
     events: np.ndarray
     frames: np.ndarray
@@ -28,6 +29,7 @@ class Inputs:
     c_on: np.ndarray
     c_off: np.ndarray
     full_scale: int
+    gaps: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -129,6 +129,13 @@ class AKFParams:
     calib_prior : float
         Shrinkage (log units of measured change) of a pixel's carried calibration toward the pooled one: a pixel whose
         calibrated intervals changed by calib_prior in total is half its own, half pooled.
+    gap_variance : float
+        Gaps in the event stream (not in the paper; sim.gaps: dropped packets, exposure-gated exports). The variance
+        (log^2) added to every pixel's P at the end of a gap: the log intensity changed by an unknown amount while no
+        events were recorded. 1 (a change of a factor e, one sigma) dwarfs a well-exposed frame's R (about 1e-5), so
+        the continuous measurement pulls the state onto the interval's curve within microseconds, a curve that
+        carries the change the events missed (the next frame's deblurred level minus the events' change, shared among
+        the interval's gaps by duration: akf.filter). Gaps also keep their intervals out of the eq. 12 calibration.
     """
 
     sigma_proc2: float = 5e-4
@@ -153,6 +160,7 @@ class AKFParams:
     calib_min_events: int = 2
     calib_scale_range: tuple[float, float] = (0.5, 2.0)
     calib_prior: float = 1.0
+    gap_variance: float = 1.0
 
     def __post_init__(self) -> None:
         """Check every field once, here (the boundary): each error names the field."""
@@ -184,4 +192,4 @@ class AKFParams:
 #: the AKFParams fields that must be > 0: every noise variance (a zero variance claims noise-free events or frames:
 #: the state variance then never grows between frames, or a frame is taken as exact), i0 (log(I + i0) at I = 0)
 POSITIVE_FIELDS = ("sigma_proc2", "sigma_iso2", "sigma_ref2", "sigma_im2", "max_variance", "i0", "p0",
-                   "smooth_variance", "clip_prior_variance")
+                   "smooth_variance", "clip_prior_variance", "gap_variance")

@@ -111,16 +111,17 @@ def _reversed(inp: Inputs, times: np.ndarray) -> Inputs:
     ev["t"] = mirror - ev["t"]
     ev["p"] = -ev["p"]
     ts, te = mirror - inp.t_end[::-1], mirror - inp.t_start[::-1]
+    gaps = (mirror + 1 - inp.gaps[::-1, ::-1]).astype(np.int64)  # no event in [a, b): none at mirror - [a, b)
     return dataclasses.replace(inp, events=ev, frames=np.ascontiguousarray(inp.frames[::-1]), t_start=ts, t_end=te,
                                tau=(ts + te) / 2.0, out_t=(mirror - times[::-1] + 1).astype(np.int64),
-                               c_on=inp.c_off, c_off=inp.c_on)
+                               c_on=inp.c_off, c_off=inp.c_on, gaps=gaps)
 
 
 def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_start_us: npt.ArrayLike,
                          frame_t_end_us: npt.ArrayLike, crf: CRF | str, output_times_us: npt.ArrayLike, *,
                          contrast: npt.ArrayLike = 0.2, leak_rate_hz: float = 0.0,
                          params: AKFParams = _DEFAULT_PARAMS, bit_depth: int = 8, max_intensity: float | None = None,
-                         return_variance: bool = False
+                         return_variance: bool = False, gaps_us: npt.ArrayLike | str | None = None
                          ) -> npt.NDArray[np.float32] | tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
     """Reconstruct linear HDR intensity at output_times_us with the asynchronous Kalman smoother (see the module):
     the same inputs, parameters and units as akf.reconstruct, every event and frame of the input used at every time.
@@ -139,6 +140,8 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
         Output bound (x units); None (default): unbounded.
     return_variance : bool, optional
         Also return the fused variance P (default False).
+    gaps_us : array_like, "none" or None, optional
+        As akf.reconstruct's (default None: detected); both passes read each gap as unknown change.
 
     Returns
     -------
@@ -150,7 +153,7 @@ def reconstruct_smoothed(events: np.ndarray, frames: npt.ArrayLike, frame_t_star
     check_filter_options(params, leak_rate_hz, max_intensity)
     crf = as_crf(crf)
     inp = prepared_inputs(events, frames, frame_t_start_us, frame_t_end_us, output_times_us, contrast, bit_depth,
-                          params, crf)
+                          params, crf, gaps_us)
     if params.read_noise_dn is None and params.frame_update:  # estimated once for both passes
         params = dataclasses.replace(params, read_noise_dn=frame_read_noise(inp.frames,
                                                                             int(inp.full_scale).bit_length()))

@@ -33,6 +33,10 @@ offset and the thresholds fitted by simulation; never the held-out frames); the 
 leak rate (the recorded configuration's leak_hz, else 0) for its leak-aware event model (see akf.reconstruct),
 unless method_options say otherwise, and the frames' read noise for its frame update: a sensor file's
 [input] read_noise_dn, else estimated from the fed frames (akf.frame_noise); a note says which.
+Gaps: the spans where the recording's events are missing (dropped packets, an export that keeps only the events
+inside the exposures; sim.find_gaps with every frame's exposure, the held-out ones too) go to the methods that read
+them as unknown change (GAP_METHODS: the AKF, the smoother and the complementary filters; gaps_us, unless
+method_options say otherwise), and a note names them.
 
 References (docs/models/references.md): Wang et al. 2021 [Wang2021], the AKF paper's protocol.
 """
@@ -60,6 +64,7 @@ from .choices import KALMAN_METHODS, PROTOCOLS
 from .scoring import Case
 
 DEFAULT_CONTRAST = 0.2  # log units, when a recording carries no thresholds and estimation fails
+GAP_METHODS = ("akf", "aks", "cf", "cf_adaptive")  # the methods that take gaps_us (see the module)
 WHITE = {"reference": " (white = min(the recorded reference_white_radiance in x units, the full well): "
                       "see the notes)",
          "interleave": " (white = CRF^-1(1), the held-out frame's white)"}
@@ -231,6 +236,10 @@ def recording_case(rec: Recording, protocol: str = "reference",
     contrast, c_note = recording_contrast_or_estimate(rec, fed, sensor)
     if c_note:
         notes.append(c_note)
+    gaps, g_note = recording_gaps(rec)
+    notes += [g_note] if g_note else []
+    for name in GAP_METHODS:
+        options[name] = {"gaps_us": gaps, **options.get(name, {})}
     for name in KALMAN_METHODS:
         if name in options:
             options[name], n_note = with_read_noise(options[name], rec, crf, fed, sensor)
@@ -243,6 +252,28 @@ def recording_case(rec: Recording, protocol: str = "reference",
     notes.append(f"frames' range {lo:.4g}..{top:.4g} x (CRF^-1(0), CRF^-1(1) over the fed exposures), log_rmse "
                  f"floor {metrics.LOG_FLOOR_FRACTION * top:.3g} x")
     return case, notes
+
+
+def recording_gaps(rec: Recording) -> tuple[np.ndarray, str]:
+    """(gaps, note): the spans where the recording's events are missing (sim.find_gaps over the events and every
+    frame's exposure), and a note naming them ("" when there are none).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+
+    Returns
+    -------
+    gaps : numpy.ndarray
+        (G, 2) int64 us [start, end) gaps.
+    note : str
+        Their count, total duration and the first few, or "".
+    """
+    gaps = sim.find_gaps(rec.events, rec.frame_t_start_us, rec.frame_t_end_us)
+    if rec.events.size == 0:
+        return gaps, ""
+    return gaps, sim.describe_gaps(gaps, (int(rec.events["t"][0]), int(rec.events["t"][-1])))
 
 
 def with_read_noise(akf_options: dict[str, Any], rec: Recording, crf: crf_models.CRF, fed: np.ndarray,

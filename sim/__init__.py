@@ -10,6 +10,8 @@ Exports:
   arrays of real sensors by name: SENSOR_SIZES (sim.sensor_sizes);
 - events: EVENT_DTYPE, make_events, empty_events, concatenate, slice_time, validate_events, is_sorted,
   first_unsorted_index (sim.events);
+- gaps in an event stream (dropped packets, exposure-gated exports): find_gaps, resolve_gaps, describe_gaps
+  (sim.gaps);
 - errors: EvsimInputError, InvalidParameterError, OptionError, TimeOrderError, UnsortedEventsError; EvsimNote (the
   base of evsim's warnings that the command line prints as one "evsim: note:" line).
 """
@@ -25,7 +27,8 @@ _LAZY = {
     "CAMERA_PRESETS": "camera_params:PRESETS", "CameraParams": "camera_params",
     **dict.fromkeys(("LDRCamera", "LDRFrame"), "camera"),
     **dict.fromkeys(("EVENT_LABELS", "NO_EVENT_US", "DVSEmulator", "emulate", "emulate_source"), "dvs"),
-    **dict.fromkeys(("Sensor", "load_sensor", "write_sensor"), "sensor_file"), "SENSOR_SIZES": "sensor_sizes",
+    **dict.fromkeys(("Sensor", "load_sensor", "write_sensor"), "sensor_file"),
+    **dict.fromkeys(("find_gaps", "resolve_gaps", "describe_gaps"), "gaps"), "SENSOR_SIZES": "sensor_sizes",
     **dict.fromkeys(("EVENT_DTYPE", "concatenate", "empty_events", "first_unsorted_index", "is_sorted", "make_events",
                      "slice_time", "validate_events"), "events"),
 }
