@@ -14,8 +14,10 @@ reports), measured on the recording's window with its frames' pixel classes. The
    Candidates: no noise; shot noise = the whole excess (ON + OFF); shot noise = twice the OFF excess and leak =
    the ON excess beyond it (DVSParams.with_observed_leak), when ON exceeds OFF. Each gets the dark shot noise of
    the dark static pixels' further excess and the hot pixels of the real static pixels firing far above the
-   others (their share and mean rate), and its thresholds rescaled once so that the counts match; the candidate
-   of the smallest loss is kept.
+   others (their share and mean rate), and is tried without the hot pixels too (the model's fire both polarities,
+   a real one may fire one); its thresholds are rescaled once so that the counts match; the candidate of the
+   smallest loss is kept, and a leak in it is refined by secant steps on the quiet ON rate (the drift's observed
+   rate also follows the input's residual noise).
 Noise parameters are fitted with noise-free signal parameters, whose counts on static pixels come from the input
 (frame read noise through the flow upsampling): the moments are what the input does not explain.
 
@@ -314,7 +316,26 @@ def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVS
     if excess_on > excess_off:  # an ON-only excess is leak
         moments = base.replace(shot_noise_hz=2.0 * excess_off)
         candidates.append(moments.with_observed_leak(excess_on - excess_off))
+    if base.hot_pixel_fraction > 0:  # the model's hot pixels fire both polarities, a real one may fire one
+        candidates += [c.replace(hot_pixel_fraction=0.0) for c in candidates]
     return candidates
+
+
+def _refine_leak(objective: _Objective, steps: int = 2) -> None:
+    """Secant steps on the best candidate's leak so that its quiet ON rate is the real one: the drift's observed
+    rate also follows the input's residual noise, which brings a pixel to its threshold early (on the road
+    recording the leak of the moments gave twice the real rate). Thresholds are matched again at each step; the
+    objective keeps the best."""
+    _, dvs, scores = objective.best
+    real_on = objective.real.quiet_hz[0]
+    for _ in range(steps):
+        if dvs is None or dvs.leak_hz <= 0:
+            return
+        sim_on = scores["sim_quiet_hz"][0]
+        if not (sim_on > 0 and real_on > 0) or abs(math.log(sim_on / real_on)) < 0.05:
+            return
+        _, dvs, scores = _match_counts(objective, dvs.replace(leak_hz=dvs.leak_hz * real_on / sim_on), "noise",
+                                       steps=1)
 
 
 class LightFlickerWarning(sim.EvsimNote):
@@ -415,6 +436,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] | None = None, *, 
         objective.best, objective.noise = (math.inf, None, None), True
         for candidate in _noise_candidates(objective, dvs):
             _match_counts(objective, candidate, "noise", steps=1)
+        _refine_leak(objective)
         loss, final, fitted_scores = objective.best
     finally:
         bar.close()
