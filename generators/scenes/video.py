@@ -654,8 +654,8 @@ class VideoScene(Scene):
                 pair.prepare()
                 self._pairs[k] = pair
                 self._pair_motion[k] = pair.max_motion_px
-                while len(self._pairs) > 2:
-                    self._pairs.pop(min(self._pairs))
+                while len(self._pairs) > 2:  # the farthest from k (a step back must not drop pair k itself)
+                    self._pairs.pop(max(self._pairs, key=lambda j: abs(j - k)))
             return self._pairs[k]
 
     # ----- the radiance source -------------------------------------------------------------------------
