@@ -341,3 +341,34 @@ def _warp_blend(up0, up1, occ0, occ1, flows, a, y0, y1, out):
         row = out[y]
         for x in range(w):
             row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+
+
+def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
+    """Radiance of a log image, max(exp(log) - eps, 0), on every core (one pass over the pixels).
+
+    Parameters
+    ----------
+    log : ndarray
+        float32 (H, W) log(radiance + eps).
+    eps : float
+        The offset of the log (radiance units).
+
+    Returns
+    -------
+    ndarray
+        float32 (H, W) radiance, >= 0.
+    """
+    log = np.ascontiguousarray(log, dtype=np.float32)
+    out = np.empty_like(log)
+    in_parallel(lambda y0, y1: _radiance_rows(log, np.float32(eps), y0, y1, out), log.shape[0], _MIN_ROWS)
+    return out
+
+
+@njit(cache=True, nogil=True, fastmath=True)
+def _radiance_rows(log, eps, y0, y1, out):
+    """out[y0:y1] = max(exp(log) - eps, 0) (float32)."""
+    zero = np.float32(0.0)
+    for y in range(y0, y1):
+        for x in range(log.shape[1]):
+            v = np.exp(log[y, x]) - eps
+            out[y, x] = v if v > zero else zero

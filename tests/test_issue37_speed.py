@@ -1,0 +1,60 @@
+"""Issue 37's speed-ups change no output: the DVS's rounds for pixels with several crossings per interval
+(sim.dvs_kernels._multi_rounds) give the events of the code before them (hashes computed with commit 06d684c), and
+VideoScene's render-ahead gives the images a plain render gives."""
+
+import hashlib
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sim
+from generators.sampling import AdaptiveSampler
+from generators.scenes import Trajectory, VideoScene, builtin_image_scene
+from generators.scenes.flow_interpolation import radiance_of_log
+
+BENCH = Path(__file__).resolve().parents[1] / "bench"
+# speed 1.6 px per frame: about 34,000 of the pixel-intervals have several events
+DENSE_HASHES = {"davis346": (127_972, "cae9d21666d5b725"), "noisy": (128_271, "27d82c8dbfdc83a0")}
+
+
+def _texture(h: int, w: int, speed: float):
+    spec = importlib.util.spec_from_file_location("_bench_dvs_37", BENCH / "bench_dvs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.TexturedScene(h, w, speed_px=speed)
+
+
+@pytest.mark.parametrize("preset", sorted(DENSE_HASHES))
+def test_dense_events_match_the_code_before_the_rounds(preset):
+    frames = _texture(40, 56, 1.6).frames(0, 60)
+    emu = sim.DVSEmulator(40, 56, sim.DVSParams.preset(preset), seed=7, return_labels=True)
+    events, labels = emu.feed(frames, np.arange(60, dtype=np.int64) * 1000)
+    h = hashlib.sha256()
+    for a in (events, labels):
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype.descr, a.shape)).encode())
+        h.update(a.tobytes())
+    assert (events.size, h.hexdigest()[:16]) == DENSE_HASHES[preset]
+
+
+def test_radiance_of_log_is_exp_minus_eps_clipped():
+    log = np.random.default_rng(0).normal(-3, 3, (70, 33)).astype(np.float32)
+    out = radiance_of_log(log, 0.01)
+    assert out.dtype == np.float32 and out.min() >= 0
+    np.testing.assert_allclose(out, np.maximum(np.exp(log.astype(np.float64)) - 0.01, 0), rtol=1e-6, atol=1e-9)
+
+
+def test_render_ahead_gives_the_images_of_a_plain_render(tmp_path):
+    h, w, fps = 48, 64, 24.0
+    scene = builtin_image_scene(h, w, 300_001, Trajectory(pan_px_per_s=(120.0, 30.0)))
+    clip = tmp_path / "clip.npy"
+    np.save(clip, np.stack([scene.radiance(int(t)) for t in np.arange(0, 300_001, 1e6 / fps)]).astype(np.float32))
+    stepping = VideoScene(clip, fps=fps)
+    samples = list(AdaptiveSampler(stepping, threshold=0.2))  # key to key: every image but the first two ahead
+    assert stepping._render_worker is not None and len(samples) > 10
+    plain = VideoScene(clip, fps=fps)
+    for t, img in samples[::-1]:  # backwards: no render-ahead
+        np.testing.assert_array_equal(plain.radiance(t), img)
+    assert plain._render_worker is None
