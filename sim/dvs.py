@@ -214,9 +214,21 @@ class DVSEmulator:
     def feed(self, radiance: npt.ArrayLike, t_us: int | npt.ArrayLike) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Feed one frame (H, W) at integer time t_us, or a stack (N, H, W) at times (N,); return the new events.
 
-        Radiance is linear, >= 0 and finite, float (integer arrays are accepted and converted). Times are integer
-        microseconds, strictly increasing across calls. The very first frame only initialises the pixels. Returns
-        the EVENT_DTYPE events in (t_prev, t_last] sorted by (t, y, x), or (events, labels) with return_labels.
+        The very first frame only initialises the pixels.
+
+        Parameters
+        ----------
+        radiance : array_like
+            (H, W) or (N, H, W) linear radiance, >= 0 and finite (float; integer arrays are converted).
+        t_us : int or array_like of int
+            Its time, or the (N,) times: integer microseconds, strictly increasing across calls.
+
+        Returns
+        -------
+        events : numpy.ndarray
+            The EVENT_DTYPE events in (t_prev, t_last], sorted by (t, y, x).
+        labels : numpy.ndarray
+            With return_labels: their uint8 labels (EVENT_LABELS: signal, shot, leak, hot), as (events, labels).
         """
         frames, times = self._check_input(radiance, t_us)
         if self._t is None:
@@ -461,9 +473,26 @@ def emulate(frames: np.ndarray | Iterable, times_us: npt.ArrayLike | None = None
             return_labels: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Emulate a whole sequence; return its events (and labels with return_labels), sorted by (t, y, x).
 
-    frames: an (N, H, W) array with times_us (N,) integer microseconds, or an iterable of (H, W) frames with
-    times_us, or an iterable of (frame, t_us) pairs with times_us=None (consumed in bounded blocks).
-    params: DVSParams (default "davis346"); seed: int or SeedSequence.
+    Parameters
+    ----------
+    frames : numpy.ndarray or iterable
+        An (N, H, W) array of linear radiance with times_us, or an iterable of (H, W) frames with times_us, or an
+        iterable of (frame, t_us) pairs with times_us=None (consumed in bounded blocks).
+    times_us : array_like of int, optional
+        The (N,) frame times, integer microseconds, strictly increasing.
+    params : DVSParams, optional
+        The sensor (default the "davis346" preset).
+    seed : int or numpy.random.SeedSequence
+        The seed of mismatch and noise.
+    return_labels : bool
+        Also return the per-event labels.
+
+    Returns
+    -------
+    events : numpy.ndarray
+        EVENT_DTYPE events sorted by (t, y, x).
+    labels : numpy.ndarray
+        With return_labels: their uint8 labels, as (events, labels).
     """
     if isinstance(frames, np.ndarray):
         if times_us is None:
@@ -490,7 +519,28 @@ def _with_times(frames: Iterable, times_us) -> Iterator[tuple]:
 def emulate_source(source: RadianceSource, times_us: npt.ArrayLike, params: DVSParams | None = None,
                    seed: int | np.random.SeedSequence = 0, *,
                    return_labels: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Emulate a RadianceSource sampled at times_us (integer microseconds, within [0, source.duration_us])."""
+    """Emulate a RadianceSource sampled at the given times.
+
+    Parameters
+    ----------
+    source : RadianceSource
+        The scene (radiance(t_us) -> (H, W) linear radiance).
+    times_us : array_like of int
+        The sample times, integer microseconds within [0, source.duration_us], increasing.
+    params : DVSParams, optional
+        The sensor (default the "davis346" preset).
+    seed : int or numpy.random.SeedSequence
+        The seed of mismatch and noise.
+    return_labels : bool
+        Also return the per-event labels.
+
+    Returns
+    -------
+    events : numpy.ndarray
+        EVENT_DTYPE events sorted by (t, y, x).
+    labels : numpy.ndarray
+        With return_labels: their uint8 labels, as (events, labels).
+    """
     times = np.asarray(times_us)
     if times.ndim != 1 or times.dtype.kind not in "iu":
         raise EvsimInputError(f"times_us must be a 1-D integer array, got {times.dtype} shape {times.shape}")

@@ -3,9 +3,7 @@
 parameters has a Parameters section naming each of them, and one that returns something (a return annotation
 other than None) has a Returns or Yields section. numpydoc's docscrape reads the docstrings.
 
-A function is checked on the page that documents it (the first module listing it, as evsim_docs does). The
-packages whose docstrings are not converted yet are expected failures, per module (strict=False: they pass as
-soon as they are done), and so are the functions of files other branches are editing (PENDING_FILES)."""
+A function is checked on the page that documents it (the first module listing it, as evsim_docs does)."""
 
 from __future__ import annotations
 
@@ -21,29 +19,6 @@ sys.path.insert(0, str(ROOT / "docs" / "_ext"))
 import evsim_docs  # noqa: E402
 
 numpydoc_docscrape = pytest.importorskip("numpydoc.docscrape")
-
-PENDING = "issue 36: numpydoc sections pending"
-# converted: every module of these
-DONE = ("crf_models", "sim", "akf", "generators", "evsim_eval", "evsim_app")
-# files of converted packages that other branches are editing: their functions are expected failures for now
-PENDING_FILES = {"sim/dvs.py", "sim/dvs_kernels.py", "sim/parallel.py", "sim/kernel_math.py", "sim/camera_kernels.py",
-                 "generators/sampling.py", "generators/scenes/video.py",
-                 "generators/scenes/flow_interpolation.py"}
-
-
-def _done(mod_name: str) -> bool:
-    return any(mod_name == p or mod_name.startswith(p + ".") for p in DONE)
-
-
-def _source_file(obj) -> str | None:
-    try:
-        path = Path(inspect.getsourcefile(obj)).resolve()
-    except (TypeError, OSError):
-        return None
-    try:
-        return path.relative_to(ROOT).as_posix()
-    except ValueError:
-        return None  # defined outside the checkout (a decorator's wrapper from the standard library)
 
 
 def _functions() -> dict[str, list[tuple[str, object]]]:
@@ -111,25 +86,9 @@ def _problems(rows) -> list[str]:
     return [f"{full}: {', '.join(miss)}" for full, func in rows if (miss := missing_sections(func))]
 
 
-def _module_params():
-    for mod_name in FUNCTIONS:
-        marks = [] if _done(mod_name) else [pytest.mark.xfail(strict=False, reason=PENDING)]
-        yield pytest.param(mod_name, marks=marks, id=mod_name)
-
-
-@pytest.mark.parametrize("mod_name", list(_module_params()))
+@pytest.mark.parametrize("mod_name", list(FUNCTIONS))
 def test_public_functions_have_parameters_and_returns_sections(mod_name):
-    rows = [(full, func) for full, func in FUNCTIONS[mod_name] if _source_file(func) not in PENDING_FILES]
-    problems = _problems(rows)
-    assert not problems, "numpydoc sections missing:\n" + "\n".join(problems)
-
-
-@pytest.mark.xfail(strict=False, reason=PENDING + " (files other branches are editing)")
-@pytest.mark.parametrize("path", sorted({_source_file(f) for rows in FUNCTIONS.values() for _, f in rows}
-                                         & PENDING_FILES))
-def test_pending_files(path):
-    rows = [(full, func) for mod_rows in FUNCTIONS.values() for full, func in mod_rows if _source_file(func) == path]
-    problems = _problems(rows)
+    problems = _problems(FUNCTIONS[mod_name])
     assert not problems, "numpydoc sections missing:\n" + "\n".join(problems)
 
 

@@ -342,9 +342,28 @@ class _NpyStack(_Frames):
 def open_frames(path: str | Path, *, fps: float | None = None, timestamps: str | Path | None = None,
                 stop_us: int | None = None, slowmo: float | None = None, recording: Recording | None = None
                 ) -> _Frames:
-    """The frame source for a video file, an image folder or a .npy stack (module docstring). stop_us lets a
-    video be counted only up to where it is used; slowmo (video files only) multiplies the container's rate;
-    recording: the recording at `path`, already loaded by the caller (read again otherwise)."""
+    """The frame source for a video file, an image folder, a .npy stack or a recording's frames (module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        The input.
+    fps : float, optional
+        The rate its frames were captured at (frames per second; image folders and stacks need it or timestamps).
+    timestamps : str or Path, optional
+        A file of frame times, one per line (integer microseconds or decimal seconds).
+    stop_us : int, optional
+        A video is counted only up to here (microseconds from its first frame).
+    slowmo : float, optional
+        Video files only: the capture rate is this times the container's.
+    recording : Recording, optional
+        The recording at `path`, already loaded by the caller (read again otherwise).
+
+    Returns
+    -------
+    frame source
+        Sequential access to the frames: times_us, size, rate, frames(first).
+    """
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
@@ -374,7 +393,18 @@ def _conditioning_for(option: ConditioningParams | dict | str | None, kind: str)
 
 
 def input_size(path: str | Path) -> tuple[int, int]:
-    """(height, width) of an input's frames, read cheaply (no decoding of the whole input)."""
+    """The size of an input's frames, read cheaply (no decoding of a whole video; a recording is read whole).
+
+    Parameters
+    ----------
+    path : str or Path
+        A video file, image folder, .npy stack or recording.
+
+    Returns
+    -------
+    height, width : int
+        Pixels.
+    """
     path = Path(path)
     if not path.exists():
         raise fail(path, "no such file or folder")
@@ -699,9 +729,20 @@ class VideoScene(Scene):
         return radiance_of_log(log, self.log_eps)
 
     def log_linear_until(self, t_us: int) -> int:
-        """The end of the piece from t_us over which log(radiance + log_eps) is linear in time (microseconds): the
-        next key frame (flow), the next input frame (linear), or, holding frames (none), one microsecond before
-        the next input frame and then that frame (a switch within a microsecond). Used by the adaptive sampler."""
+        """The end of the piece from t_us over which log(radiance + log_eps) is linear in time: the next key frame
+        (flow), the next input frame (linear), or, holding frames (none), one microsecond before the next input
+        frame and then that frame (a switch within a microsecond). Used by the adaptive sampler.
+
+        Parameters
+        ----------
+        t_us : int
+            Scene time, microseconds.
+
+        Returns
+        -------
+        int
+            The piece's end, microseconds (at most the duration).
+        """
         n = self.times.size
         t_us = int(t_us)
         if t_us >= self.duration_us:
@@ -724,8 +765,15 @@ class VideoScene(Scene):
         return float(rate) if rate is not None else float((self.times.size - 1) * 1e6 / self.times[-1])
 
     def max_speed_px_per_s(self) -> float:
-        """flow: the largest optical-flow speed over the clip (intervals not yet decoded are scanned first, so
-        asking before the first pass costs one pass of flow); otherwise one pixel per shortest input interval."""
+        """The largest image speed of the clip: with flow upsampling the largest optical-flow speed (intervals not
+        yet decoded are scanned first, so asking before the first pass costs one pass of flow); otherwise one pixel
+        per shortest input interval.
+
+        Returns
+        -------
+        float
+            Pixels per second.
+        """
         intervals = np.diff(self.times).astype(np.float64)
         if self.upsample != "flow":
             return 1e6 / float(intervals.min())
