@@ -24,12 +24,7 @@ pairs (one image alive at a time, so memory stays flat) that count the samples t
 Times are int64 microseconds, strictly increasing, from t_start_us to t_end_us inclusive, and include every
 time of `breakpoints_us` in that range (e.g. the reference-frame times, so that the DVS state is exact there).
 
-References (full citations also in docs/models/references.md):
-
-- Rebecq H, Gehrig D, Scaramuzza D (2018). ESIM: an open event camera simulator. Conference on Robot Learning
-  (CoRL), Proceedings of Machine Learning Research 87:969-982.
-- Gehrig D, Gehrig M, Hidalgo-Carrio J, Scaramuzza D (2020). Video to events: recycling video datasets for event
-  cameras. IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR). arXiv:1912.03095
+References (docs/models/references.md): Rebecq et al. 2018 [Rebecq2018], Gehrig et al. 2020 [Gehrig2020].
 """
 
 from __future__ import annotations

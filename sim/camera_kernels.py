@@ -3,14 +3,8 @@
 Random numbers come from a counter-based generator (SplitMix64 streams keyed by (frame key, pixel index)), so
 results do not depend on the number of threads or on the order in which pixels are processed.
 
-References (full citations also in docs/models/references.md):
-
-- Hoermann W (1993). The transformed rejection method for generating Poisson random variables (PTRS).
-  Insurance: Mathematics and Economics 12(1):39-45. doi:10.1016/0167-6687(93)90997-4
-- Box GEP, Muller ME (1958). A note on the generation of random normal deviates. Annals of Mathematical
-  Statistics 29(2):610-611. doi:10.1214/aoms/1177706645
-- Steele GL, Lea D, Flood CH (2014). Fast splittable pseudorandom number generators (SplitMix64). ACM OOPSLA,
-  453-472. doi:10.1145/2660193.2660195
+References (docs/models/references.md): Hoermann 1993 [Hormann1993], Box and Muller 1958 [Box1958], Steele et al.
+2014 [Steele2014].
 """
 
 from __future__ import annotations

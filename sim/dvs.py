@@ -48,24 +48,9 @@ bit-identical for the same seed, whatever the chunking of the frames into calls 
 Speed: blocks of rows run in parallel on numba.get_num_threads() threads (serial kernels that release the GIL, run
 from a thread pool); feed stacks of frames where possible, since every call has a fixed cost.
 
-References (full citations also in docs/models/references.md):
-
-- Lichtsteiner P, Posch C, Delbruck T (2008). A 128x128 120 dB 15 us latency asynchronous temporal contrast
-  vision sensor. IEEE Journal of Solid-State Circuits 43(2):566-576. doi:10.1109/JSSC.2007.914337
-- Rebecq H, Gehrig D, Scaramuzza D (2018). ESIM: an open event camera simulator. Conference on Robot Learning
-  (CoRL), Proceedings of Machine Learning Research 87:969-982.
-- Gehrig D, Gehrig M, Hidalgo-Carrio J, Scaramuzza D (2020). Video to events: recycling video datasets for event
-  cameras. IEEE/CVF Conference on Computer Vision and Pattern Recognition (CVPR). arXiv:1912.03095
-- Hu Y, Liu S-C, Delbruck T (2021). v2e: from video frames to realistic DVS events. IEEE/CVF Conference on
-  Computer Vision and Pattern Recognition Workshops (CVPRW), 1312-1321. arXiv:2006.07722
-- Joubert D, Marcireau A, Ralph N, Jolley A, van Schaik A, Cohen G (2021). Event camera simulator improvements
-  via characterized parameters (IEBCS). Frontiers in Neuroscience 15:702765. doi:10.3389/fnins.2021.702765
-- Nozaki Y, Delbruck T (2017). Temperature and parasitic photocurrent effects in dynamic vision sensors. IEEE
-  Transactions on Electron Devices 64(8):3239-3245. (Leak events.)
-- Steele GL, Lea D, Flood CH (2014). Fast splittable pseudorandom number generators (SplitMix64). ACM OOPSLA,
-  453-472. doi:10.1145/2660193.2660195
-- Salmon JK, Moraes MA, Dror RO, Shaw DE (2011). Parallel random numbers: as easy as 1, 2, 3 (counter-based
-  generators). International Conference for High Performance Computing, Networking, Storage and Analysis (SC11).
+References (docs/models/references.md): Lichtsteiner et al. 2008 [Lichtsteiner2008], Rebecq et al. 2018
+[Rebecq2018], Gehrig et al. 2020 [Gehrig2020], Hu et al. 2021 [Hu2021], Joubert et al. 2021 [Joubert2021], Nozaki
+and Delbruck 2017 [Nozaki2017], Steele et al. 2014 [Steele2014], Salmon et al. 2011 [Salmon2011].
 """
 
 from __future__ import annotations

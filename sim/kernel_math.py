@@ -3,12 +3,7 @@
 Counter-based randomness (a SplitMix64 hash of a stream key and a draw counter) lets parallel kernels give the same
 numbers whatever the thread count or the order in which pixels are processed.
 
-References (full citations also in docs/models/references.md):
-
-- Steele GL, Lea D, Flood CH (2014). Fast splittable pseudorandom number generators (SplitMix64). ACM OOPSLA,
-  453-472. doi:10.1145/2660193.2660195
-- Salmon JK, Moraes MA, Dror RO, Shaw DE (2011). Parallel random numbers: as easy as 1, 2, 3 (counter-based
-  generators). International Conference for High Performance Computing, Networking, Storage and Analysis (SC11).
+References (docs/models/references.md): Steele et al. 2014 [Steele2014], Salmon et al. 2011 [Salmon2011].
 """
 
 from __future__ import annotations

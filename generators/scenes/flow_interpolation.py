@@ -24,18 +24,8 @@ For a pair of frames 0 and 1 (log radiance L0, L1):
    weights positive. Outside the image the frames are extended by their edge values.
 The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames the log radiance is linear in time.
 
-References (full citations also in docs/models/references.md):
-
-- Kroeger T, Timofte R, Dai D, Van Gool L (2016). Fast optical flow using dense inverse search (DIS). European
-  Conference on Computer Vision (ECCV), Lecture Notes in Computer Science 9908, 471-488. arXiv:1603.03590
-- Farneback G (2003). Two-frame motion estimation based on polynomial expansion. Scandinavian Conference on
-  Image Analysis (SCIA), Lecture Notes in Computer Science 2749, 363-370.
-- Sundaram N, Brox T, Keutzer K (2010). Dense point trajectories by GPU-accelerated large displacement
-  optical flow. European Conference on Computer Vision (ECCV).
-- Jiang H, Sun D, Jampani V, Yang M-H, Learned-Miller E, Kautz J (2018). Super SloMo: high quality estimation
-  of multiple intermediate frames for video interpolation. IEEE/CVF CVPR. arXiv:1712.00080
-- Keys RG (1981). Cubic convolution interpolation for digital image processing. IEEE Transactions on
-  Acoustics, Speech, and Signal Processing 29(6):1153-1160.
+References (docs/models/references.md): Kroeger et al. 2016 [Kroeger2016], Farneback 2003 [Farneback2003],
+Sundaram et al. 2010 [Sundaram2010], Jiang et al. 2018 [Jiang2018], Keys 1981 [Keys1981].
 """
 
 from __future__ import annotations
