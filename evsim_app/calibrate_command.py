@@ -31,6 +31,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-evaluations", type=int, default=120,
                    help="simulations of the Nelder-Mead stage (default 120)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulations (default 0)")
+    p.add_argument("--thresholds", type=float, nargs=2, metavar=("ON", "OFF"),
+                   help="for a recording without frames: the ON and OFF contrast thresholds (log units), which its "
+                        "events cannot tell (default: the --preset's)")
     p.add_argument("--json", type=Path, help="also write the fit (parameters, scores, timing) as JSON here")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out (and --json) file")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -54,9 +57,18 @@ def run(args: argparse.Namespace) -> int:
     from evsim_eval.calibrate import calibrate, fit_table, write_calibration
 
     check_outputs(args)
-    cal = calibrate(args.recording, tuple(args.window), preset=args.preset, black_level=args.black_level,
-                    conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
-                    progress=not args.no_progress, log=print)
+    window = None if args.window is None else tuple(args.window)
+    if args.thresholds is not None:  # a recording without frames (refused with frames)
+        from evsim_eval.calibrate.events_only import calibrate_events_only
+
+        cal = calibrate_events_only(args.recording, None, window, preset=args.preset, thresholds=args.thresholds,
+                                    seed=args.seed, log=print)
+    else:
+        cal = calibrate(args.recording, window, preset=args.preset, black_level=args.black_level,
+                        conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
+                        progress=not args.no_progress, log=print)
+    if _events_only(args, cal):
+        return 0
     print(fit_table(cal))
     print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
     out = write_calibration(cal, args.out, args.name)
@@ -66,3 +78,22 @@ def run(args: argparse.Namespace) -> int:
 
         write_text_atomic(args.json, json.dumps(cal.to_dict(), indent=1, default=str))
     return 0
+
+
+def _events_only(args: argparse.Namespace, cal: object) -> bool:
+    """For the fit of a recording without frames (evsim_eval.calibrate.events_only): print its table, write its
+    sensor file and --json; True. False for any other fit."""
+    from evsim_eval.calibrate.events_only import EventsOnlyCalibration, events_only_table, write_events_only
+
+    if not isinstance(cal, EventsOnlyCalibration):
+        return False
+    print(events_only_table(cal))
+    out = write_events_only(cal, args.out, args.name)
+    source = "given" if cal.thresholds_given else f"the preset {cal.preset_name}'s"
+    print(f"wrote {out}: noise, hot pixels and refractory fitted; thresholds {source}, not fitted; use it with "
+          f"`evsim convert VIDEO --sensor {out}`")
+    if args.json is not None:
+        from generators.formats.atomic import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(cal.to_dict(), indent=1, default=str))
+    return True
