@@ -475,7 +475,8 @@ def still_scene_check(dvs: sim.DVSParams, real: RealismStats, seed: int = 0) -> 
 
 def events_window(path: Path, rec: object, window_s: tuple[float, float] | None) -> tuple[tuple[float, float], float]:
     """((start, end) seconds from the first event, warm-up s) of the fitted window: window_s checked against the
-    events, or (None) the whole recording less a warm-up (WARM_UP_FRACTION of its span, at most WARM_UP_MAX_S).
+    events (an end at most 10 ms or 1 % past the last event is clipped to it), or (None) the whole recording less
+    a warm-up (WARM_UP_FRACTION of its span, at most WARM_UP_MAX_S).
 
     Parameters
     ----------
@@ -503,11 +504,11 @@ def events_window(path: Path, rec: object, window_s: tuple[float, float] | None)
     start, end = (float(v) for v in window_s)
     if not (math.isfinite(start) and math.isfinite(end) and 0 <= start < end):
         raise sim.EvsimInputError(f"--window {start:g} {end:g}: the window must satisfy 0 <= START < END seconds")
-    if start >= span or end > span + 1e-6:
+    if start >= span or end > span + max(0.01, 0.01 * span):  # up to 10 ms or 1 % past the last event: clipped
         raise sim.EvsimInputError(f"{path}: --window {start:g} {end:g} reaches past its events, which span 0-"
                                   f"{span:.3f} s from the first one: give a window inside it, or none for the whole "
                                   "recording")
-    return (start, end), 0.0
+    return (start, min(end, round(span, 6))), 0.0
 
 
 def calibrate_events_only(path: str | Path, recording: object | None = None,

@@ -372,11 +372,12 @@ def calibrate(path: str | Path, window_s: tuple[float, float] = (0.4, 2.32), *, 
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
+    if window_s is not None:
+        _checked_window(window_s)
     rec = load(path)
     if rec.frames is None or not len(rec.frames):  # events only: evsim_eval.calibrate.events_only
         from .events_only import calibrate_events_only
         return calibrate_events_only(path, rec, window_s, preset=preset, seed=seed, log=log)
-    _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
     real, simulation = prepare(path, rec, window_s, black_level, conditioning, log)
     note = flicker_warning(real)

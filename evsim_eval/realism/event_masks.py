@@ -7,8 +7,9 @@ neighbourhood are as few as noise alone would give. Steps, on the per-pixel even
 windows:
 
 1. Hot pixels: count >= max(HOT_MIN_EVENTS, HOT_FACTOR x the noise floor (mean count per quiet pixel)) while the
-   other pixels of the box around it (step 2) fire no more than noise (the bound of step 3): an isolated pixel, not
-   a part of a moving edge. Their counts are replaced by the floor before step 2, so a hot pixel does not hide its
+   other pixels of the box around it (step 2) fire no more than noise (the bound of step 3; other such pixels
+   counted at the floor, at most HOT_MAX_IN_BOX of them in the box): an isolated pixel, not a part of a moving
+   edge. Their counts are replaced by the floor before step 2, so a hot pixel does not hide its
    neighbours.
 2. Activity: the mean count over the (2 ACTIVITY_RADIUS_PX + 1)^2 box around each pixel.
 3. Quiet: every pixel within QUIET_RADIUS_PX (Chebyshev) of it has an activity at most the Poisson quantile
@@ -33,6 +34,7 @@ from .masks import FrameMasks
 
 HOT_FACTOR = 50.0  # a pixel firing this many times the quiet mean count (and >= HOT_MIN_EVENTS) is hot
 HOT_MIN_EVENTS = 10
+HOT_MAX_IN_BOX = 3  # at most this many candidates in a box are hot pixels; more are a part of the scene
 ACTIVITY_RADIUS_PX = 4  # activity: mean count over a 9x9 box
 QUIET_RADIUS_PX = 2  # quiet: every pixel within this distance has a low activity (as the frames' quiet pixels)
 QUIET_FALSE_ALARM = 1e-3  # noise alone puts a box above the quiet bound this rarely
@@ -89,11 +91,15 @@ def quiet_pixels(counts: np.ndarray) -> QuietPixels:
     quiet = np.ones(c.shape, bool)
     hot = np.zeros(c.shape, bool)
     bound = 0.0
-    box_sum = ndimage.uniform_filter(c, side, mode="nearest") * n_box
     for _ in range(ITERATIONS):
         bound = float(stats.poisson.ppf(1.0 - QUIET_FALSE_ALARM, max(floor, 1e-9) * n_box)) / n_box
-        # hot: far above the floor, amid neighbours (the box without the pixel) that fire no more than noise
-        hot = (c >= max(HOT_MIN_EVENTS, HOT_FACTOR * floor)) & ((box_sum - c) / (n_box - 1) <= bound + 1e-9)
+        # hot: far above the floor, amid neighbours that fire no more than noise (the box's other candidates, at
+        # most HOT_MAX_IN_BOX of them, counted at the floor)
+        candidate = c >= max(HOT_MIN_EVENTS, HOT_FACTOR * floor)
+        capped = np.where(candidate, floor, c)
+        others = (ndimage.uniform_filter(capped, side, mode="nearest") * n_box - capped) / (n_box - 1)
+        crowd = ndimage.uniform_filter(candidate.astype(np.float64), side, mode="nearest") * n_box
+        hot = candidate & (others <= bound + 1e-9) & (crowd <= HOT_MAX_IN_BOX + 0.5)
         activity = ndimage.uniform_filter(np.where(hot, floor, c), side, mode="nearest")
         low = activity <= bound + 1e-9
         quiet = ndimage.minimum_filter(low.astype(np.uint8), size=2 * QUIET_RADIUS_PX + 1, mode="nearest") > 0
