@@ -38,6 +38,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-evaluations", type=int, default=120,
                    help="simulations of the Nelder-Mead stage (default 120)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulations (default 0)")
+    p.add_argument("--thresholds", type=float, nargs=2, metavar=("ON", "OFF"),
+                   help="for a recording without frames: the ON and OFF contrast thresholds (log units), which its "
+                        "events cannot tell (default: the --preset's)")
     p.add_argument("--json", type=Path, help="also write the fit (parameters, scores, timing) as JSON here")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out (and --json) file")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -80,9 +83,17 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(args)
     window = None if args.window is None else tuple(args.window)
-    cal = calibrate(args.recording, window, preset=args.preset, black_level=args.black_level,
-                    conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
-                    progress=not args.no_progress, log=print)
+    if args.thresholds is not None:  # a recording without frames (refused with frames)
+        from evsim_eval.calibrate.events_only import calibrate_events_only
+
+        cal = calibrate_events_only(args.recording, None, window, preset=args.preset, thresholds=args.thresholds,
+                                    seed=args.seed, log=print)
+    else:
+        cal = calibrate(args.recording, window, preset=args.preset, black_level=args.black_level,
+                        conditioning=args.input_conditioning, seed=args.seed, max_evaluations=args.max_evaluations,
+                        progress=not args.no_progress, log=print)
+    if _events_only(args, cal):
+        return 0
     given = "--window" if args.window is not None else "the recording less a settling start (default)"
     print(f"window: {cal.window_s[0]:.4g}-{cal.window_s[1]:.4g} s from the first frame's exposure start ({given})")
     print(fit_table(cal))
@@ -94,3 +105,22 @@ def run(args: argparse.Namespace) -> int:
 
         write_text_atomic(args.json, json.dumps(cal.to_dict(), indent=1, default=str))
     return 0
+
+
+def _events_only(args: argparse.Namespace, cal: object) -> bool:
+    """For the fit of a recording without frames (evsim_eval.calibrate.events_only): print its table, write its
+    sensor file and --json; True. False for any other fit."""
+    from evsim_eval.calibrate.events_only import EventsOnlyCalibration, events_only_table, write_events_only
+
+    if not isinstance(cal, EventsOnlyCalibration):
+        return False
+    print(events_only_table(cal))
+    out = write_events_only(cal, args.out, args.name)
+    source = "given" if cal.thresholds_given else f"the preset {cal.preset_name}'s"
+    print(f"wrote {out}: noise, hot pixels and refractory fitted; thresholds {source}, not fitted; use it with "
+          f"`evsim convert VIDEO --sensor {out}`")
+    if args.json is not None:
+        from generators.formats.atomic import write_text_atomic
+
+        write_text_atomic(args.json, json.dumps(cal.to_dict(), indent=1, default=str))
+    return True

@@ -149,8 +149,10 @@ def test_calibrate_refuses_bad_windows_and_recordings_without_frames(tmp_path):
     events["t"] = [10, 20, 30]
     events["p"] = 1
     export(Recording(events=events, height=4, width=4), tmp_path / "ev.h5", "native")
-    with pytest.raises(sim.EvsimInputError, match="needs a recording with frames"):
+    with pytest.raises(sim.EvsimInputError, match="reaches past its events"):  # events only: their own fit
         calibrate(tmp_path / "ev.h5", (0.0, 1.0), progress=False)
+    with pytest.raises(sim.EvsimInputError, match="3 ON and 0 OFF events"):
+        calibrate(tmp_path / "ev.h5", None, progress=False)
 
 
 # ----- evaluate's contrast: calibrate's first stage -------------------------------------------------------------

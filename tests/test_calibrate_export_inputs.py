@@ -56,7 +56,6 @@ def inputs(tmp_path):
     ("notes.txt", "notes.txt: unknown layout"),
     ("image.png", "image.png: unknown layout"),
     ("missing.aedat4", "missing.aedat4: no such file"),
-    ("events_only.h5", "calibration needs a recording with frames (at least 3; it holds 0)"),
     ("ijrr", "missing or unreadable image: no such file (listed in images.txt)"),
 ])
 def test_calibrate_bad_recordings(inputs, tmp_path, capfd, name, says):
@@ -64,6 +63,18 @@ def test_calibrate_bad_recordings(inputs, tmp_path, capfd, name, says):
     assert main(["calibrate", str(inputs / name), "--out", str(out), "--no-progress"]) == 2
     assert says in _one_error_line(capfd)
     assert not out.exists() and _leftovers(tmp_path) == ["in"]
+
+
+def test_calibrate_fits_a_recording_without_frames_and_refuses_thresholds_with_frames(inputs, tmp_path, capfd):
+    """events_only.h5 is calibrated from its events (evsim_eval.calibrate.events_only; was refused); --thresholds,
+    for a recording without frames, is refused for one with frames, naming the flag."""
+    out = tmp_path / "cam.toml"
+    assert main(["calibrate", str(inputs / "events_only.h5"), "--out", str(out), "--no-progress"]) == 0
+    assert "not fitted" in out.read_text()
+    capfd.readouterr()
+    assert main(["calibrate", str(inputs / "tiny.h5"), "--out", str(tmp_path / "b.toml"), "--thresholds", "0.2",
+                 "0.2", "--no-progress"]) == 2
+    assert "--thresholds" in _one_error_line(capfd) and not (tmp_path / "b.toml").exists()
 
 
 def test_calibrate_windows_without_events_are_refused_before_the_work(inputs, tmp_path, capfd):

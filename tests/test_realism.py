@@ -258,10 +258,18 @@ def test_cli_refuses_bad_realism_requests(tmp_path, sims, capsys):
         assert err.startswith("evsim: error:") and message in err and "Traceback" not in err, err
 
 
-def test_without_frames_the_noise_rates_are_not_scored(sims):
+def test_without_frames_quiet_pixels_come_from_the_events(sims):
+    """Events only: quiet pixels from the events (evsim_eval.realism.event_masks), so the quiet noise is scored;
+    dark pixels and passages need frames and are not."""
     bare = Recording(sims["a"].events, H, W)  # events only, as `evsim convert` writes by default
     c = score_recordings(bare, sims["b"])
-    assert all(math.isnan(c.scores[k]) for k in NOISE_RATIOS) and math.isnan(c.scores["passage_median_diff"])
+    assert c.real.masks.source == "events"
+    assert all(math.isnan(c.scores[k]) for k in ("dark_on_ratio", "dark_off_ratio"))
+    assert math.isnan(c.scores["passage_median_diff"])
+    quiet = c.real.masks.quiet
+    assert not quiet[18:30].any() and quiet[:12].mean() > 0.8  # the square's rows are not quiet, the far ones are
+    for k in ("quiet_on_ratio", "quiet_off_ratio"):
+        assert abs(c.scores[k] - 1) <= 4 * c.seed_noise[k]
     assert abs(c.scores["count_ratio"] - 1) <= 4 * c.seed_noise["count_ratio"]
     assert any("no frames" in n for n in c.notes)
 

@@ -406,13 +406,18 @@ def calibrate(path: str | Path, window_s: tuple[float, float] | None = None, *, 
     Returns
     -------
     Calibration
-        The fitted parameters and how they were found.
+        The fitted parameters and how they were found (an events_only.EventsOnlyCalibration for a recording
+        without frames: window_s None is then its whole span less a warm-up).
     """
     from tqdm.auto import tqdm
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
     rec = load(path)
+    if rec.frames is None or not len(rec.frames):  # events only: evsim_eval.calibrate.events_only
+        from .events_only import calibrate_events_only
+        return calibrate_events_only(path, rec, None if window_s is None else _checked_window(window_s),
+                                     preset=preset, seed=seed, log=log)
     window_s = default_window(rec) if window_s is None else _checked_window(window_s)
     start = sim.DVSParams.preset(preset)
     real, simulation = prepare(path, rec, window_s, black_level, conditioning, log)

@@ -289,7 +289,12 @@ def format_comparison(c: Comparison, real_name: str = "real", sim_name: str = "s
              for row in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))
     m = c.real.masks
-    if m is not None:
+    if m is not None and m.source == "events":
+        hot = 0 if m.hot is None else int(m.hot.sum())
+        lines.append(f"pixel classes from the real events (no frames): {int(m.quiet.sum())} quiet pixels, {hot} hot "
+                     "pixels; no dark pixels or passages (they need frames); the per-pixel correlation assumes the "
+                     "simulation shows the same scene")
+    elif m is not None:
         lines.append(f"pixel classes from {m.frames_used} real frames: {int(m.quiet.sum())} quiet static, "
                      f"{int(m.dark.sum())} dark; change threshold {m.change_dn:.3g} DN (read noise "
                      f"{m.read_noise_dn:.2g} DN); {c.real.passages.size} real and {c.sim.passages.size} simulated "

@@ -45,6 +45,11 @@ class FrameMasks:
         The estimated read noise (frame DN rms).
     frames_used : int
         How many frames (those bracketing the windows) set static, quiet and dark.
+    source : str
+        What the classes were read from: "frames", or "events" for a recording without frames
+        (evsim_eval.realism.event_masks: quiet pixels from the events, no dark pixels, no motion).
+    hot : numpy.ndarray or None
+        (H, W) bool hot pixels found from the events (source "events"), else None.
     """
 
     static: np.ndarray
@@ -56,6 +61,8 @@ class FrameMasks:
     change_dn: float
     read_noise_dn: float
     frames_used: int
+    source: str = "frames"
+    hot: np.ndarray | None = None
 
 
 def bracketing_frames(frame_t_us: np.ndarray, windows_us: np.ndarray) -> np.ndarray:

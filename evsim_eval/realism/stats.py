@@ -4,7 +4,9 @@ measure(events, windows_us, height=, width=, masks=) gives a RealismStats: event
 noise rates on the quiet and dark static pixels of FrameMasks (Hz per pixel), the whole-sensor event rate in
 RATE_BIN_US bins, the histogram of the intervals between successive events of a pixel (log bins) and the events
 per pixel per passage. measure(sim_events, like=real) measures a simulation on the windows and pixel classes of a
-real recording's statistics, which are computed once (measure_recording) and reused.
+real recording's statistics, which are computed once (measure_recording) and reused. A recording without frames
+gets the pixel classes of its own events (event_masks: quiet pixels whose neighbourhood fires no more than noise,
+hot pixels; no dark pixels, no passages).
 
 Flicker: the whole-sensor event count in FLICKER_BIN_US bins over the longest window; its power spectrum's
 strongest frequency in FLICKER_BAND_HZ (lamps on AC mains: 100 or 120 Hz) is the flicker when that frequency and
@@ -311,19 +313,47 @@ def measure(events: np.ndarray, windows_us: np.ndarray | list | tuple | None = N
         INTERVAL_DECADES[0] * BINS_PER_DECADE
     interval_counts = np.bincount(np.clip(k, 0, nbins - 1), minlength=nbins)
     duration = float(np.sum(windows[:, 1] - windows[:, 0])) / 1e6
-    quiet_counts = dark_counts = (0, 0)
-    quiet_hz = dark_hz = (float("nan"), float("nan"))
-    if masks is not None:
-        quiet, dark = masks.quiet.ravel(), masks.dark.ravel()
-        quiet_counts = (int(counts[0][quiet].sum()), int(counts[1][quiet].sum()))
-        dark_counts = (int(counts[0][dark].sum()), int(counts[1][dark].sum()))
-        quiet_hz = tuple(_rate(c, quiet, duration) for c in quiet_counts)
-        dark_hz = tuple(_rate(c, dark, duration) for c in dark_counts)
+    quiet_counts, dark_counts, quiet_hz, dark_hz = _class_rates(counts, masks, duration)
     flicker_hz, flicker_share = _flicker(t, windows)
     return RealismStats(height, width, windows, gaps, masks, counts.reshape(2, height, width),
                         np.concatenate(rate_hz), np.concatenate(rate_counts), interval_counts,
                         np.concatenate(passages) if passages else np.zeros(0, np.int64),
                         quiet_hz, dark_hz, quiet_counts, dark_counts, notes, origin, flicker_hz, flicker_share)
+
+
+def _class_rates(counts: np.ndarray, masks: FrameMasks | None, duration: float) -> tuple:
+    """(quiet_counts, dark_counts, quiet_hz, dark_hz) of (2, H W) or (2, H, W) counts on the masks' pixel classes
+    (zeros and NaN without masks)."""
+    if masks is None:
+        return (0, 0), (0, 0), (float("nan"), float("nan")), (float("nan"), float("nan"))
+    counts = counts.reshape(2, -1)
+    quiet, dark = masks.quiet.ravel(), masks.dark.ravel()
+    quiet_counts = (int(counts[0][quiet].sum()), int(counts[1][quiet].sum()))
+    dark_counts = (int(counts[0][dark].sum()), int(counts[1][dark].sum()))
+    return (quiet_counts, dark_counts, tuple(_rate(c, quiet, duration) for c in quiet_counts),
+            tuple(_rate(c, dark, duration) for c in dark_counts))
+
+
+def with_event_masks(stats: RealismStats) -> RealismStats:
+    """stats of a recording without frames with the pixel classes of its own events
+    (evsim_eval.realism.event_masks: quiet and hot pixels; no dark pixels, no passages) and their noise rates.
+
+    Parameters
+    ----------
+    stats : RealismStats
+        Statistics measured without masks.
+
+    Returns
+    -------
+    RealismStats
+        A copy with masks (source "events"), quiet and dark counts and rates.
+    """
+    from .event_masks import event_masks
+
+    masks = event_masks(stats.counts)
+    quiet_counts, dark_counts, quiet_hz, dark_hz = _class_rates(stats.counts, masks, stats.duration_s)
+    return replace(stats, masks=masks, quiet_counts=quiet_counts, dark_counts=dark_counts, quiet_hz=quiet_hz,
+                   dark_hz=dark_hz)
 
 
 def _flicker(t: np.ndarray, windows: np.ndarray) -> tuple[float, float]:
@@ -460,8 +490,10 @@ def measure_recording(rec: object, window_s: tuple[float, float] | None = None, 
     notes = []
     if rec.frames is not None and len(rec.frame_t_mid_us) > 1:
         masks = frame_masks(np.asarray(rec.frames), rec.frame_t_mid_us, windows, rec.frame_bit_depth)
-    else:
-        notes.append("no frames: static and dark noise rates and passages are not measured")
     stats = measure(rec.events, windows, height=rec.height, width=rec.width, masks=masks, detect_gaps=detect_gaps)
+    if masks is None:  # quiet pixels from the events (event_masks); no dark pixels, no passages
+        stats = with_event_masks(stats)
+        notes.append(f"no frames: quiet pixels found from the events ({int(stats.masks.quiet.sum())} pixels whose "
+                     "neighbourhood fires no more than noise); dark pixels and passages are not measured")
     stats.notes[:0] = notes
     return replace(stats, origin_us=origin)
