@@ -413,12 +413,12 @@ def calibrate(path: str | Path, window_s: tuple[float, float] | None = None, *, 
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     path = Path(path)
+    window_s = None if window_s is None else _checked_window(window_s)  # before the recording is read
     rec = load(path)
     if rec.frames is None or not len(rec.frames):  # events only: evsim_eval.calibrate.events_only
         from .events_only import calibrate_events_only
-        return calibrate_events_only(path, rec, None if window_s is None else _checked_window(window_s),
-                                     preset=preset, seed=seed, log=log)
-    window_s = default_window(rec) if window_s is None else _checked_window(window_s)
+        return calibrate_events_only(path, rec, window_s, preset=preset, seed=seed, log=log)
+    window_s = default_window(rec) if window_s is None else window_s
     start = sim.DVSParams.preset(preset)
     real, simulation = prepare(path, rec, window_s, black_level, conditioning, log)
     note = flicker_warning(real)
