@@ -68,7 +68,7 @@ def _prepared(path: Path):
     from generators.formats import load
 
     rec = load(path)
-    return rec, RecordingSimulation(path), measure_recording(rec, WINDOW_S)
+    return rec, RecordingSimulation(path, recording=rec), measure_recording(rec, WINDOW_S)
 
 
 @functools.lru_cache(maxsize=4)
