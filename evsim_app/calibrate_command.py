@@ -99,7 +99,10 @@ def run(args: argparse.Namespace) -> int:
     print(fit_table(cal))
     print(f"{cal.evaluations} simulations in {cal.wall_s:.0f} s wall, {cal.cpu_s:.0f} s CPU")
     out = write_calibration(cal, args.out, args.name)
-    print(f"wrote {out}: use it with `evsim convert {args.recording} --sensor {out}`")
+    flag = f" --input-conditioning {args.input_conditioning}" if args.input_conditioning else ""
+    print(f"wrote {out}: use it with `evsim convert {args.recording} --sensor {out}{flag}` (the table's fitted column "
+          f"is that conversion scored by `evsim evaluate {args.recording} --task realism --against CONVERTED "
+          f"--window {cal.window_s[0]:.4g} {cal.window_s[1]:.4g}`)")
     if args.json is not None:
         from generators.formats.atomic import write_text_atomic
 

@@ -62,6 +62,24 @@ def test_calibrate_recovers_known_parameters(synthetic_recording):  # 32x48 pixe
     assert cal.scores["fitted"]["count_ratio"] == pytest.approx(1.0, abs=0.05)
 
 
+def test_calibrates_table_is_what_the_realism_task_gives_for_a_conversion_with_its_sensor(synthetic_recording,
+                                                                                          tmp_path):
+    import json
+
+    from evsim_app.cli import main
+    from evsim_eval.calibrate import calibrate, write_calibration
+
+    cal = calibrate(synthetic_recording, (0.2, 1.5), conditioning="off", max_evaluations=10, progress=False)
+    write_calibration(cal, tmp_path / "wall.toml")
+    assert main(["convert", str(synthetic_recording), "--sensor", str(tmp_path / "wall.toml"), "--out",
+                 str(tmp_path / "sim"), "--input-conditioning", "off", "--no-progress"]) == 0
+    assert main(["evaluate", str(synthetic_recording), "--task", "realism", "--against", str(tmp_path / "sim"),
+                 "--window", "0.2", "1.5", "--json", str(tmp_path / "r.json")]) == 0
+    scores = json.loads((tmp_path / "r.json").read_text())["scores"]
+    for key in ("count_ratio", "on_ratio", "off_ratio", "count_corr_blurred", "rate_rel_rmse", "interval_l1"):
+        assert scores[key] == pytest.approx(cal.scores["fitted"][key], rel=1e-9), key
+
+
 def test_warm_up_input_mirrors_the_start():
     """The warm-up is the clip's start mirrored in time before t = 0 (oldest first), t = 0 left out."""
     images = [np.full((2, 2), v, np.float32) for v in (1.0, 2.0, 3.0)]

@@ -454,7 +454,7 @@ def calibrate(path: str | Path, window_s: tuple[float, float] | None = None, *, 
             sensor = calibrated_sensor(key, simulation.params(dvs), preset, black_level=settings.black_level,
                                        read_noise_dn=real.masks.read_noise_dn, offset_dn=simulation.offset_dn(dvs),
                                        camera=camera)
-            scores[key] = converted_scores(path, rec, sensor, window_s)
+            scores[key] = converted_scores(path, rec, sensor, window_s, conditioning=settings.conditioning)
     else:
         scores.update(preset=preset_scores, fitted=fitted_scores)
     return Calibration(

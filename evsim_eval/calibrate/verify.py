@@ -16,7 +16,7 @@ __all__ = ["converted_scores"]
 
 
 def converted_scores(path: Path, rec: Recording, sensor: sim.Sensor, window_s: tuple[float, float],
-                     seed: int = 0) -> dict:
+                     seed: int = 0, conditioning: str | None = None) -> dict:
     """The realism scores of the recording converted with `sensor`.
 
     Parameters
@@ -31,6 +31,8 @@ def converted_scores(path: Path, rec: Recording, sensor: sim.Sensor, window_s: t
         The scored window, seconds from each recording's first frame exposure start.
     seed : int
         convert's seed (its default, 0, is what `evsim convert` uses).
+    conditioning : str, optional
+        convert's input conditioning (`--input-conditioning`; None: its default, temporal for a recording).
 
     Returns
     -------
@@ -45,7 +47,8 @@ def converted_scores(path: Path, rec: Recording, sensor: sim.Sensor, window_s: t
     with tempfile.TemporaryDirectory(prefix="evsim-calibrate-") as tmp:
         sensor_file = Path(tmp) / "sensor.toml"
         sim.write_sensor(sensor_file, sensor)
-        convert(path, Path(tmp) / "converted", settings={"sensor": str(sensor_file)}, seed=seed, progress=False)
+        convert(path, Path(tmp) / "converted", settings={"sensor": str(sensor_file)}, seed=seed, progress=False,
+                conditioning=conditioning)
         converted = load_one(Path(tmp) / "converted", "the conversion")
         comparison = score_recordings(rec, converted, window_s)
     return {**comparison.scores, "sim_quiet_hz": list(comparison.sim.quiet_hz)}
