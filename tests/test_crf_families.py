@@ -160,3 +160,16 @@ def test_registry_lists_names_and_rejects_bad_input():
     with pytest.raises(CRFError, match="sigma_im2"):
         crf.variance(0.5, 0.0, 1.0)
     assert issubclass(CRFError, ValueError)
+
+
+def test_srgb_is_colour_sciences_curve_without_importing_it():
+    import subprocess
+    import sys
+
+    colour = pytest.importorskip("colour")
+    x = np.concatenate([np.linspace(-0.1, 1.2, 20001), [0.0031308, 0.04045]])
+    srgb = crf_models.get("srgb")
+    np.testing.assert_array_equal(srgb._encode(x), colour.models.eotf_inverse_sRGB(x))
+    np.testing.assert_array_equal(srgb._decode(x), colour.models.eotf_sRGB(x))
+    code = "import sys, crf_models; crf_models.get('srgb').inverse(0.5); print('colour' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout.strip() == "False"
