@@ -17,10 +17,9 @@ only where the recording's frames saw that pixel change (FrameMasks.motion) in a
 run: an edge or object crossing the pixel, not a noise event.
 
 Coverage: a recording whose events cover only part of the time (dropped packets, exposure-gated exports) is
-scored on the covered windows only. A run of RATE_BIN_US bins without events is a gap when the non-empty bins
-among the GAP_CONTEXT_BINS on either side of it hold a median of at least BUSY_EVENTS_PER_BIN events (a Poisson
-stream that busy leaves a bin empty with probability below e**-20, 2e-9); gaps are cut out of the windows and
-listed in the notes. Resolution: one bin.
+scored on the covered windows only. The gaps are the event stream's own (sim.find_gaps, the gaps the AKF reads as
+missing data: an empty span that a Poisson stream of the rate on both sides would leave empty with probability
+e**-30); they are cut out of the windows and listed in the notes. Resolution: the events' own times.
 """
 
 from __future__ import annotations
@@ -29,20 +28,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim import EvsimInputError, validate_events
+from sim import EvsimInputError, find_gaps, validate_events
 
 from .kernels import pixel_runs
 from .masks import FrameMasks, frame_masks
 
-RATE_BIN_US = 10_000  # whole-sensor rate curve and coverage bins (us)
+RATE_BIN_US = 10_000  # whole-sensor rate curve bins (us)
 PASSAGE_GAP_US = 50_000  # a pixel's events further apart than this belong to different passages (us)
 INTERVAL_DECADES = (0, 7)  # interval histogram from 10**0 to 10**7 us (1 us .. 10 s), out-of-range intervals clipped
 BINS_PER_DECADE = 10
-BUSY_EVENTS_PER_BIN = 20
 FLICKER_BIN_US = 1_000  # event-rate bins of the flicker spectrum (us): frequencies up to 500 Hz
 FLICKER_BAND_HZ = (40.0, 500.0)  # where a flicker peak is looked for
 FLICKER_MIN_SHARE = 0.2  # share of the rate's variance a peak must hold to count as flicker
-GAP_CONTEXT_BINS = 5
 #: edges (us) of the log bins of the same-pixel inter-event-interval histogram, BINS_PER_DECADE per decade
 INTERVAL_EDGES_US = 10.0 ** np.arange(INTERVAL_DECADES[0], INTERVAL_DECADES[1] + 1e-9, 1 / BINS_PER_DECADE)
 
@@ -177,21 +174,23 @@ def bin_edges(a: int, b: int) -> np.ndarray:
 
 
 def coverage_gaps(t: np.ndarray, windows_us: np.ndarray) -> np.ndarray:
-    """(G, 2) int64 gaps in event coverage inside the windows (see the module): runs of empty bins whose
-    non-empty neighbours (GAP_CONTEXT_BINS on either side) hold a median of at least BUSY_EVENTS_PER_BIN events;
-    t sorted."""
-    gaps = []
-    for a, b in windows_us:
-        edges = bin_edges(a, b)
-        counts = np.diff(np.searchsorted(t, edges))
-        empty = np.concatenate([[False], counts == 0, [False]])
-        starts = np.flatnonzero(~empty[:-1] & empty[1:])  # runs of empty bins [start, stop)
-        stops = np.flatnonzero(empty[:-1] & ~empty[1:])
-        for k0, k1 in zip(starts, stops):
-            near = np.concatenate([counts[max(k0 - GAP_CONTEXT_BINS, 0):k0], counts[k1:k1 + GAP_CONTEXT_BINS]])
-            near = near[near > 0]
-            if near.size and np.median(near) >= BUSY_EVENTS_PER_BIN:
-                gaps.append([int(edges[k0]), int(edges[k1])])
+    """The gaps in event coverage inside the windows (see the module): sim.find_gaps of the stream, clipped to the
+    windows.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        The events' sorted int64 times (us).
+    windows_us : numpy.ndarray
+        (W, 2) int64 [start, end) windows (us).
+
+    Returns
+    -------
+    numpy.ndarray
+        (G, 2) int64 [start, end) gaps (us), each within one window.
+    """
+    found = find_gaps(t)
+    gaps = [[max(g0, a), min(g1, b)] for a, b in windows_us for g0, g1 in found if g0 < b and g1 > a]
     return np.array(gaps, dtype=np.int64).reshape(-1, 2)
 
 
