@@ -42,7 +42,8 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.codeobj.json",
-                    "auto_lessons/*.ipynb", "auto_lessons/*.py", "auto_lessons/*.zip", "auto_lessons/*.json"]
+                    "auto_lessons/*.ipynb", "auto_lessons/*.py", "auto_lessons/*.zip", "auto_lessons/*.json",
+                    "lessons"]  # the lessons' sources: sphinx-gallery builds auto_lessons from them
 templates_path = ["_templates"]
 # `name` in a docstring is code (the docstrings are plain text; evsim_docs.prose_to_rst keeps their backticks)
 default_role = "literal"
@@ -73,8 +74,8 @@ numpydoc_validation_checks: set[str] = set()
 intersphinx_mapping: dict = {}
 
 sphinx_gallery_conf = {
-    # the examples, and the lessons (lessons/: the teaching lab's computations, with its panels in Jupyter)
-    "examples_dirs": [str(ROOT / "examples"), str(ROOT / "lessons")],
+    # the examples, and the lessons (docs/lessons/: the teaching lab's computations, with its panels in Jupyter)
+    "examples_dirs": [str(ROOT / "examples"), str(ROOT / "docs" / "lessons")],
     "gallery_dirs": ["auto_examples", "auto_lessons"],
     "filename_pattern": r"/\d\d_[^/]*\.py$",  # run every numbered example
     "ignore_pattern": r"(_shared|make_readme_figures)\.py$",
