@@ -15,6 +15,7 @@ from .exr import TIMES_FILE
 from .ijrr import e2vid_txt_problem, is_ijrr
 from .native import is_native
 from .prophesee import prophesee_kind
+from .registry import REGISTRY
 
 _AEDAT4_MAGIC = b"#!AER-DAT4"
 
@@ -119,8 +120,6 @@ def is_dat(path: Path) -> bool:
 
 def unknown_layout(path: Path) -> str:
     """Why no format recognised `path`, for its DatasetFormatError."""
-    from .registry import REGISTRY
-
     if path.is_dir() or path.name == "events.txt":
         return f"unknown layout: a folder with neither events.txt (IJRR) nor {TIMES_FILE} (EXR frames)"
     if path.is_file() and h5py.is_hdf5(path):

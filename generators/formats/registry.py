@@ -65,11 +65,6 @@ class Format:
     write_options: dict[str, Any] = field(default_factory=dict)
     exportable: bool = True
 
-    @property
-    def holds_frames(self) -> bool:
-        """Whether files of this format can hold LDR frames (a hybrid recording, usable as a scene)."""
-        return "frames" in self.holds
-
 
 def _prophesee(name: str, description: str, suffix: str, export_suffix: str) -> Format:
     return Format(name, description, (suffix,), export_suffix, ("events",), f"recognise:is_{name}",
