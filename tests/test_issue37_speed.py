@@ -1,18 +1,20 @@
 """Issue 37's speed-ups change no output: the DVS's rounds for pixels with several crossings per interval
 (sim.dvs_kernels._multi_rounds) give the events of the code before them (hashes computed with commit 06d684c), and
-VideoScene's render-ahead gives the images a plain render gives."""
+VideoScene's render-ahead gives the images a plain render gives, key frames made in groups are those made one at a
+time, and radiance_of_log's exp is float32-exact to one unit in the last place."""
 
 import hashlib
 import importlib.util
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
 import sim
 from generators.sampling import AdaptiveSampler
 from generators.scenes import Trajectory, VideoScene, builtin_image_scene
-from generators.scenes.flow_interpolation import radiance_of_log
+from generators.scenes.flow_interpolation import KEY_GROUP, FlowEstimator, radiance_of_log
 
 BENCH = Path(__file__).resolve().parents[1] / "bench"
 # speed 1.6 px per frame: about 34,000 of the pixel-intervals have several events
@@ -44,6 +46,24 @@ def test_radiance_of_log_is_exp_minus_eps_clipped():
     out = radiance_of_log(log, 0.01)
     assert out.dtype == np.float32 and out.min() >= 0
     np.testing.assert_allclose(out, np.maximum(np.exp(log.astype(np.float64)) - 0.01, 0), rtol=1e-6, atol=1e-9)
+
+
+def test_radiance_of_log_exp_is_within_one_float32_ulp_over_its_range():
+    log = np.linspace(-87.0, 88.0, 200_003, dtype=np.float32).reshape(1, -1)
+    exact = np.exp(log.astype(np.float64))
+    rel = np.abs(radiance_of_log(log, 0.0) / exact - 1)
+    assert rel.max() <= np.finfo(np.float32).eps, rel.max()
+
+
+def test_keys_made_in_groups_equal_keys_made_one_at_a_time():
+    rng = np.random.default_rng(3)
+    log0 = cv2.GaussianBlur(rng.normal(0, 1, (40, 56)).astype(np.float32), (0, 0), 2)
+    log1 = np.roll(log0, 6, axis=1)  # 6 px of motion: 12 keys at 0.5 px per key
+    pair = FlowEstimator((-3.0, 3.0), scale=1.0).pair(log0, log1)
+    assert pair.n_keys > KEY_GROUP
+    alone = FlowEstimator((-3.0, 3.0), scale=1.0).pair(log0, log1)
+    for j in (3, 1, 2, pair.n_keys - 1, 9):  # the first call makes 3..3 + KEY_GROUP - 1; later ones fill the gaps
+        np.testing.assert_array_equal(pair.key(j), alone._synthesise(np.array([j / alone.n_keys]))[0])
 
 
 def test_render_ahead_gives_the_images_of_a_plain_render(tmp_path):

@@ -13,19 +13,20 @@ For a pair of frames 0 and 1 (log radiance L0, L1):
    time a back to both frames are approximated from the two flows as in Super SloMo (Jiang et al., CVPR 2018),
    exact for any motion constant over the interval:
    F_a0 = -(1 - a) a F01 + a^2 F10,   F_a1 = (1 - a)^2 F01 - a (1 - a) F10;
-   both frames are warped to time a and blended in log radiance, in one pass over the pixels (one numba kernel on
-   blocks of rows, on every core): each frame is sampled bilinearly on its copy upsampled 4x (cv2.resize, bicubic:
-   OpenCV's Keys kernel with parameter -0.75; made once per frame), which is close to a bicubic warp at a fraction
-   of its cost (bilinear interpolation on the frames themselves blurs texture at half-pixel shifts and loses
-   events, README "Converting videos"; on 2x copies 1.3 % of the events of tests/test_convert_pinned.py's clip,
-   against 0.15 % of seed noise); weights
+   both frames are warped to time a and blended in log radiance, in one pass over the pixels for several key
+   fractions at once (one numba kernel on blocks of rows, on every core): each frame is sampled bilinearly on its
+   copy upsampled 4x (cv2.resize, bicubic: OpenCV's Keys kernel with parameter -0.75; made once per frame), which is
+   close to a bicubic warp at a fraction of its cost (bilinear interpolation on the frames themselves blurs texture
+   at half-pixel shifts and loses events, README "Converting videos"; on 2x copies 1.3 % of the events of
+   tests/test_convert_pinned.py's clip, against 0.15 % of seed noise); weights
    w0 = (1 - a) (1 - O1 + d), w1 = a (1 - O0 + d): content about to be hidden comes from frame 0 (O0 warped from
    frame 0, nearest neighbour: it is not in frame 1), newly revealed content from frame 1; d = 1e-3 keeps both
    weights positive. Outside the image the frames are extended by their edge values.
 The result is L0 at a = 0, L1 at a = 1 and continuous in a; between key frames the log radiance is linear in time.
 
 References (docs/models/references.md): Kroeger et al. 2016 [Kroeger2016], Farneback 2003 [Farneback2003],
-Sundaram et al. 2010 [Sundaram2010], Jiang et al. 2018 [Jiang2018], Keys 1981 [Keys1981].
+Sundaram et al. 2010 [Sundaram2010], Jiang et al. 2018 [Jiang2018], Keys 1981 [Keys1981], Moshier 1989
+[Moshier1989].
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ _UP = 1 << _UP_SHIFT  # frames are warped bilinearly on copies upsampled by this
 FLOW_SCALE = 0.5  # default scale: at 346x260 as accurate as full size (README, "Converting videos"), 1/4 the cost
 DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below this (pixels)
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
+KEY_GROUP = 8  # key frames synthesised in one pass (the pass reads the upsampled frames once for all of them)
 
 
 class FlowEstimator:
@@ -172,8 +174,9 @@ class FlowPair:
     inside the interval, n_keys = ceil(largest motion / key_step_px) (1 for a still pair, at most max_keys), so
     that the image moves by at most key_step_px between keys (largest motion / max_keys when that is more: fast
     motion, for which the flow itself is not that precise); between keys the log radiance is linear in time,
-    which is also how the DVS emulator interpolates between its samples. Keys are made when first needed and
-    kept for the pair's lifetime (at most max_keys images).
+    which is also how the DVS emulator interpolates between its samples. Keys are made when first needed, with
+    the missing keys after them up to KEY_GROUP in one pass, and kept for the pair's lifetime (at most max_keys
+    images).
     """
 
     def __init__(self, log0: np.ndarray, log1: np.ndarray, flow01: np.ndarray, flow10: np.ndarray,
@@ -196,9 +199,14 @@ class FlowPair:
         return self._up[1]
 
     def key(self, j: int) -> np.ndarray:
-        """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys."""
+        """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys. A missing key is made
+        with the missing keys after it, up to KEY_GROUP of them, in one pass (_synthesise)."""
         if j not in self._keys:
-            self._keys[j] = self._synthesise(j / self.n_keys)
+            group = [j]
+            while len(group) < KEY_GROUP and group[-1] + 1 < self.n_keys and group[-1] + 1 not in self._keys:
+                group.append(group[-1] + 1)
+            for i, img in zip(group, self._synthesise(np.array(group) / self.n_keys)):
+                self._keys[i] = img
         return self._keys[j]
 
     def prepare(self) -> None:
@@ -210,13 +218,15 @@ class FlowPair:
             self.upsampled1  # noqa: B018 (made here)
             self._planar = np.ascontiguousarray(np.concatenate((self.flow01, self.flow10), axis=2).transpose(2, 0, 1))
 
-    def _synthesise(self, a: float) -> np.ndarray:
-        """float32 (H, W): both frames warped to fraction a and blended (module docstring), on every core."""
+    def _synthesise(self, fractions: np.ndarray) -> np.ndarray:
+        """float32 (len(fractions), H, W): both frames warped to each fraction and blended (module docstring), in
+        one pass over the rows on every core."""
         self.prepare()
         up0, up1 = self._up[0], self._up[1]
-        out = np.empty_like(self.log0)
-        in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, a, y0, y1,
-                                               out), out.shape[0], _MIN_ROWS, per_thread=2)
+        fractions = np.asarray(fractions, dtype=np.float64)
+        out = np.empty((fractions.size, *self.log0.shape), dtype=np.float32)
+        in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, fractions,
+                                               y0, y1, out), out.shape[1], _MIN_ROWS, per_thread=2)
         return out
 
     def log_at(self, a: float) -> np.ndarray:
@@ -272,18 +282,17 @@ def upsample(img: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, fastmath=True)
-def _warp_blend(up0, up1, occ0, occ1, flows, a, y0, y1, out):
-    """out[y0:y1] = the occlusion-weighted blend of both frames warped to fraction a (module docstring): frame i's
-    log radiance sampled bilinearly on up_i (upsampled _UP times, float32 (_UP H, _UP W)) at p + F_ai(p), its
-    occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W): F01 x, y, F10 x, y (pixels). Three
-    loops per row, each simple enough to vectorise but the middle one (the gathers)."""
-    h, w = out.shape
+def _warp_blend(up0, up1, occ0, occ1, flows, fractions, y0, y1, out):
+    """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
+    docstring), for every g: frame i's log radiance sampled bilinearly on up_i (upsampled _UP times, float32
+    (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W):
+    F01 x, y, F10 x, y (pixels). Row by row, every fraction of a row before the next row: the rows of the upsampled
+    frames one row reads at nearby fractions are then still in the core's cache (one read of them per row and not
+    per fraction; half the cost of one fraction at a time at 720p). Three loops per row, each simple enough to
+    vectorise but the middle one (the gathers)."""
+    h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
-    b = 1.0 - a
-    # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
-    c00, c01 = np.float32(-_UP * b * a), np.float32(_UP * a * a)
-    c10, c11 = np.float32(_UP * b * b), np.float32(-_UP * a * b)
-    wa, wb, floor = np.float32(a), np.float32(b), np.float32(1.0 + _WEIGHT_FLOOR)
+    floor = np.float32(1.0 + _WEIGHT_FLOOR)
     zero, half, off = np.float32(0.0), np.float32(0.5), np.float32((_UP - 1) / 2)
     umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
     k0, k1 = np.empty(w, np.int32), np.empty(w, np.int32)  # flat index of the upper left bilinear neighbour
@@ -295,46 +304,54 @@ def _warp_blend(up0, up1, occ0, occ1, flows, a, y0, y1, out):
     for y in range(y0, y1):
         yf = np.float32(_UP * y) + off
         ux, uy, vx, vy = flows[0, y], flows[1, y], flows[2, y], flows[3, y]
-        for x in range(w):  # sample positions (edge values beyond the image)
-            xf = np.float32(_UP * x) + off
-            p = xf + c00 * ux[x] + c01 * vx[x]
-            q = yf + c00 * uy[x] + c01 * vy[x]
-            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
-            p = p if p < umax else umax
-            q = q if q > zero else zero  # (conditionals, not min/max: they vectorise)
-            q = q if q < vmax else vmax
-            ip, iq = np.int32(p), np.int32(q)
-            fx0[x], fy0[x] = p - np.float32(ip), q - np.float32(iq)
-            k0[x] = iq * w2 + ip
-            n0[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
-            p = xf + c10 * ux[x] + c11 * vx[x]
-            q = yf + c10 * uy[x] + c11 * vy[x]
-            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
-            p = p if p < umax else umax
-            q = q if q > zero else zero  # (conditionals, not min/max: they vectorise)
-            q = q if q < vmax else vmax
-            ip, iq = np.int32(p), np.int32(q)
-            fx1[x], fy1[x] = p - np.float32(ip), q - np.float32(iq)
-            k1[x] = iq * w2 + ip
-            n1[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
-        for x in range(w):  # the gathers; fx0, fy0 then hold the blend weights
-            k = np.uintp(k0[x])
-            a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
-            t0, t1 = a00 + fx0[x] * (a01 - a00), a10 + fx0[x] * (a11 - a10)
-            v0[x] = t0 + fy0[x] * (t1 - t0)
-            k = np.uintp(k1[x])
-            a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
-            t0, t1 = a00 + fx1[x] * (a01 - a00), a10 + fx1[x] * (a11 - a10)
-            v1[x] = t0 + fy1[x] * (t1 - t0)
-            fx0[x] = wb * (floor - o1f[np.uintp(n1[x])])
-            fy0[x] = wa * (floor - o0f[np.uintp(n0[x])])
-        row = out[y]
-        for x in range(w):
-            row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+        for g in range(fractions.size):
+            a = fractions[g]
+            b = 1.0 - a
+            # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
+            c00, c01 = np.float32(-_UP * b * a), np.float32(_UP * a * a)
+            c10, c11 = np.float32(_UP * b * b), np.float32(-_UP * a * b)
+            wa, wb = np.float32(a), np.float32(b)
+            for x in range(w):  # sample positions (edge values beyond the image)
+                xf = np.float32(_UP * x) + off
+                p = xf + c00 * ux[x] + c01 * vx[x]
+                q = yf + c00 * uy[x] + c01 * vy[x]
+                p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
+                p = p if p < umax else umax
+                q = q if q > zero else zero
+                q = q if q < vmax else vmax
+                ip, iq = np.int32(p), np.int32(q)
+                fx0[x], fy0[x] = p - np.float32(ip), q - np.float32(iq)
+                k0[x] = iq * w2 + ip
+                n0[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+                p = xf + c10 * ux[x] + c11 * vx[x]
+                q = yf + c10 * uy[x] + c11 * vy[x]
+                p = p if p > zero else zero
+                p = p if p < umax else umax
+                q = q if q > zero else zero
+                q = q if q < vmax else vmax
+                ip, iq = np.int32(p), np.int32(q)
+                fx1[x], fy1[x] = p - np.float32(ip), q - np.float32(iq)
+                k1[x] = iq * w2 + ip
+                n1[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+            for x in range(w):  # the gathers; fx0, fy0 then hold the blend weights
+                k = np.uintp(k0[x])
+                a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
+                t0, t1 = a00 + fx0[x] * (a01 - a00), a10 + fx0[x] * (a11 - a10)
+                v0[x] = t0 + fy0[x] * (t1 - t0)
+                k = np.uintp(k1[x])
+                a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
+                t0, t1 = a00 + fx1[x] * (a01 - a00), a10 + fx1[x] * (a11 - a10)
+                v1[x] = t0 + fy1[x] * (t1 - t0)
+                fx0[x] = wb * (floor - o1f[np.uintp(n1[x])])
+                fy0[x] = wa * (floor - o0f[np.uintp(n0[x])])
+            row = out[g, y]
+            for x in range(w):
+                row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
 
 
 def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
-    """Radiance of a log image, max(exp(log) - eps, 0), on every core (one pass over the pixels).
+    """Radiance of a log image, max(exp(log) - eps, 0), on every core (one pass over the pixels; exp within one
+    unit in the last place of float32: _radiance_rows).
 
     Parameters
     ----------
@@ -354,11 +371,31 @@ def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, nogil=True, fastmath={"nnan", "ninf", "nsz", "contract"})  # no reassociation: it undoes ln2_lo
 def _radiance_rows(log, eps, y0, y1, out):
-    """out[y0:y1] = max(exp(log) - eps, 0) (float32)."""
-    zero = np.float32(0.0)
+    """out[y0:y1] = max(exp(log) - eps, 0) (float32), exp as in Cephes' expf (Moshier 1989 [Moshier1989]):
+    exp(v) = 2^n e^r with n = round(v / ln 2) and |r| <= ln(2) / 2, e^r by a degree-7 polynomial, 2^n written as
+    float32 bits; within one unit in the last place of float32 for v in [-87, 88] (v is clamped there: e^-87 is
+    below the smallest normal float32's ten times, e^88 near its largest). Every loop vectorises (libm's scalar
+    exp costs 7x as much)."""
+    lo, hi = np.float32(-87.0), np.float32(88.0)
+    log2e, ln2_hi, ln2_lo = np.float32(1.4426950408889634), np.float32(0.693359375), np.float32(-2.12194440e-4)
+    c0, c1, c2 = np.float32(1.9875691500e-4), np.float32(1.3981999507e-3), np.float32(8.3334519073e-3)
+    c3, c4, c5 = np.float32(4.1665795894e-2), np.float32(1.6666665459e-1), np.float32(5.0000001201e-1)
+    zero, half, one = np.float32(0.0), np.float32(0.5), np.float32(1.0)
+    w = log.shape[1]
+    bits = np.empty(w, np.int32)
+    two_n = bits.view(np.float32)
     for y in range(y0, y1):
-        for x in range(log.shape[1]):
-            v = np.exp(log[y, x]) - eps
-            out[y, x] = v if v > zero else zero
+        row, o = log[y], out[y]
+        for x in range(w):
+            v = row[x]
+            v = v if v > lo else lo  # (conditionals, not min/max: they vectorise)
+            v = v if v < hi else hi
+            n = np.floor(v * log2e + half)
+            r = v - n * ln2_hi - n * ln2_lo
+            o[x] = (((((c0 * r + c1) * r + c2) * r + c3) * r + c4) * r + c5) * r * r + r + one
+            bits[x] = (np.int32(n) + np.int32(127)) << 23
+        for x in range(w):
+            v = o[x] * two_n[x] - eps
+            o[x] = v if v > zero else zero
