@@ -295,8 +295,10 @@ def format_comparison(c: Comparison, real_name: str = "real", sim_name: str = "s
                      "pixels; no dark pixels or passages (they need frames); the per-pixel correlation assumes the "
                      "simulation shows the same scene")
     elif m is not None:
+        reach = "" if m.reach_px is None else (f", beyond the real events' signal reach ({m.reach_px[0]} px dark, "
+                                                f"{m.reach_px[1]} px brighter)")
         lines.append(f"pixel classes from {m.frames_used} real frames: {int(m.quiet.sum())} quiet static, "
-                     f"{int(m.dark.sum())} dark; change threshold {m.change_dn:.3g} DN (read noise "
+                     f"{int(m.dark.sum())} dark{reach}; change threshold {m.change_dn:.3g} DN (read noise "
                      f"{m.read_noise_dn:.2g} DN); {c.real.passages.size} real and {c.sim.passages.size} simulated "
                      "passages")
     lines += [f"note: {n}" for n in c.notes]
