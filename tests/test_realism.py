@@ -115,6 +115,15 @@ def test_doubled_shot_noise_doubles_the_static_noise_rates(sims, real_stats):
     assert on + off == pytest.approx(1.0, abs=4 / np.sqrt(n))
 
 
+def test_noise_ratios_carry_a_poisson_interval_that_holds_the_true_ratio(sims, real_stats):
+    c = compare(real_stats, measure_recording(sims["double"], like=real_stats))
+    assert set(c.intervals) == set(NOISE_RATIOS)
+    for k in NOISE_RATIOS:  # doubled shot noise: the true ratio is 2
+        lo, hi = c.intervals[k]
+        assert lo < c.scores[k] < hi and lo < 2 < hi, (k, lo, c.scores[k], hi)
+    assert c.to_dict()["intervals"]["quiet_off_ratio"] == list(c.intervals["quiet_off_ratio"])
+
+
 def test_coverage_gaps_are_found_and_not_scored(sims, real_stats):
     rec = sims["a"]
     t = rec.events["t"]

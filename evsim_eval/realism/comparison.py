@@ -18,6 +18,13 @@ Scores (perfect value in brackets):
 - flicker_share_ratio [1]: the share of the 1 ms event rate's variance at the real recording's flicker frequency
   (lamps on AC mains; stats module), simulated over real (NaN when the real recording has no flicker).
 
+intervals holds, for the four noise-rate ratios, their exact 95 % interval under Poisson sampling of both counts
+(noise_ratio_interval: Clopper-Pearson, conditional on the sum; both rates are over the same pixels and time, so the
+rate ratio is the count ratio). A noise rate is often a handful of events (the road recording's quiet OFF rate: 2
+real events over 76,489 pixels and 1.92 s), and a ratio of such counts says little: 5 against 2 is x2.5, 95 %
+interval 0.41-26. A criterion such as "within 2x" is decided by the counts only when the interval lies inside
+[0.5, 2] (met) or outside it (not met).
+
 seed_noise holds, for each score, the deviation from perfect two independent draws of one Poisson process with the
 measured counts would show (one standard deviation for ratios and the median; the expected value for the
 correlations' shortfall from 1, the RMS error and the L1 distance). Real DVS signal events are less random than
@@ -45,6 +52,10 @@ PERFECT = {"count_ratio": 1.0, "on_ratio": 1.0, "off_ratio": 1.0, "quiet_on_rati
            "dark_on_ratio": 1.0, "dark_off_ratio": 1.0, "count_corr": 1.0, "count_corr_blurred": 1.0,
            "rate_corr": 1.0, "rate_rel_rmse": 0.0, "interval_l1": 0.0, "passage_median_diff": 0.0,
            "flicker_share_ratio": 1.0}
+#: the noise-rate ratios, (score, statistic, polarity): each has a Poisson interval (Comparison.intervals)
+NOISE_RATIOS = (("quiet_on_ratio", "quiet_counts", 0), ("quiet_off_ratio", "quiet_counts", 1),
+                ("dark_on_ratio", "dark_counts", 0), ("dark_off_ratio", "dark_counts", 1))
+INTERVAL_LEVEL = 0.95  # of Comparison.intervals
 
 
 @dataclass
@@ -61,6 +72,9 @@ class Comparison:
         {name: value}, how much each score varies with the simulation's seed.
     notes : list of str
         Notes on the comparison.
+    intervals : dict
+        {name: (low, high)}, the 95 % interval of each noise-rate ratio (NOISE_RATIOS) under Poisson sampling of
+        both counts (noise_ratio_interval).
     """
 
     real: RealismStats
@@ -68,17 +82,19 @@ class Comparison:
     scores: dict
     seed_noise: dict
     notes: list = field(default_factory=list)
+    intervals: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-serialisable: {"scores", "seed_noise", "perfect", "real", "sim", "notes"} (non-finite values as
-        strings "inf", "nan").
+        """JSON-serialisable: {"scores", "seed_noise", "intervals", "perfect", "real", "sim", "notes"} (non-finite
+        values as strings "inf", "nan").
 
         Returns
         -------
         dict
             The record.
         """
-        return _clean({"scores": self.scores, "seed_noise": self.seed_noise, "perfect": PERFECT,
+        return _clean({"scores": self.scores, "seed_noise": self.seed_noise, "intervals": self.intervals,
+                       "perfect": PERFECT,
                        "real": self.real.summary(), "sim": self.sim.summary(), "notes": self.notes})
 
 
@@ -112,6 +128,31 @@ def _poisson_corr_shortfall(a: np.ndarray, b: np.ndarray, noise_scale: float = 1
 
 def _relative_sd(n_real: int, n_sim: int) -> float:
     return math.sqrt(1 / n_real + 1 / n_sim) if n_real > 0 and n_sim > 0 else float("nan")
+
+
+def noise_ratio_interval(n_sim: int, n_real: int, level: float = INTERVAL_LEVEL) -> tuple[float, float]:
+    """The exact interval of the ratio of two Poisson rates over the same exposure from their counts: given the sum
+    n_sim + n_real, n_sim is binomial with p = ratio / (1 + ratio); the Clopper-Pearson interval of p gives the
+    ratio's (conservative: it covers the true ratio at least `level` of the time).
+
+    Parameters
+    ----------
+    n_sim, n_real : int
+        The simulated and real counts (events on the same pixels over the same time).
+    level : float, optional
+        The coverage (default INTERVAL_LEVEL, 0.95).
+
+    Returns
+    -------
+    tuple of float
+        (low, high) of the ratio sim / real; (0, inf) without events.
+    """
+    from scipy.stats import beta
+
+    a = (1 - level) / 2
+    p_lo = float(beta.ppf(a, n_sim, n_real + 1)) if n_sim > 0 else 0.0
+    p_hi = float(beta.ppf(1 - a, n_sim + 1, n_real)) if n_real > 0 else 1.0
+    return p_lo / (1 - p_lo), (p_hi / (1 - p_hi) if p_hi < 1 else float("inf"))
 
 
 def _median_sd(passages: np.ndarray) -> float:
@@ -198,7 +239,9 @@ def compare(real: RealismStats, sim: RealismStats) -> Comparison:
     notes = [f"real: {n}" for n in real.notes] + [f"simulation: {n}" for n in sim.notes]
     if real.masks is None and not real.notes:
         notes.append("no pixel classes (measured without frames): noise rates and passages are not scored")
-    return Comparison(real, sim, scores, _seed_noise(real, sim), notes)
+    intervals = {name: noise_ratio_interval(getattr(sim, counts)[pol], getattr(real, counts)[pol])
+                 for name, counts, pol in NOISE_RATIOS if real.masks is not None}
+    return Comparison(real, sim, scores, _seed_noise(real, sim), notes, intervals)
 
 
 # ----- the table and the JSON file --------------------------------------------------------------------------
@@ -236,18 +279,25 @@ def table_rows(c: Comparison) -> list[tuple[str, str, str, str]]:
     def ratio(text: str) -> str:
         return text if text == "-" else f"x{text}"
 
+    def noise(name: str) -> str:  # the ratio and its 95 % Poisson interval
+        text = ratio(_num(k[name]))
+        if text == "-" or name not in c.intervals:
+            return text
+        lo, hi = c.intervals[name]
+        return f"{text} ({_num(lo, 2)}-{_num(hi, 2)})"
+
     return [
         (f"events ({span} s)", _num(r.n_events), _num(s.n_events), ratio(_num(k["count_ratio"]))),
         ("ON events", _num(r.n_on), _num(s.n_on), ratio(_num(k["on_ratio"]))),
         ("OFF events", _num(r.n_off), _num(s.n_off), ratio(_num(k["off_ratio"]))),
         ("noise on quiet static pixels, ON (Hz per pixel)", _num(r.quiet_hz[0], 2), _num(s.quiet_hz[0], 2),
-         ratio(_num(k["quiet_on_ratio"]))),
+         noise("quiet_on_ratio")),
         ("noise on quiet static pixels, OFF (Hz per pixel)", _num(r.quiet_hz[1], 2), _num(s.quiet_hz[1], 2),
-         ratio(_num(k["quiet_off_ratio"]))),
+         noise("quiet_off_ratio")),
         ("dark static pixels (< 20 DN), ON (Hz per pixel)", _num(r.dark_hz[0], 2), _num(s.dark_hz[0], 2),
-         ratio(_num(k["dark_on_ratio"]))),
+         noise("dark_on_ratio")),
         ("dark static pixels (< 20 DN), OFF (Hz per pixel)", _num(r.dark_hz[1], 2), _num(s.dark_hz[1], 2),
-         ratio(_num(k["dark_off_ratio"]))),
+         noise("dark_off_ratio")),
         ("events per pixel per passage (median)", _num(r.passage_median), _num(s.passage_median),
          f"{k['passage_median_diff']:+g}" if math.isfinite(k["passage_median_diff"]) else "-"),
         ("per-pixel count correlation", "1", _num(k["count_corr"]), _num(k["count_corr"])),
@@ -295,8 +345,10 @@ def format_comparison(c: Comparison, real_name: str = "real", sim_name: str = "s
                      "pixels; no dark pixels or passages (they need frames); the per-pixel correlation assumes the "
                      "simulation shows the same scene")
     elif m is not None:
+        reach = "" if m.reach_px is None else (f", beyond the real events' signal reach ({m.reach_px[0]} px dark, "
+                                                f"{m.reach_px[1]} px brighter)")
         lines.append(f"pixel classes from {m.frames_used} real frames: {int(m.quiet.sum())} quiet static, "
-                     f"{int(m.dark.sum())} dark; change threshold {m.change_dn:.3g} DN (read noise "
+                     f"{int(m.dark.sum())} dark{reach}; change threshold {m.change_dn:.3g} DN (read noise "
                      f"{m.read_noise_dn:.2g} DN); {c.real.passages.size} real and {c.sim.passages.size} simulated "
                      "passages")
     lines += [f"note: {n}" for n in c.notes]

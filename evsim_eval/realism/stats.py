@@ -4,9 +4,10 @@ measure(events, windows_us, height=, width=, masks=) gives a RealismStats: event
 noise rates on the quiet and dark static pixels of FrameMasks (Hz per pixel), the whole-sensor event rate in
 RATE_BIN_US bins, the histogram of the intervals between successive events of a pixel (log bins) and the events
 per pixel per passage. measure(sim_events, like=real) measures a simulation on the windows and pixel classes of a
-real recording's statistics, which are computed once (measure_recording) and reused. A recording without frames
-gets the pixel classes of its own events (event_masks: quiet pixels whose neighbourhood fires no more than noise,
-hot pixels; no dark pixels, no passages).
+real recording's statistics, which are computed once (measure_recording) and reused; measure_recording narrows the
+frames' quiet and dark pixels to those beyond the reach of signal in the real events (masks.beyond_signal_reach).
+A recording without frames gets the pixel classes of its own events (event_masks: quiet pixels whose neighbourhood
+fires no more than noise, hot pixels; no dark pixels, no passages).
 
 Flicker: the whole-sensor event count in FLICKER_BIN_US bins over the longest window; its power spectrum's
 strongest frequency in FLICKER_BAND_HZ (lamps on AC mains: 100 or 120 Hz) is the flicker when that frequency and
@@ -31,7 +32,7 @@ import numpy as np
 from sim import EvsimInputError, find_gaps, validate_events
 
 from .kernels import pixel_runs
-from .masks import FrameMasks, frame_masks
+from .masks import FrameMasks, beyond_signal_reach, frame_masks
 
 RATE_BIN_US = 10_000  # whole-sensor rate curve bins (us)
 PASSAGE_GAP_US = 50_000  # a pixel's events further apart than this belong to different passages (us)
@@ -143,6 +144,8 @@ class RealismStats:
             "duration_s": self.duration_s, "events": self.n_events, "on_events": self.n_on, "off_events": self.n_off,
             "quiet_pixels": None if masks is None else int(masks.quiet.sum()),
             "dark_pixels": None if masks is None else int(masks.dark.sum()),
+            "signal_reach_px": None if masks is None or masks.reach_px is None else list(masks.reach_px),
+            "quiet_counts": list(self.quiet_counts), "dark_counts": list(self.dark_counts),
             "quiet_on_hz": self.quiet_hz[0], "quiet_off_hz": self.quiet_hz[1],
             "dark_on_hz": self.dark_hz[0], "dark_off_hz": self.dark_hz[1],
             "passages": int(self.passages.size), "passage_median": self.passage_median,
@@ -333,6 +336,27 @@ def _class_rates(counts: np.ndarray, masks: FrameMasks | None, duration: float) 
             tuple(_rate(c, dark, duration) for c in dark_counts))
 
 
+def with_masks(stats: RealismStats, masks: FrameMasks) -> RealismStats:
+    """stats with other pixel classes (of the same recording: evsim_eval.realism.event_masks for one without frames,
+    masks.beyond_signal_reach for one with) and their noise rates; the passages are the ones measured.
+
+    Parameters
+    ----------
+    stats : RealismStats
+        Statistics measured without masks, or with masks of the same motion.
+    masks : FrameMasks
+        The pixel classes.
+
+    Returns
+    -------
+    RealismStats
+        A copy with masks, quiet and dark counts and rates.
+    """
+    quiet_counts, dark_counts, quiet_hz, dark_hz = _class_rates(stats.counts, masks, stats.duration_s)
+    return replace(stats, masks=masks, quiet_counts=quiet_counts, dark_counts=dark_counts, quiet_hz=quiet_hz,
+                   dark_hz=dark_hz)
+
+
 def with_event_masks(stats: RealismStats) -> RealismStats:
     """stats of a recording without frames with the pixel classes of its own events
     (evsim_eval.realism.event_masks: quiet and hot pixels; no dark pixels, no passages) and their noise rates.
@@ -349,10 +373,7 @@ def with_event_masks(stats: RealismStats) -> RealismStats:
     """
     from .event_masks import event_masks
 
-    masks = event_masks(stats.counts)
-    quiet_counts, dark_counts, quiet_hz, dark_hz = _class_rates(stats.counts, masks, stats.duration_s)
-    return replace(stats, masks=masks, quiet_counts=quiet_counts, dark_counts=dark_counts, quiet_hz=quiet_hz,
-                   dark_hz=dark_hz)
+    return with_masks(stats, event_masks(stats.counts))
 
 
 def _flicker(t: np.ndarray, windows: np.ndarray) -> tuple[float, float]:
@@ -447,8 +468,9 @@ def same_clock(real: object, sim: object) -> bool:
 def measure_recording(rec: object, window_s: tuple[float, float] | None = None, *,
                       like: RealismStats | None = None, detect_gaps: bool = True,
                       origin_us: int | None = None) -> RealismStats:
-    """measure of a generators.formats Recording, with the pixel classes of its frames (if any), or with like=.
-    Coverage gaps are cut out (detect_gaps).
+    """measure of a generators.formats Recording, with the pixel classes of its frames (if any; their quiet and
+    dark pixels beyond the reach of signal in its events: masks.beyond_signal_reach), or with like=. Coverage gaps
+    are cut out (detect_gaps).
 
     Parameters
     ----------
@@ -490,7 +512,9 @@ def measure_recording(rec: object, window_s: tuple[float, float] | None = None, 
     if rec.frames is not None and len(rec.frame_t_mid_us) > 1:
         masks = frame_masks(np.asarray(rec.frames), rec.frame_t_mid_us, windows, rec.frame_bit_depth)
     stats = measure(rec.events, windows, height=rec.height, width=rec.width, masks=masks, detect_gaps=detect_gaps)
-    if masks is None:  # quiet pixels from the events (event_masks); no dark pixels, no passages
+    if masks is not None:  # quiet and dark pixels beyond the reach of signal seen in the real events
+        stats = with_masks(stats, beyond_signal_reach(masks, stats.counts))
+    else:  # quiet pixels from the events (event_masks); no dark pixels, no passages
         stats = with_event_masks(stats)
         notes.append(f"no frames: quiet pixels found from the events ({int(stats.masks.quiet.sum())} pixels whose "
                      "neighbourhood fires no more than noise); dark pixels and passages are not measured")
