@@ -64,7 +64,7 @@ from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_int
 from .events import EVENT_DTYPE, check_times_us, empty_events
-from .parallel import in_parallel
+from .parallel import in_parallel, split
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -229,7 +229,7 @@ class DVSEmulator:
         events, labels = _join(outs)
         if self._dead is not None and events.size:
             alive = ~self._dead[events["y"], events["x"]]
-            events, labels = events[alive], labels[alive]
+            events, labels = events[alive], labels[alive] if labels.size else labels
         return (events, labels) if self.return_labels else events
 
     def _check_input(self, radiance, t_us):
@@ -309,77 +309,66 @@ class DVSEmulator:
         self._t = t
 
     def _run(self, frames: np.ndarray, times: np.ndarray):
-        """Advance all rows through a block of frames; return its sorted events and labels."""
+        """Advance all rows through a block of frames; return its sorted events and labels (empty without
+        return_labels)."""
         h, n = self.height, len(times)
-        rows = self._rows
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
-        bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
+        buf, ends = self._buffers(h * cap), np.empty((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        span = int(times[0] - t_prev)
-        # one frame: each thread also counts its rows' event times for the sort (no second pass over the events)
-        counts = {} if n == 1 and h * cap > 4096 and span <= 4 * h * cap + 1024 else None
-        spills = self._emulate(frames, times, t_prev, cap, bufs_a, ends, counts, span)
+        # the emulating threads count their events per microsecond of each interval (the counting sort's first
+        # pass, while the events are in cache) when the counts take less memory than about twice the buffer
+        bins = np.diff(times, prepend=t_prev) + 1
+        t_base = np.cumsum(bins) - bins
+        parts = np.array(split(h, max(1, 4096 // (self.width * n)), per_thread=2), dtype=np.int64)
+        shape = (parts.size - 1, int(t_base[-1] + bins[-1]))
+        counts = np.zeros(shape if shape[0] * shape[1] <= 2 * h * cap + 1024 * n else (0, 0), dtype=np.int64)
+        spills = self._emulate(frames, times, t_prev, cap, buf, ends, parts, counts, t_base)
+        offsets, src_b, buf_b = self._rows * cap, np.zeros(h, dtype=np.bool_), buf
         over = np.flatnonzero(ends[:, -1] > cap)
-        offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
-        if over.size:  # rows that outgrew their buffer have all their events in the blocks' spills
-            firsts = sorted(spills)
-            bufs_b = tuple(np.concatenate([spills[a][f] for a in firsts]) for f in range(4))
+        if over.size:  # rows that outgrew their buffer have all their events in the parts' spills
+            buf_b = np.concatenate([spills[a][0] for a in parts[:-1]])
             done = 0
-            for a in firsts:
-                spill_start = spills[a][4]
+            for a in parts[:-1]:
+                spill, spill_start = spills[a]
                 mine = spill_start >= 0
                 offsets[a:a + spill_start.size][mine] = done + spill_start[mine]
-                done += spills[a][0].size
+                done += spill.size
             src_b[over] = True
         starts, first_out = np.empty((h, n + 1), dtype=np.int64), np.empty(n + 1, dtype=np.int64)
         K.interval_plan(ends, starts, first_out)
         total = int(first_out[-1])
-        events, labels = np.empty(total, dtype=EVENT_DTYPE), np.empty(total, dtype=np.uint8)  # all fields written
+        events = np.empty(total, dtype=EVENT_DTYPE)  # all fields written
+        labels = np.empty(total if self.return_labels else 0, dtype=np.uint8)
 
         def gather(k0, k1):
-            K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
-                            labels)
+            K.gather_sorted(self._rows, buf, buf_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts,
+                            counts, t_base, events, labels)
 
-        if counts is not None and span <= 4 * total + 1024:
-            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, counts)
-        else:
-            in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
+        in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
         return events, labels
 
-    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, parts) -> None:
-        """gather_sorted for a single frame interval, from the event times counted per part of rows (parts: first
-        row -> (end row, counts per microsecond)): a serial counting sort (a second meeting of the threads would
-        cost more than it saves)."""
-        firsts = sorted(parts)
-        bounds = np.array([*firsts, self.height], dtype=np.int64)
-        counts = np.stack([parts[a][1] for a in firsts])
-        K.scatter_parts(bounds, counts, self._rows, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels)
+    def _emulate(self, frames, times, t_prev, cap, buf, ends, parts, counts, t_base) -> dict:
+        """K.emulate_rows over the parts of the rows (bounds `parts`) on the numba threads (row y's events at
+        buf[y * cap:]), part p counting its events in counts[p] (when counts has rows).
 
-    def _emulate(self, frames, times, t_prev, cap, bufs, ends, counts=None, span=0) -> dict:
-        """K.emulate_rows over blocks of all rows on the numba threads (row y's events at bufs[.][y * cap:]).
-
-        Returns first row of each block -> its spill (see K.emulate_rows). counts: a dict, or None; for one frame,
-        gets first row -> (end row, counts of the block's event times per microsecond of the interval of length
-        span) for _gather_one."""
-        rows, spills = self._rows, {}
+        Returns first row of each part -> its spill (see K.emulate_rows)."""
+        rows, spills, index = self._rows, {}, {int(a): p for p, a in enumerate(parts[:-1])}
+        empty = np.empty(0, dtype=np.int64)
 
         def block(a, b):
-            part = tuple(buf[a * cap:b * cap] for buf in bufs)
-            c = np.zeros(span + 1 if counts is not None else 0, dtype=np.int64)
+            c = counts[index[a]] if counts.shape[0] else empty
             spills[a] = _returning_arrays(K.emulate_rows, frames, times, t_prev, rows[a:b], cap, self._state,
-                                          self._fixed, self._scal, *part, ends[a:b], c)
-            if counts is not None:
-                counts[a] = (b, c)
+                                          self._fixed, self._scal, buf[a * cap:b * cap], ends[a:b], c, t_base)
 
-        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))), per_thread=2)
+        in_parallel(block, rows.size, 1, bounds=parts.tolist())
         return spills
 
-    def _buffers(self, n: int):
-        """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
-        if self._bufs is None or self._bufs[0].size < n:
-            self._bufs = _new_buffers(n)
+    def _buffers(self, n: int) -> np.ndarray:
+        """An event-word buffer for n events, reused across calls (fresh memory is slow to touch the first time)."""
+        if self._bufs is None or self._bufs.size < n:
+            self._bufs = np.empty(n, dtype=np.int64)
         return self._bufs
 
 
@@ -413,10 +402,6 @@ def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.nda
         return empty_events(), np.empty(0, dtype=np.uint8)
     events = np.concatenate([o[0].view(np.uint8) for o in outs]).view(EVENT_DTYPE)
     return events, np.concatenate([o[1] for o in outs])
-
-
-def _new_buffers(n: int):
-    return (np.empty(n, np.int64), np.empty(n, np.uint16), np.empty(n, np.int8), np.empty(n, np.uint8))
 
 
 def _blocks(pairs: Iterable) -> Iterator[tuple[np.ndarray, np.ndarray]]:
