@@ -342,7 +342,7 @@ class DVSEmulator:
 
         def gather(k0, k1):
             K.gather_sorted(self._rows, buf, buf_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts,
-                            counts, t_base, events, labels)
+                            counts, t_base, events, events.view(np.uint8), labels)
 
         in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])

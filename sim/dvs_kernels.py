@@ -10,11 +10,13 @@ state), so the output does not depend on the number of threads nor on how the fr
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 from numba import njit
 
-from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
+from .events import EVENT_DTYPE
+from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort, store_i64
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
@@ -66,6 +68,11 @@ EV_DT_MASK = np.int64(0xFFFFFFFF)  # bits 0-31: dt (us)
 EV_X_SHIFT = 32  # bits 32-47: x
 EV_ON_SHIFT = 48  # bit 48: 1 for ON, 0 for OFF
 EV_LABEL_SHIFT = 49  # bits 49-50: the label (LABEL_*)
+# Output records are written with two overlapping 8-byte stores, bytes 0-7 (t) and 5-12 (t's top bytes, x, y, p),
+# where the machine and EVENT_DTYPE's layout allow it (field by field otherwise)
+_EV_SIZE = EVENT_DTYPE.itemsize
+_TWO_STORES = (sys.byteorder == "little" and _EV_SIZE == 13
+               and [EVENT_DTYPE.fields[f][1] for f in "txyp"] == [0, 8, 10, 12])
 LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
 _LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
 
@@ -568,9 +575,9 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, e
 
 @njit(cache=True, nogil=True)
 def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts, counts,
-                  t_base, events, labels):
-    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE) and `labels`,
-    sorted by (t, y, x).
+                  t_base, events, ev_bytes, labels):
+    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE; ev_bytes is the
+    same memory viewed as uint8) and `labels`, sorted by (t, y, x).
 
     Row i of row_ids (ascending y) has its event words at offsets[i] in bufs_b if src_b[i] else bufs_a; starts,
     first_out come from interval_plan. counts: (P, bins) event counts of the row parts parts[p] .. parts[p + 1] - 1
@@ -581,7 +588,7 @@ def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0
     """
     for k in range(k0, k1):
         _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, parts, counts,
-                         t_base, events, labels)
+                         t_base, events, ev_bytes, labels)
 
 
 @njit(cache=True)
@@ -602,7 +609,7 @@ def interval_plan(ends, starts, first_out):
 
 @njit(cache=True)
 def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, parts, counts,
-                     t_base, events, labels):
+                     t_base, events, ev_bytes, labels):
     """Write the events of frame interval k stably sorted by t (see gather_sorted)."""
     m = first_out[k + 1] - first_out[k]
     if m == 0:
@@ -620,7 +627,7 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
                 acc += c
         for p in range(counts.shape[0]):
             scatter_events(parts[p], parts[p + 1], row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo,
-                           counts[p, tb:], events, labels)
+                           counts[p, tb:], events, ev_bytes, labels)
         return
     if span <= 4 * m + 1024:  # counting sort over the interval's microseconds
         pos = np.zeros(span + 1, dtype=np.int64)
@@ -634,7 +641,7 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
             pos[b] = acc
             acc += c
         scatter_events(0, row_ids.size, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events,
-                       labels)
+                       ev_bytes, labels)
         return
     # a long interval with few events: comparison sort
     tt = np.empty(m, dtype=np.int64)
@@ -651,11 +658,12 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
     order = stable_argsort(tt)
     for q in range(m):
         i, j = src_i[order[q]], src_j[order[q]]
-        _put(events, labels, out + q, t_lo, (bufs_b if src_b[i] else bufs_a)[j], row_ids[i])
+        _put(events, ev_bytes, labels, out + q, t_lo, (bufs_b if src_b[i] else bufs_a)[j], row_ids[i])
 
 
 @njit(cache=True, nogil=True)
-def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, labels):
+def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, ev_bytes,
+                   labels):
     """Write the events of interval k (starting at t_lo) in rows i0 .. i1 - 1 at pos[dt] (advanced), the counting
     sort's second pass."""
     for i in range(i0, i1):
@@ -666,15 +674,24 @@ def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t
             b = np.uintp(word & EV_DT_MASK)
             q = np.uintp(pos[b])
             pos[b] = q + 1
-            _put(events, labels, q, t_lo, word, y)
+            _put(events, ev_bytes, labels, q, t_lo, word, y)
 
 
 @njit(cache=True, inline="always")
-def _put(events, labels, q, t_lo, word, y):
-    """events[q] (and labels[q] unless labels is empty) from an event word of the interval starting at t_lo."""
-    events[q]["t"] = t_lo + (word & EV_DT_MASK)
-    events[q]["x"] = np.uint16((word >> EV_X_SHIFT) & 0xFFFF)
-    events[q]["y"] = y
-    events[q]["p"] = np.int8(((word >> (EV_ON_SHIFT - 1)) & 2) - 1)
+def _put(events, ev_bytes, labels, q, t_lo, word, y):
+    """events[q] (also ev_bytes, the same memory as bytes) and labels[q] unless labels is empty, from an event word
+    of the interval starting at t_lo."""
+    t = t_lo + (word & EV_DT_MASK)
+    p = ((word >> (EV_ON_SHIFT - 1)) & 2) - 1
+    if _TWO_STORES:  # two stores instead of four: the record's bytes 0-7, then 5-12
+        o = np.uintp(q) * np.uintp(_EV_SIZE)
+        store_i64(ev_bytes, o, t)
+        store_i64(ev_bytes, o + np.uintp(5), ((t >> 40) & 0xFFFFFF) | (((word >> EV_X_SHIFT) & 0xFFFF) << 24)
+                  | (np.int64(y) << 40) | (p << 56))
+    else:
+        events[q]["t"] = t
+        events[q]["x"] = np.uint16((word >> EV_X_SHIFT) & 0xFFFF)
+        events[q]["y"] = y
+        events[q]["p"] = np.int8(p)
     if labels.size:
         labels[q] = np.uint8((word >> EV_LABEL_SHIFT) & 3)
