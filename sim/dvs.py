@@ -315,13 +315,15 @@ class DVSEmulator:
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         buf, ends = self._buffers(h * cap), np.empty((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        # the emulating threads count their events per microsecond of each interval (the counting sort's first
-        # pass, while the events are in cache) when the counts take less memory than about twice the buffer
+        # For one frame, the emulating threads count their events per microsecond of the interval (the counting
+        # sort's first pass, while the events are in cache; the gather of one interval then runs on one thread) when
+        # the counts take less memory than about twice the buffer. For several, the gathering threads count faster.
         bins = np.diff(times, prepend=t_prev) + 1
         t_base = np.cumsum(bins) - bins
         parts = np.array(split(h, max(1, 4096 // (self.width * n)), per_thread=2), dtype=np.int64)
-        shape = (parts.size - 1, int(t_base[-1] + bins[-1]))
-        counts = np.zeros(shape if shape[0] * shape[1] <= 2 * h * cap + 1024 * n else (0, 0), dtype=np.int64)
+        shape = (parts.size - 1, int(bins[0]))
+        counted = n == 1 and shape[0] * shape[1] <= 2 * h * cap + 1024
+        counts = np.zeros(shape if counted else (0, 0), dtype=np.int64)
         spills = self._emulate(frames, times, t_prev, cap, buf, ends, parts, counts, t_base)
         offsets, src_b, buf_b = self._rows * cap, np.zeros(h, dtype=np.bool_), buf
         over = np.flatnonzero(ends[:, -1] > cap)
