@@ -432,8 +432,9 @@ def _emulate_pairs(pairs: Iterable, params, seed, return_labels: bool):
         if emu is None:
             if frames.ndim != 3:
                 raise EvsimInputError(f"each frame must be (H, W), got shape {frames.shape[1:]}")
-            emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
-        out.append(emu.feed(frames, times))
+            emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=return_labels)
+        got = emu.feed(frames, times)  # (labels are only gathered when asked for)
+        out.append(got if return_labels else (got, np.empty(0, dtype=np.uint8)))
     if emu is None:
         raise EvsimInputError("no frames to emulate")
     events, labels = _join(out)
@@ -471,9 +472,8 @@ def emulate(frames: np.ndarray | Iterable, times_us: npt.ArrayLike | None = None
             raise EvsimInputError("an array of frames needs times_us")
         if frames.ndim != 3:
             raise EvsimInputError(f"frames must be (N, H, W), got shape {frames.shape}")
-        emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
-        events, labels = emu.feed(frames, times_us)
-        return (events, labels) if return_labels else events
+        return DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=return_labels).feed(frames,
+                                                                                                       times_us)
     return _emulate_pairs(frames if times_us is None else _with_times(frames, times_us), params, seed, return_labels)
 
 
