@@ -223,13 +223,21 @@ class DVSEmulator:
             self._initialise(frames[0], int(times[0]))
             frames, times = frames[1:], times[1:]
         per_block = max(1, _BLOCK_PIXEL_FRAMES // (self.height * self.width))
-        outs, i = [], 0
+        plans, i = [], 0
         while i < len(times):
             # until the event rate is known, a short block measures it (it sizes the event buffers)
             m = per_block if self._row_rate is not None else min(per_block, 4)
-            outs.append(self._run(frames[i:i + m], times[i:i + m]))
+            plans.append(self._run(frames[i:i + m], times[i:i + m], fresh=bool(plans)))
             i += m
-        events, labels = _join(outs)
+        # every block's events gathered into one array (no copy to join them)
+        total = sum(int(plan[5][-1]) for plan in plans)
+        events = np.empty(total, dtype=EVENT_DTYPE)  # all fields written
+        labels = np.empty(total if self.return_labels else 0, dtype=np.uint8)
+        done = 0
+        for plan in plans:
+            n_out = int(plan[5][-1])
+            self._gather(plan, events[done:done + n_out], labels[done:done + n_out])
+            done += n_out
         if self._dead is not None and events.size:
             alive = ~self._dead[events["y"], events["x"]]
             events, labels = events[alive], labels[alive] if labels.size else labels
@@ -311,12 +319,14 @@ class DVSEmulator:
         })
         self._t = t
 
-    def _run(self, frames: np.ndarray, times: np.ndarray):
-        """Advance all rows through a block of frames; return its sorted events and labels (empty without
-        return_labels)."""
+    def _run(self, frames: np.ndarray, times: np.ndarray, fresh: bool = False) -> tuple:
+        """Advance all rows through a block of frames; return the plan of its gather (see _gather): buffers, spill,
+        row offsets, interval plan, times, row parts and counts. fresh: in an event buffer of its own (the reused one
+        holds an earlier block's events, not gathered yet)."""
         h, n = self.height, len(times)
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
-        buf, ends = self._buffers(h * cap), np.empty((h, n), dtype=np.int64)
+        buf = np.empty(h * cap, dtype=np.int64) if fresh else self._buffers(h * cap)
+        ends = np.empty((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
         # For one frame, the emulating threads count their events per microsecond of the interval (the counting
         # sort's first pass, while the events are in cache; the gather of one interval then runs on one thread) when
@@ -341,18 +351,21 @@ class DVSEmulator:
             src_b[over] = True
         starts, first_out = np.empty((h, n + 1), dtype=np.int64), np.empty(n + 1, dtype=np.int64)
         K.interval_plan(ends, starts, first_out)
-        total = int(first_out[-1])
-        events = np.empty(total, dtype=EVENT_DTYPE)  # all fields written
-        labels = np.empty(total if self.return_labels else 0, dtype=np.uint8)
+        self._t = int(times[-1])
+        self._row_rate = float(ends[:, -1].max()) / n
+        return buf, buf_b, src_b, offsets, starts, first_out, t_prev, times, parts, counts, t_base
+
+    def _gather(self, plan: tuple, events: np.ndarray, labels: np.ndarray) -> None:
+        """Write a block's events (plan: from _run) sorted by (t, y, x) into events (and labels, unless empty), on
+        the numba threads by ranges of frame intervals."""
+        buf, buf_b, src_b, offsets, starts, first_out, t_prev, times, parts, counts, t_base = plan
+        ev_bytes = events.view(np.uint8)
 
         def gather(k0, k1):
             K.gather_sorted(self._rows, buf, buf_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts,
-                            counts, t_base, events, events.view(np.uint8), labels)
+                            counts, t_base, events, ev_bytes, labels)
 
-        in_parallel(gather, n, 1 if n < 8 else 4, per_thread=_PARTS_PER_THREAD)
-        self._t = int(times[-1])
-        self._row_rate = float(ends[:, -1].max()) / n
-        return events, labels
+        in_parallel(gather, len(times), 1 if len(times) < 8 else 4, per_thread=_PARTS_PER_THREAD)
 
     def _emulate(self, frames, times, t_prev, cap, buf, ends, parts, counts, t_base) -> dict:
         """K.emulate_rows over the parts of the rows (bounds `parts`) on the numba threads (row y's events at
