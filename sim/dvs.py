@@ -123,19 +123,20 @@ class DVSEmulator:
         self._init_shot_budget, self._init_hot_budget = rng.standard_exponential((2, *shape))
         # Thresholds are stored as float32, exactly (multiples of 2**-32 with at most 24 significant bits), and hot
         # pixels as a mask: fewer bytes per pixel to stream through memory on every feed.
-        self._fixed = _slot_tuple(K.N_FIXED, {
-            K.FX_C_ON: c_on.astype(np.float32),
-            K.FX_C_OFF: c_off.astype(np.float32),
-            K.FX_DRIFT: leak_hz * 1e-6 * c_on,
-            K.FX_HOT: hot.astype(np.uint8),
-        })
-        self._leak_hz, self._hot = leak_hz, hot
         self._dead = None  # drawn from a seed of its own, so that the other fixed patterns do not depend on it
         if p.dead_pixel_fraction > 0:
             dead = np.zeros(self.height * self.width, dtype=bool)
             n_dead = int(round(p.dead_pixel_fraction * dead.size))
             dead[np.random.default_rng(child_seed(ss, 2)).choice(dead.size, n_dead, replace=False)] = True
             self._dead = dead.reshape(shape)
+        self._fixed = _slot_tuple(K.N_FIXED, {
+            K.FX_C_ON: c_on.astype(np.float32),
+            K.FX_C_OFF: c_off.astype(np.float32),
+            K.FX_DRIFT: leak_hz * 1e-6 * c_on,
+            K.FX_HOT: hot.astype(np.uint8),
+            K.FX_DEAD: (self._dead if self._dead is not None else np.zeros((0, 0), dtype=bool)).astype(np.uint8),
+        })
+        self._leak_hz, self._hot = leak_hz, hot
         self._scal = _slot_tuple(K.N_SCAL, {
             K.SC_REFRACTORY: np.int64(p.refractory_us),
             K.SC_K_CUT: 2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
@@ -238,9 +239,6 @@ class DVSEmulator:
             n_out = int(plan[5][-1])
             self._gather(plan, events[done:done + n_out], labels[done:done + n_out])
             done += n_out
-        if self._dead is not None and events.size:
-            alive = ~self._dead[events["y"], events["x"]]
-            events, labels = events[alive], labels[alive] if labels.size else labels
         return (events, labels) if self.return_labels else events
 
     def _check_input(self, radiance, t_us):

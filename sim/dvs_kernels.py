@@ -44,8 +44,10 @@ N_STATE = 9
 #   FX_C_OFF  float32  OFF contrast threshold C_off (log units, > 0, a multiple of LOG_GRID)
 #   FX_DRIFT  float64  leak drift: the reference falls at this rate (log units per us, >= 0)
 #   FX_HOT    uint8    1 at hot pixels, else 0
-FX_C_ON, FX_C_OFF, FX_DRIFT, FX_HOT = 0, 1, 2, 3
-N_FIXED = 4
+#   FX_DEAD   uint8    1 at dead pixels (they evolve as the others, their events are not output), else 0; or (0, 0)
+#                      when there are none
+FX_C_ON, FX_C_OFF, FX_DRIFT, FX_HOT, FX_DEAD = 0, 1, 2, 3, 4
+N_FIXED = 5
 # scal: scalars shared by all pixels.
 #   SC_REFRACTORY      int64    refractory period (us)
 #   SC_K_CUT           float64  photoreceptor bandwidth per unit photocurrent: 1 / tau = SC_K_CUT * J, J the
@@ -141,7 +143,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     polarity, label; one int64 store per event), in (frame, x, time) order; ends[i, k] gets the row's event count
     after frame k. A row with more than cap events continues in a buffer of its own and all its events go to the
     spill instead: returns the spill (event words) and spill_start (rows.size,), the index of row i's first event
-    in the spill or -1 (rare: the caller sizes cap from the recent event rate). No state is saved for a rerun,
+    in the spill or -1 (rare: the caller sizes cap from the recent event rate). Events of dead pixels (FX_DEAD) are
+    dropped as each interval ends, their state evolving as the others'. No state is saved for a rerun,
     which would cost a pass over the state per call (as much as the rest when fed one frame).
     t_counts: empty, or int64 counts to which the number of events of interval k at dt (us after its start) is
     added at t_counts[t_base[k] + dt] (the first pass of the counting sort, while the rows' events are in cache).
@@ -155,7 +158,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     """
     cur, logi, lf, ref, tref = state[ST_CURRENT], state[ST_LOG], state[ST_LF], state[ST_REF], state[ST_REF_T]
     e_shot, e_hot, last_t, ctr = state[ST_SHOT_BUDGET], state[ST_HOT_BUDGET], state[ST_LAST_EVENT], state[ST_DRAWS]
-    c_on, c_off, drift, hot = fixed[FX_C_ON], fixed[FX_C_OFF], fixed[FX_DRIFT], fixed[FX_HOT]
+    c_on, c_off, drift, hot, dead = fixed[FX_C_ON], fixed[FX_C_OFF], fixed[FX_DRIFT], fixed[FX_HOT], fixed[FX_DEAD]
+    any_dead = dead.shape[0] > 0
     refractory, k_cut, dark, shot_rate = scal[SC_REFRACTORY], scal[SC_K_CUT], scal[SC_DARK], scal[SC_SHOT_RATE]
     dark_shot_rate, key, hot_rate = scal[SC_DARK_SHOT_RATE], scal[SC_KEY], scal[SC_HOT_RATE]
     w = cur.shape[1]
@@ -363,6 +367,13 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                     break
                 E = _grown(E, base, cnt, 2 * need)  # the row's events before this interval
                 base, lim = zero, np.int64(E.size)
+            if any_dead:  # the interval's events of dead pixels are dropped (their state evolves as the others')
+                kept = base + cnt
+                for q in range(base + cnt, base + n_ev):
+                    word = E[q]
+                    E[kept] = word
+                    kept += dead[y, np.uintp((word >> EV_X_SHIFT) & 0xFFFF)] == 0
+                n_ev = kept - base
             if t_counts.size:  # while the interval's events are in cache
                 tb = t_base[k]
                 for q in range(base + cnt, base + n_ev):
