@@ -14,9 +14,11 @@ import sys
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import intrinsic
 
 from .events import EVENT_DTYPE
-from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort, store_i64
+from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
@@ -77,6 +79,20 @@ _TWO_STORES = (sys.byteorder == "little" and _EV_SIZE == 13
                and [EVENT_DTYPE.fields[f][1] for f in "txyp"] == [0, 8, 10, 12])
 LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
 _LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+
+
+@intrinsic
+def _store_i64(typingctx, buf, i, v):
+    """buf[i : i + 8] = the bytes of the int64 v in machine order, one unaligned store (buf: a uint8 array; no
+    bounds check: the caller keeps i + 8 <= buf.size)."""
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        ptr = builder.bitcast(builder.gep(data, [args[1]]), context.get_value_type(types.int64).as_pointer())
+        builder.store(args[2], ptr).align = 1
+        return context.get_dummy_value()
+
+    return types.void(buf, types.uintp, types.int64), codegen
 
 
 @njit(cache=True, error_model="numpy")
@@ -696,8 +712,8 @@ def _put(events, ev_bytes, labels, q, t_lo, word, y):
     p = ((word >> (EV_ON_SHIFT - 1)) & 2) - 1
     if _TWO_STORES:  # two stores instead of four: the record's bytes 0-7, then 5-12
         o = np.uintp(q) * np.uintp(_EV_SIZE)
-        store_i64(ev_bytes, o, t)
-        store_i64(ev_bytes, o + np.uintp(5), ((t >> 40) & 0xFFFFFF) | (((word >> EV_X_SHIFT) & 0xFFFF) << 24)
+        _store_i64(ev_bytes, o, t)
+        _store_i64(ev_bytes, o + np.uintp(5), ((t >> 40) & 0xFFFFFF) | (((word >> EV_X_SHIFT) & 0xFFFF) << 24)
                   | (np.int64(y) << 40) | (p << 56))
     else:
         events[q]["t"] = t

@@ -46,20 +46,6 @@ def _as_float64(typingctx, x):
     return types.float64(types.int64), codegen
 
 
-@intrinsic
-def store_i64(typingctx, buf, i, v):
-    """buf[i : i + 8] = the bytes of the int64 v in machine order, one unaligned store (buf: a uint8 array; no
-    bounds check: the caller keeps i + 8 <= buf.size)."""
-
-    def codegen(context, builder, signature, args):
-        data = context.make_array(signature.args[0])(context, builder, args[0]).data
-        ptr = builder.bitcast(builder.gep(data, [args[1]]), context.get_value_type(types.int64).as_pointer())
-        builder.store(args[2], ptr).align = 1
-        return context.get_dummy_value()
-
-    return types.void(buf, types.uintp, types.int64), codegen
-
-
 @njit(cache=True)
 def mix64(z):
     """splitmix64 finaliser: a bijective 64-bit hash."""
