@@ -75,8 +75,8 @@ NO_EVENT_US = K.NO_EVENT_US
 MAX_TIME_GAP_US = 3_600_000_000  # one hour: consecutive input times further apart are refused (noise is simulated
 # over every gap, so a gap of days would mean billions of noise events; split such a recording instead)
 _PARTS_PER_THREAD = 4  # parts of the rows (and of the frame intervals) per thread, taken by whichever thread is free:
-# on a loaded machine a descheduled thread then holds up a smaller part (2 -> 4: about 5% less wall time at 30k events
-# per frame of bench_dvs --densities, on 2 cores shared with other jobs)
+# on a loaded machine a descheduled thread then holds up a smaller part (2 -> 4, alternating runs on 2 cores shared
+# with other jobs: 5-11 % less wall time at 29k events per frame, within noise at 16k and 53k)
 _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
 
 
