@@ -64,7 +64,7 @@ from . import dvs_kernels as K
 from .dvs_params import DVSParams
 from .errors import EvsimInputError, InvalidParameterError, TimeOrderError, check_int
 from .events import EVENT_DTYPE, check_times_us, empty_events
-from .parallel import in_parallel
+from .parallel import in_parallel, split
 from .seeding import as_seed_sequence, child_seed
 from .source import RadianceSource
 
@@ -74,6 +74,9 @@ NO_EVENT_US = K.NO_EVENT_US
 
 MAX_TIME_GAP_US = 3_600_000_000  # one hour: consecutive input times further apart are refused (noise is simulated
 # over every gap, so a gap of days would mean billions of noise events; split such a recording instead)
+_PARTS_PER_THREAD = 4  # parts of the rows (and of the frame intervals) per thread, taken by whichever thread is free:
+# on a loaded machine a descheduled thread then holds up a smaller part (2 -> 4, alternating runs on 2 cores shared
+# with other jobs: 5-11 % less wall time at 29k events per frame, within noise at 16k and 53k)
 _BLOCK_PIXEL_FRAMES = 1 << 23  # frames per kernel call are limited so event buffers stay bounded
 
 
@@ -120,19 +123,20 @@ class DVSEmulator:
         self._init_shot_budget, self._init_hot_budget = rng.standard_exponential((2, *shape))
         # Thresholds are stored as float32, exactly (multiples of 2**-32 with at most 24 significant bits), and hot
         # pixels as a mask: fewer bytes per pixel to stream through memory on every feed.
-        self._fixed = _slot_tuple(K.N_FIXED, {
-            K.FX_C_ON: c_on.astype(np.float32),
-            K.FX_C_OFF: c_off.astype(np.float32),
-            K.FX_DRIFT: leak_hz * 1e-6 * c_on,
-            K.FX_HOT: hot.astype(np.uint8),
-        })
-        self._leak_hz, self._hot = leak_hz, hot
         self._dead = None  # drawn from a seed of its own, so that the other fixed patterns do not depend on it
         if p.dead_pixel_fraction > 0:
             dead = np.zeros(self.height * self.width, dtype=bool)
             n_dead = int(round(p.dead_pixel_fraction * dead.size))
             dead[np.random.default_rng(child_seed(ss, 2)).choice(dead.size, n_dead, replace=False)] = True
             self._dead = dead.reshape(shape)
+        self._fixed = _slot_tuple(K.N_FIXED, {
+            K.FX_C_ON: c_on.astype(np.float32),
+            K.FX_C_OFF: c_off.astype(np.float32),
+            K.FX_DRIFT: leak_hz * 1e-6 * c_on,
+            K.FX_HOT: hot.astype(np.uint8),
+            K.FX_DEAD: (self._dead if self._dead is not None else np.zeros((0, 0), dtype=bool)).astype(np.uint8),
+        })
+        self._leak_hz, self._hot = leak_hz, hot
         self._scal = _slot_tuple(K.N_SCAL, {
             K.SC_REFRACTORY: np.int64(p.refractory_us),
             K.SC_K_CUT: 2 * np.pi * p.cutoff_hz * 1e-6 / p.full_illumination,
@@ -220,16 +224,21 @@ class DVSEmulator:
             self._initialise(frames[0], int(times[0]))
             frames, times = frames[1:], times[1:]
         per_block = max(1, _BLOCK_PIXEL_FRAMES // (self.height * self.width))
-        outs, i = [], 0
+        plans, i = [], 0
         while i < len(times):
             # until the event rate is known, a short block measures it (it sizes the event buffers)
             m = per_block if self._row_rate is not None else min(per_block, 4)
-            outs.append(self._run(frames[i:i + m], times[i:i + m]))
+            plans.append(self._run(frames[i:i + m], times[i:i + m], fresh=bool(plans)))
             i += m
-        events, labels = _join(outs)
-        if self._dead is not None and events.size:
-            alive = ~self._dead[events["y"], events["x"]]
-            events, labels = events[alive], labels[alive]
+        # every block's events gathered into one array (no copy to join them)
+        total = sum(int(plan[5][-1]) for plan in plans)
+        events = np.empty(total, dtype=EVENT_DTYPE)  # all fields written
+        labels = np.empty(total if self.return_labels else 0, dtype=np.uint8)
+        done = 0
+        for plan in plans:
+            n_out = int(plan[5][-1])
+            self._gather(plan, events[done:done + n_out], labels[done:done + n_out])
+            done += n_out
         return (events, labels) if self.return_labels else events
 
     def _check_input(self, radiance, t_us):
@@ -308,78 +317,74 @@ class DVSEmulator:
         })
         self._t = t
 
-    def _run(self, frames: np.ndarray, times: np.ndarray):
-        """Advance all rows through a block of frames; return its sorted events and labels."""
+    def _run(self, frames: np.ndarray, times: np.ndarray, fresh: bool = False) -> tuple:
+        """Advance all rows through a block of frames; return the plan of its gather (see _gather): buffers, spill,
+        row offsets, interval plan, times, row parts and counts. fresh: in an event buffer of its own (the reused one
+        holds an earlier block's events, not gathered yet)."""
         h, n = self.height, len(times)
-        rows = self._rows
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
-        bufs_a, ends = self._buffers(h * cap), np.zeros((h, n), dtype=np.int64)
+        buf = np.empty(h * cap, dtype=np.int64) if fresh else self._buffers(h * cap)
+        ends = np.empty((h, n), dtype=np.int64)
         t_prev = np.int64(self._t)
-        span = int(times[0] - t_prev)
-        # one frame: each thread also counts its rows' event times for the sort (no second pass over the events)
-        counts = {} if n == 1 and h * cap > 4096 and span <= 4 * h * cap + 1024 else None
-        spills = self._emulate(frames, times, t_prev, cap, bufs_a, ends, counts, span)
+        # For one frame, the emulating threads count their events per microsecond of the interval (the counting
+        # sort's first pass, while the events are in cache; the gather of one interval then runs on one thread) when
+        # the counts take less memory than about twice the buffer. For several, the gathering threads count faster.
+        bins = np.diff(times, prepend=t_prev) + 1
+        t_base = np.cumsum(bins) - bins
+        parts = np.array(split(h, max(1, 4096 // (self.width * n)), per_thread=_PARTS_PER_THREAD), dtype=np.int64)
+        shape = (parts.size - 1, int(bins[0]))
+        counted = n == 1 and shape[0] * shape[1] <= 2 * h * cap + 1024
+        counts = np.zeros(shape if counted else (0, 0), dtype=np.int64)
+        spills = self._emulate(frames, times, t_prev, cap, buf, ends, parts, counts, t_base)
+        offsets, src_b, buf_b = self._rows * cap, np.zeros(h, dtype=np.bool_), buf
         over = np.flatnonzero(ends[:, -1] > cap)
-        offsets, src_b, bufs_b = rows * cap, np.zeros(h, dtype=np.bool_), bufs_a
-        if over.size:  # rows that outgrew their buffer have all their events in the blocks' spills
-            firsts = sorted(spills)
-            bufs_b = tuple(np.concatenate([spills[a][f] for a in firsts]) for f in range(4))
+        if over.size:  # rows that outgrew their buffer have all their events in the parts' spills
+            buf_b = np.concatenate([spills[a][0] for a in parts[:-1]])
             done = 0
-            for a in firsts:
-                spill_start = spills[a][4]
+            for a in parts[:-1]:
+                spill, spill_start = spills[a]
                 mine = spill_start >= 0
                 offsets[a:a + spill_start.size][mine] = done + spill_start[mine]
-                done += spills[a][0].size
+                done += spill.size
             src_b[over] = True
         starts, first_out = np.empty((h, n + 1), dtype=np.int64), np.empty(n + 1, dtype=np.int64)
         K.interval_plan(ends, starts, first_out)
-        total = int(first_out[-1])
-        events, labels = np.empty(total, dtype=EVENT_DTYPE), np.empty(total, dtype=np.uint8)  # all fields written
-
-        def gather(k0, k1):
-            K.gather_sorted(rows, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events,
-                            labels)
-
-        if counts is not None and span <= 4 * total + 1024:
-            self._gather_one(bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, counts)
-        else:
-            in_parallel(gather, n, 1 if n < 8 else 4, per_thread=2)
         self._t = int(times[-1])
         self._row_rate = float(ends[:, -1].max()) / n
-        return events, labels
+        return buf, buf_b, src_b, offsets, starts, first_out, t_prev, times, parts, counts, t_base
 
-    def _gather_one(self, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels, parts) -> None:
-        """gather_sorted for a single frame interval, from the event times counted per part of rows (parts: first
-        row -> (end row, counts per microsecond)): a serial counting sort (a second meeting of the threads would
-        cost more than it saves)."""
-        firsts = sorted(parts)
-        bounds = np.array([*firsts, self.height], dtype=np.int64)
-        counts = np.stack([parts[a][1] for a in firsts])
-        K.scatter_parts(bounds, counts, self._rows, bufs_a, bufs_b, src_b, offsets, starts, t_prev, events, labels)
+    def _gather(self, plan: tuple, events: np.ndarray, labels: np.ndarray) -> None:
+        """Write a block's events (plan: from _run) sorted by (t, y, x) into events (and labels, unless empty), on
+        the numba threads by ranges of frame intervals."""
+        buf, buf_b, src_b, offsets, starts, first_out, t_prev, times, parts, counts, t_base = plan
+        ev_bytes = events.view(np.uint8)
 
-    def _emulate(self, frames, times, t_prev, cap, bufs, ends, counts=None, span=0) -> dict:
-        """K.emulate_rows over blocks of all rows on the numba threads (row y's events at bufs[.][y * cap:]).
+        def gather(k0, k1):
+            K.gather_sorted(self._rows, buf, buf_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts,
+                            counts, t_base, events, ev_bytes, labels)
 
-        Returns first row of each block -> its spill (see K.emulate_rows). counts: a dict, or None; for one frame,
-        gets first row -> (end row, counts of the block's event times per microsecond of the interval of length
-        span) for _gather_one."""
-        rows, spills = self._rows, {}
+        in_parallel(gather, len(times), 1 if len(times) < 8 else 4, per_thread=_PARTS_PER_THREAD)
+
+    def _emulate(self, frames, times, t_prev, cap, buf, ends, parts, counts, t_base) -> dict:
+        """K.emulate_rows over the parts of the rows (bounds `parts`) on the numba threads (row y's events at
+        buf[y * cap:]), part p counting its events in counts[p] (when counts has rows).
+
+        Returns first row of each part -> its spill (see K.emulate_rows)."""
+        rows, spills, index = self._rows, {}, {int(a): p for p, a in enumerate(parts[:-1])}
+        empty = np.empty(0, dtype=np.int64)
 
         def block(a, b):
-            part = tuple(buf[a * cap:b * cap] for buf in bufs)
-            c = np.zeros(span + 1 if counts is not None else 0, dtype=np.int64)
+            c = counts[index[a]] if counts.shape[0] else empty
             spills[a] = _returning_arrays(K.emulate_rows, frames, times, t_prev, rows[a:b], cap, self._state,
-                                          self._fixed, self._scal, *part, ends[a:b], c)
-            if counts is not None:
-                counts[a] = (b, c)
+                                          self._fixed, self._scal, buf[a * cap:b * cap], ends[a:b], c, t_base)
 
-        in_parallel(block, rows.size, max(1, 4096 // (self.width * len(times))), per_thread=2)
+        in_parallel(block, rows.size, 1, bounds=parts.tolist())
         return spills
 
-    def _buffers(self, n: int):
-        """Event buffers for n events, reused across calls (fresh memory is slow to touch the first time)."""
-        if self._bufs is None or self._bufs[0].size < n:
-            self._bufs = _new_buffers(n)
+    def _buffers(self, n: int) -> np.ndarray:
+        """An event-word buffer for n events, reused across calls (fresh memory is slow to touch the first time)."""
+        if self._bufs is None or self._bufs.size < n:
+            self._bufs = np.empty(n, dtype=np.int64)
         return self._bufs
 
 
@@ -415,10 +420,6 @@ def _join(outs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.nda
     return events, np.concatenate([o[1] for o in outs])
 
 
-def _new_buffers(n: int):
-    return (np.empty(n, np.int64), np.empty(n, np.uint16), np.empty(n, np.int8), np.empty(n, np.uint8))
-
-
 def _blocks(pairs: Iterable) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Stack an iterable of (frame, t_us) pairs into blocks of about _BLOCK_PIXEL_FRAMES pixel-frames."""
     block_f, block_t = [], []
@@ -445,8 +446,9 @@ def _emulate_pairs(pairs: Iterable, params, seed, return_labels: bool):
         if emu is None:
             if frames.ndim != 3:
                 raise EvsimInputError(f"each frame must be (H, W), got shape {frames.shape[1:]}")
-            emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
-        out.append(emu.feed(frames, times))
+            emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=return_labels)
+        got = emu.feed(frames, times)  # (labels are only gathered when asked for)
+        out.append(got if return_labels else (got, np.empty(0, dtype=np.uint8)))
     if emu is None:
         raise EvsimInputError("no frames to emulate")
     events, labels = _join(out)
@@ -484,9 +486,8 @@ def emulate(frames: np.ndarray | Iterable, times_us: npt.ArrayLike | None = None
             raise EvsimInputError("an array of frames needs times_us")
         if frames.ndim != 3:
             raise EvsimInputError(f"frames must be (N, H, W), got shape {frames.shape}")
-        emu = DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=True)
-        events, labels = emu.feed(frames, times_us)
-        return (events, labels) if return_labels else events
+        return DVSEmulator(frames.shape[1], frames.shape[2], params, seed, return_labels=return_labels).feed(frames,
+                                                                                                       times_us)
     return _emulate_pairs(frames if times_us is None else _with_times(frames, times_us), params, seed, return_labels)
 
 

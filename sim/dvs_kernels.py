@@ -10,10 +10,14 @@ state), so the output does not depend on the number of threads nor on how the fr
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import intrinsic
 
+from .events import EVENT_DTYPE
 from .kernel_math import GOLDEN, expm1_row, log_row, mix64, stable_argsort
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
@@ -42,8 +46,10 @@ N_STATE = 9
 #   FX_C_OFF  float32  OFF contrast threshold C_off (log units, > 0, a multiple of LOG_GRID)
 #   FX_DRIFT  float64  leak drift: the reference falls at this rate (log units per us, >= 0)
 #   FX_HOT    uint8    1 at hot pixels, else 0
-FX_C_ON, FX_C_OFF, FX_DRIFT, FX_HOT = 0, 1, 2, 3
-N_FIXED = 4
+#   FX_DEAD   uint8    1 at dead pixels (they evolve as the others, their events are not output), else 0; or (0, 0)
+#                      when there are none
+FX_C_ON, FX_C_OFF, FX_DRIFT, FX_HOT, FX_DEAD = 0, 1, 2, 3, 4
+N_FIXED = 5
 # scal: scalars shared by all pixels.
 #   SC_REFRACTORY      int64    refractory period (us)
 #   SC_K_CUT           float64  photoreceptor bandwidth per unit photocurrent: 1 / tau = SC_K_CUT * J, J the
@@ -60,8 +66,33 @@ _PIXEL_MUL = np.uint64(0xD1B54A32D192ED03)
 _S11 = np.uint64(11)
 _ONE = np.uint64(1)
 _TWO_M53 = 2.0**-53
+# An event in the kernels' buffers is one int64 word: its time after the start of its frame interval (dt, 1 ..
+# the interval's length, which MAX_TIME_GAP_US keeps below 2**32 us), its column, polarity and label.
+EV_DT_MASK = np.int64(0xFFFFFFFF)  # bits 0-31: dt (us)
+EV_X_SHIFT = 32  # bits 32-47: x
+EV_ON_SHIFT = 48  # bit 48: 1 for ON, 0 for OFF
+EV_LABEL_SHIFT = 49  # bits 49-50: the label (LABEL_*)
+# Output records are written with two overlapping 8-byte stores, bytes 0-7 (t) and 5-12 (t's top bytes, x, y, p),
+# where the machine and EVENT_DTYPE's layout allow it (field by field otherwise)
+_EV_SIZE = EVENT_DTYPE.itemsize
+_TWO_STORES = (sys.byteorder == "little" and _EV_SIZE == 13
+               and [EVENT_DTYPE.fields[f][1] for f in "txyp"] == [0, 8, 10, 12])
 LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
 _LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+
+
+@intrinsic
+def _store_i64(typingctx, buf, i, v):
+    """buf[i : i + 8] = the bytes of the int64 v in machine order, one unaligned store (buf: a uint8 array; no
+    bounds check: the caller keeps i + 8 <= buf.size)."""
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        ptr = builder.bitcast(builder.gep(data, [args[1]]), context.get_value_type(types.int64).as_pointer())
+        builder.store(args[2], ptr).align = 1
+        return context.get_dummy_value()
+
+    return types.void(buf, types.uintp, types.int64), codegen
 
 
 @njit(cache=True, error_model="numpy")
@@ -119,19 +150,20 @@ def frames_valid(frames):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, out_x, out_p, out_lab, ends,
-                 t_counts):
+def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends, t_counts, t_base):
     """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
 
     state, fixed, scal: tuples of the per-pixel state (updated in place), the per-pixel fixed pattern and the
         scalars, with the slots ST_*, FX_* and SC_* above.
-    Events of row i go to out_*[i * cap : i * cap + cap], in (frame, x, time) order; ends[i, k] gets the row's
-    event count after frame k. A row with more than cap events continues in a buffer of its own and all its events
-    go to the spill instead: returns the spill (t, x, p, label) arrays and spill_start (rows.size,), the index of
-    row i's first event in the spill or -1 (rare: the caller sizes cap from the recent event rate). No state is
-    saved for a rerun, which would cost a pass over the state per call (as much as the rest when fed one frame).
-    t_counts: empty, or for a single frame (times[0] - t_prev + 1,) int64 to which the number of events at each
-    microsecond t_prev + i is added (the first pass of the counting sort, while the rows' events are in cache).
+    Events of row i go to out[i * cap : i * cap + cap] as event words (EV_*: dt from the interval's start, x,
+    polarity, label; one int64 store per event), in (frame, x, time) order; ends[i, k] gets the row's event count
+    after frame k. A row with more than cap events continues in a buffer of its own and all its events go to the
+    spill instead: returns the spill (event words) and spill_start (rows.size,), the index of row i's first event
+    in the spill or -1 (rare: the caller sizes cap from the recent event rate). Events of dead pixels (FX_DEAD) are
+    dropped as each interval ends, their state evolving as the others'. No state is saved for a rerun,
+    which would cost a pass over the state per call (as much as the rest when fed one frame).
+    t_counts: empty, or int64 counts to which the number of events of interval k at dt (us after its start) is
+    added at t_counts[t_base[k] + dt] (the first pass of the counting sort, while the rows' events are in cache).
 
     A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has no noise
     arrival in the interval and either exactly one crossing or, blind at its start, wakes (or stays blind) without
@@ -142,7 +174,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     """
     cur, logi, lf, ref, tref = state[ST_CURRENT], state[ST_LOG], state[ST_LF], state[ST_REF], state[ST_REF_T]
     e_shot, e_hot, last_t, ctr = state[ST_SHOT_BUDGET], state[ST_HOT_BUDGET], state[ST_LAST_EVENT], state[ST_DRAWS]
-    c_on, c_off, drift, hot = fixed[FX_C_ON], fixed[FX_C_OFF], fixed[FX_DRIFT], fixed[FX_HOT]
+    c_on, c_off, drift, hot, dead = fixed[FX_C_ON], fixed[FX_C_OFF], fixed[FX_DRIFT], fixed[FX_HOT], fixed[FX_DEAD]
+    any_dead = dead.shape[0] > 0
     refractory, k_cut, dark, shot_rate = scal[SC_REFRACTORY], scal[SC_K_CUT], scal[SC_DARK], scal[SC_SHOT_RATE]
     dark_shot_rate, key, hot_rate = scal[SC_DARK_SHOT_RATE], scal[SC_KEY], scal[SC_HOT_RATE]
     w = cur.shape[1]
@@ -161,13 +194,13 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
     c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
     bits = np.empty(F * w, dtype=np.int64)
     zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
-    sp_t, sp_x, sp_p, sp_lab = _grown(out_t, out_x, out_p, out_lab, zero, zero, zero)  # the spill, empty
+    spill = _grown(out, zero, zero, zero)  # the spill, empty
     sp_n = zero
     spill_start = np.full(rows.size, -1, dtype=np.int64)
     for i in range(rows.size):
         y = np.uintp(rows[i])
-        # where the row's events go: T, X, P, L from index base, room for lim (a buffer of its own once outgrown)
-        T, X, P, L, base, lim = out_t, out_x, out_p, out_lab, i * cap, np.int64(cap)
+        # where the row's events go: E from index base, room for lim (a buffer of its own once outgrown)
+        E, base, lim = out, i * cap, np.int64(cap)
         cnt = np.int64(0)  # an int64 from the start: a literal 0 compiles _pixel_events twice
         t0 = t_prev
         # Each step below is a short loop over the row touching few arrays, so that LLVM vectorises it.
@@ -306,11 +339,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                         if n_ev + k_ev > lim:
                             need = n_ev + k_ev + n_busy
                             break
-                        for e in range(k_ev):
-                            T[base + n_ev] = mc_t[e, q]
-                            X[base + n_ev] = x
-                            P[base + n_ev] = 1 if code & 2 else -1
-                            L[base + n_ev] = LABEL_LEAK if mc_l[e, q] else LABEL_SIGNAL
+                        hi = (np.int64(x) << EV_X_SHIFT) | ((code & 2) << (EV_ON_SHIFT - 1))
+                        for e in range(k_ev):  # (mc_l 1: LABEL_LEAK, 2 << EV_LABEL_SHIFT)
+                            E[base + n_ev] = (mc_t[e, q] - t0) | hi | (np.int64(mc_l[e, q]) << (EV_LABEL_SHIFT + 1))
                             n_ev += 1
                         last_t[y, x] = mc_t[k_ev - 1, q]
                         e_shot[y, x] = mc_f[3, q]
@@ -321,10 +352,10 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                             if n_ev == lim:
                                 need = n_ev + n_busy
                                 break
-                            T[base + n_ev] = te_j[j]
-                            X[base + n_ev] = x
-                            P[base + n_ev] = 1 if code & 2 else -1
-                            L[base + n_ev] = LABEL_LEAK if code & 4 else LABEL_SIGNAL
+                            # (code & 2: ON, code & 4: LABEL_LEAK, 2 << EV_LABEL_SHIFT)
+                            E[base + n_ev] = ((te_j[j] - t0) | (np.int64(x) << EV_X_SHIFT)
+                                              | ((code & 2) << (EV_ON_SHIFT - 1))
+                                              | ((code & 4) << (EV_LABEL_SHIFT - 1)))
                             n_ev += 1
                             last_t[y, x] = te_j[j]
                         e_shot[y, x] = es_j[j]
@@ -342,7 +373,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                             t0, hf, f0_t[x], lf[y, x], lam_t[x], hot_rate if hot[y, x] else 0.0,
                             rows[i] * w + todo[j], todo[j], refractory, key, sv_f[0, j], sv_f[1, j], sv_f[2, j],
                             sv_f[3, j], sv_i[j], sv_u[j], np.float64(c_on[y, x]), np.float64(c_off[y, x]),
-                            drift[y, x], T, X, P, L, base, lim, n_ev)
+                            drift[y, x], E, base, lim, n_ev)
                         if n_new > lim:
                             need = n_new + n_busy
                             break
@@ -350,22 +381,30 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out_t, ou
                         n_ev = n_new
                 if need == 0:
                     break
-                T, X, P, L = _grown(T, X, P, L, base, cnt, 2 * need)  # the row's events before this interval
-                base, lim = zero, np.int64(T.size)
+                E = _grown(E, base, cnt, 2 * need)  # the row's events before this interval
+                base, lim = zero, np.int64(E.size)
+            if any_dead:  # the interval's events of dead pixels are dropped (their state evolves as the others')
+                kept = base + cnt
+                for q in range(base + cnt, base + n_ev):
+                    word = E[q]
+                    E[kept] = word
+                    kept += dead[y, np.uintp((word >> EV_X_SHIFT) & 0xFFFF)] == 0
+                n_ev = kept - base
+            if t_counts.size:  # while the interval's events are in cache
+                tb = t_base[k]
+                for q in range(base + cnt, base + n_ev):
+                    t_counts[np.uintp(tb + (E[q] & EV_DT_MASK))] += 1
             cnt = n_ev
             ends[i, k] = cnt
             t0 = t1
-        if t_counts.size:
-            for q in range(cnt):
-                t_counts[np.uintp(T[base + q] - t_prev)] += 1
         if cnt > cap:  # the row's events, all in its own buffer, go to the spill
-            if sp_n + cnt > sp_t.size:
-                sp_t, sp_x, sp_p, sp_lab = _grown(sp_t, sp_x, sp_p, sp_lab, zero, sp_n, 2 * (sp_n + cnt))
+            if sp_n + cnt > spill.size:
+                spill = _grown(spill, zero, sp_n, 2 * (sp_n + cnt))
             for q in range(cnt):
-                sp_t[sp_n + q], sp_x[sp_n + q], sp_p[sp_n + q], sp_lab[sp_n + q] = T[q], X[q], P[q], L[q]
+                spill[sp_n + q] = E[q]
             spill_start[i] = sp_n
             sp_n += cnt
-    return sp_t[:sp_n], sp_x[:sp_n], sp_p[:sp_n], sp_lab[:sp_n], spill_start
+    return spill[:sp_n], spill_start
 
 
 _ROUNDS = 16  # most events of a pixel in one interval on the rounds of _multi_rounds (more: _pixel_events)
@@ -463,18 +502,17 @@ def _multi_rounds(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot,
 
 
 @njit(cache=True)
-def _grown(t, x, p, lab, base, n, size):
-    """New event arrays (t, x, p, label) of `size` holding the n events at index base of the given ones."""
-    t2, x2 = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.uint16)
-    p2, lab2 = np.empty(size, dtype=np.int8), np.empty(size, dtype=np.uint8)
+def _grown(words, base, n, size):
+    """A new event-word array of `size` holding the n events at index base of the given one."""
+    out = np.empty(size, dtype=np.int64)
     for q in range(n):
-        t2[q], x2[q], p2[q], lab2[q] = t[base + q], x[base + q], p[base + q], lab[base + q]
-    return t2, x2, p2, lab2
+        out[q] = words[base + q]
+    return out
 
 
 @njit(cache=True)
 def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, eh, r, tr, lt, c, con, coff, dr,
-                  out_t, out_x, out_p, out_lab, base, cap, cnt):
+                  out, base, cap, cnt):
     """Events of one pixel (flat index `pixel`, column x, state given as scalars) over (t0, t0 + hf].
 
     Returns its new state (es, eh, r, tr, lt, c) and the row's event count. A called function, not inlined: the
@@ -536,10 +574,8 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, e
         if te <= t0:
             te = t0 + 1
         if cnt < cap:
-            out_t[base + cnt] = te
-            out_x[base + cnt] = x
-            out_p[base + cnt] = pol
-            out_lab[base + cnt] = label
+            out[base + cnt] = ((te - t0) | (np.int64(x) << EV_X_SHIFT) | (np.int64(pol > 0) << EV_ON_SHIFT)
+                               | (np.int64(label) << EV_LABEL_SHIFT))
         cnt += 1
         lt = te
         if refractory > 0:
@@ -565,18 +601,21 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, e
 
 
 @njit(cache=True, nogil=True)
-def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, events, labels):
-    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE) and `labels`,
-    sorted by (t, y, x).
+def gather_sorted(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k0, k1, t_prev, times, parts, counts,
+                  t_base, events, ev_bytes, labels):
+    """Merge the per-row event buffers of frame intervals k0 .. k1 - 1 into `events` (EVENT_DTYPE; ev_bytes is the
+    same memory viewed as uint8) and `labels`, sorted by (t, y, x).
 
-    Row i of row_ids (ascending y) has its events at offsets[i] in bufs_b if src_b[i] else bufs_a (each a tuple
-    (t, x, p, label)); starts, first_out come from interval_plan. Frame intervals are independent (callers may
+    Row i of row_ids (ascending y) has its event words at offsets[i] in bufs_b if src_b[i] else bufs_a; starts,
+    first_out come from interval_plan. counts: (P, bins) event counts of the row parts parts[p] .. parts[p + 1] - 1
+    per microsecond of each interval (interval k's at t_base[k] + dt, from emulate_rows), overwritten with output
+    positions; or (0, 0): counted here. labels: empty when not wanted. Frame intervals are independent (callers may
     run ranges of them on several threads), and in each the events are stably sorted by t: rows arrive in y order
     and a row's events of one interval in x order, so the result is in (t, y, x) order.
     """
     for k in range(k0, k1):
-        _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events,
-                         labels)
+        _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, parts, counts,
+                         t_base, events, ev_bytes, labels)
 
 
 @njit(cache=True)
@@ -596,7 +635,8 @@ def interval_plan(ends, starts, first_out):
 
 
 @njit(cache=True)
-def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, events, labels):
+def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out, k, t_prev, times, parts, counts,
+                     t_base, events, ev_bytes, labels):
     """Write the events of frame interval k stably sorted by t (see gather_sorted)."""
     m = first_out[k + 1] - first_out[k]
     if m == 0:
@@ -604,17 +644,31 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
     out = first_out[k]
     t_lo = times[k - 1] if k > 0 else t_prev
     span = times[k] - t_lo
-    j0, j1 = starts[:, k], starts[:, k + 1]
+    if counts.shape[0]:  # counted by the emulating threads, per part of the rows
+        tb = t_base[k]
+        acc = out
+        for b in range(tb, tb + span + 1):  # part p's events at t go after those of the earlier t, then parts
+            for p in range(counts.shape[0]):
+                c = counts[p, b]
+                counts[p, b] = acc
+                acc += c
+        for p in range(counts.shape[0]):
+            scatter_events(parts[p], parts[p + 1], row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo,
+                           counts[p, tb:], events, ev_bytes, labels)
+        return
     if span <= 4 * m + 1024:  # counting sort over the interval's microseconds
         pos = np.zeros(span + 1, dtype=np.int64)
-        count_times(0, row_ids.size, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos)
+        for i in range(row_ids.size):
+            bw = bufs_b if src_b[i] else bufs_a
+            for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+                pos[np.uintp(bw[j] & EV_DT_MASK)] += 1
         acc = out
         for b in range(span + 1):
             c = pos[b]
             pos[b] = acc
             acc += c
         scatter_events(0, row_ids.size, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events,
-                       labels)
+                       ev_bytes, labels)
         return
     # a long interval with few events: comparison sort
     tt = np.empty(m, dtype=np.int64)
@@ -622,60 +676,49 @@ def _gather_interval(row_ids, bufs_a, bufs_b, src_b, offsets, starts, first_out,
     src_j = np.empty(m, dtype=np.int64)
     q = 0
     for i in range(row_ids.size):
-        bt = bufs_b[0] if src_b[i] else bufs_a[0]
-        for j in range(offsets[i] + j0[i], offsets[i] + j1[i]):
-            tt[q] = bt[j]
+        bw = bufs_b if src_b[i] else bufs_a
+        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
+            tt[q] = bw[j] & EV_DT_MASK
             src_i[q] = i
             src_j[q] = j
             q += 1
     order = stable_argsort(tt)
     for q in range(m):
         i, j = src_i[order[q]], src_j[order[q]]
-        bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
-        _put(events, labels, out + q, bt[j], bx[j], row_ids[i], bp[j], bl[j])
+        _put(events, ev_bytes, labels, out + q, t_lo, (bufs_b if src_b[i] else bufs_a)[j], row_ids[i])
 
 
 @njit(cache=True, nogil=True)
-def count_times(i0, i1, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos):
-    """pos[t - t_lo] += number of events at t of interval k in rows i0 .. i1 - 1 (counting sort, first pass)."""
+def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, ev_bytes,
+                   labels):
+    """Write the events of interval k (starting at t_lo) in rows i0 .. i1 - 1 at pos[dt] (advanced), the counting
+    sort's second pass."""
     for i in range(i0, i1):
-        bt = bufs_b[0] if src_b[i] else bufs_a[0]
-        for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
-            pos[np.uintp(bt[j] - t_lo)] += 1
-
-
-@njit(cache=True, nogil=True)
-def scatter_events(i0, i1, row_ids, bufs_a, bufs_b, src_b, offsets, starts, k, t_lo, pos, events, labels):
-    """Write the events of interval k in rows i0 .. i1 - 1 at pos[t - t_lo] (advanced), the second pass."""
-    for i in range(i0, i1):
-        bt, bx, bp, bl = bufs_b if src_b[i] else bufs_a
+        bw = bufs_b if src_b[i] else bufs_a
         y = row_ids[i]
         for j in range(offsets[i] + starts[i, k], offsets[i] + starts[i, k + 1]):
-            b = np.uintp(bt[j] - t_lo)
+            word = bw[j]
+            b = np.uintp(word & EV_DT_MASK)
             q = np.uintp(pos[b])
             pos[b] = q + 1
-            _put(events, labels, q, bt[j], bx[j], y, bp[j], bl[j])
-
-
-@njit(cache=True, nogil=True)
-def scatter_parts(bounds, counts, row_ids, bufs_a, bufs_b, src_b, offsets, starts, t_lo, events, labels):
-    """Write the events of a single frame interval (k = 0) sorted by (t, y, x), counted per part of the rows:
-    counts[p, t - t_lo] events at t in rows bounds[p] .. bounds[p + 1] - 1 (overwritten with their positions)."""
-    acc = 0
-    for b in range(counts.shape[1]):  # part p's events at t go after those of the earlier t, then earlier parts
-        for p in range(counts.shape[0]):
-            c = counts[p, b]
-            counts[p, b] = acc
-            acc += c
-    for p in range(counts.shape[0]):
-        scatter_events(bounds[p], bounds[p + 1], row_ids, bufs_a, bufs_b, src_b, offsets, starts, 0, t_lo, counts[p],
-                       events, labels)
+            _put(events, ev_bytes, labels, q, t_lo, word, y)
 
 
 @njit(cache=True, inline="always")
-def _put(events, labels, q, t, x, y, p, label):
-    events[q]["t"] = t
-    events[q]["x"] = x
-    events[q]["y"] = y
-    events[q]["p"] = p
-    labels[q] = label
+def _put(events, ev_bytes, labels, q, t_lo, word, y):
+    """events[q] (also ev_bytes, the same memory as bytes) and labels[q] unless labels is empty, from an event word
+    of the interval starting at t_lo."""
+    t = t_lo + (word & EV_DT_MASK)
+    p = ((word >> (EV_ON_SHIFT - 1)) & 2) - 1
+    if _TWO_STORES:  # two stores instead of four: the record's bytes 0-7, then 5-12
+        o = np.uintp(q) * np.uintp(_EV_SIZE)
+        _store_i64(ev_bytes, o, t)
+        _store_i64(ev_bytes, o + np.uintp(5), ((t >> 40) & 0xFFFFFF) | (((word >> EV_X_SHIFT) & 0xFFFF) << 24)
+                  | (np.int64(y) << 40) | (p << 56))
+    else:
+        events[q]["t"] = t
+        events[q]["x"] = np.uint16((word >> EV_X_SHIFT) & 0xFFFF)
+        events[q]["y"] = y
+        events[q]["p"] = np.int8(p)
+    if labels.size:
+        labels[q] = np.uint8((word >> EV_LABEL_SHIFT) & 3)
