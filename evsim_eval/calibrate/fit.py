@@ -10,14 +10,17 @@ reports), measured on the recording's window with its frames' pixel classes. The
    neighbours, is what `evsim evaluate` uses for a recording without thresholds (evsim_eval.calibrate.thresholds).
 2. Nelder-Mead (scipy.optimize.minimize; Nelder and Mead 1965) over the log of the ON and OFF thresholds, the
    offset, the refractory period and the photoreceptor cutoff, and the threshold spread, from stage 1's best.
-3. Noise by moments: on the quiet static pixels the simulation without noise is compared with the real rates.
-   Candidates: no noise; shot noise = the whole excess (ON + OFF); shot noise = twice the OFF excess and leak =
-   the ON excess beyond it (DVSParams.with_observed_leak), when ON exceeds OFF. Each gets the dark shot noise of
-   the dark static pixels' further excess and the hot pixels of the real static pixels firing far above the
-   others (their share and mean rate), and is tried without the hot pixels too (the model's fire both polarities,
-   a real one may fire one); its thresholds are rescaled once so that the counts match; the candidate of the
-   smallest loss is kept, and a leak in it is refined by secant steps on the quiet ON rate (the drift's observed
-   rate also follows the input's residual noise).
+3. Noise by moments: on the static pixels the simulation without noise is compared with the real rates, apart
+   on the dark pixels (excess E_d, ON + OFF) and the brighter quiet ones (E_b), where dark shot noise D weighs
+   s = b / (level + b) on average (s_d, s_b): E_b = S + D s_b and E_d = S + D s_d for shot noise S. Candidates:
+   dark shot noise alone (D = E_d / s_d); S and D solving both; shot noise = twice the brighter pixels' OFF excess
+   and leak = their ON excess beyond it (DVSParams.with_observed_leak), when ON exceeds OFF, with that D. Each gets
+   the hot pixels of the real static pixels firing far above the others (their share and mean rate), and is tried
+   without them too (the model's fire both polarities, a real one may fire one); its thresholds are rescaled once
+   so that the counts match; the candidate of the smallest loss is kept, and a leak in it is refined by secant
+   steps on the quiet ON rate (the drift's observed rate also follows the input's residual noise). (The excess
+   over all quiet pixels, dark ones included, took the dark pixels' rate for shot noise everywhere: on the DAVIS346
+   cradle the quiet and dark rates came out at x0.68 / x0.85 and x0.53 / x0.64 of the real ON / OFF.)
 Noise parameters are fitted with noise-free signal parameters, whose counts on static pixels come from the input
 (frame read noise through the flow upsampling): the moments are what the input does not explain.
 
@@ -285,37 +288,64 @@ def fit_offset_and_thresholds(objective: _Objective, start: sim.DVSParams,
     return best
 
 
-def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVSParams]:
-    """Stage 3's candidate noise settings (module docstring), from the static pixels' excess over the noise-free
-    simulation `dvs`."""
+def _excess(real_counts, sim_counts, pixels: int, duration_s: float) -> tuple[float, float]:
+    """(ON, OFF) real events beyond the simulated ones per pixel and second (each at least 0)."""
+    return tuple(max((r - s) / (max(pixels, 1) * duration_s), 0.0) for r, s in zip(real_counts, sim_counts))
+
+
+def _noise_moments(objective: _Objective, dvs: sim.DVSParams) -> dict:
+    """The static pixels' excess over the noise-free simulation `dvs`, split by brightness (module docstring, stage
+    3): "bright" (ON, OFF) on the quiet pixels that are not dark, "dark" (ON + OFF) on the dark ones, and the mean
+    share b / (level + b) of the dark shot noise on each (it scales as I_d / (I + I_d), sim.dvs)."""
     real, masks, dur = objective.real, objective.real.masks, objective.real.duration_s
     stats = objective.stats(dvs)
     objective.evaluations += 1
-    n_quiet = max(int(masks.quiet.sum()), 1)
-    excess_on, excess_off = (max((r - s) / (n_quiet * dur), 0.0)
-                             for r, s in zip(real.quiet_counts, stats.quiet_counts))
-    extra = {}
-    n_dark = int(masks.dark.sum())
-    if n_dark:
-        dark_excess = sum(max((r - s) / (n_dark * dur), 0.0) for r, s in zip(real.dark_counts, stats.dark_counts))
-        # dark shot noise scales as I_d / (I + I_d) (sim.dvs): its share on the dark pixels, in frame DN
-        sim_ = objective.simulation
-        b_dn = sim_.offset_dn(dvs)
-        level = np.maximum(masks.median_dn[masks.dark].astype(np.float64) - sim_.settings.black_level, 0.0)
-        share = float(np.mean(b_dn / (level + b_dn)))
-        if share > 0 and dark_excess > excess_on + excess_off:
-            extra["dark_shot_noise_hz"] = (dark_excess - excess_on - excess_off) / share
+    n_quiet, n_dark = int(masks.quiet.sum()), int(masks.dark.sum())
+    b_dn = objective.simulation.offset_dn(dvs)
+    black = objective.simulation.settings.black_level
+
+    def share(pixels):
+        level = np.maximum(masks.median_dn[pixels].astype(np.float64) - black, 0.0)
+        return float(np.mean(b_dn / (level + b_dn))) if level.size else 0.0
+
+    if n_quiet > n_dark:  # the brighter quiet pixels: quiet counts less the dark ones' (dark pixels are quiet)
+        real_b = [q - d for q, d in zip(real.quiet_counts, real.dark_counts)]
+        sim_b = [q - d for q, d in zip(stats.quiet_counts, stats.dark_counts)]
+        bright = _excess(real_b, sim_b, n_quiet - n_dark, dur)
+    else:
+        bright = _excess(real.quiet_counts, stats.quiet_counts, n_quiet, dur)
+    dark = sum(_excess(real.dark_counts, stats.dark_counts, n_dark, dur)) if n_dark else 0.0
+    return {"bright": bright, "dark": dark, "share_bright": share(masks.quiet & ~masks.dark),
+            "share_dark": share(masks.dark)}
+
+
+def _noise_candidates(objective: _Objective, dvs: sim.DVSParams) -> list[sim.DVSParams]:
+    """Stage 3's candidate noise settings (module docstring), from the static pixels' excess over the noise-free
+    simulation `dvs` (_noise_moments)."""
+    m = _noise_moments(objective, dvs)
+    (e_on, e_off), e_dark, s_b, s_d = m["bright"], m["dark"], m["share_bright"], m["share_dark"]
+
+    def dark_shot(beyond: float) -> float:  # the dark pixels' excess beyond `beyond`, as dark shot noise
+        return max(e_dark - beyond, 0.0) / (s_d - s_b) if s_d > s_b else 0.0
+
+    real, masks = objective.real, objective.real.masks
     counts = real.counts.sum(axis=0)
     static_counts = counts[masks.static]
-    quiet_events = sum(real.quiet_counts) / n_quiet
+    quiet_events = sum(real.quiet_counts) / max(int(masks.quiet.sum()), 1)
     hot = static_counts[static_counts >= max(HOT_MIN_EVENTS, HOT_FACTOR * quiet_events)]
+    extra = {}
     if hot.size:
-        extra.update(hot_pixel_fraction=hot.size / counts.size, hot_pixel_hz=float(hot.mean()) / dur)
+        extra.update(hot_pixel_fraction=hot.size / counts.size, hot_pixel_hz=float(hot.mean()) / real.duration_s)
     base = dvs.replace(**extra)
-    candidates = [base, base.replace(shot_noise_hz=excess_on + excess_off)]
-    if excess_on > excess_off:  # an ON-only excess is leak
-        moments = base.replace(shot_noise_hz=2.0 * excess_off)
-        candidates.append(moments.with_observed_leak(excess_on - excess_off))
+    # dark shot noise alone; shot and dark shot noise solving both pixel classes' excess
+    # (bright: S + D s_b, dark: S + D s_d); shot from the OFF excess and a leak for ON's surplus
+    d = dark_shot(e_on + e_off)
+    shot = max(e_on + e_off - d * s_b, 0.0)
+    candidates = [base.replace(dark_shot_noise_hz=e_dark / s_d if s_d > 0 else 0.0),
+                  base.replace(shot_noise_hz=shot, dark_shot_noise_hz=d)]
+    if e_on > e_off:  # an ON-only excess is leak
+        moments = base.replace(shot_noise_hz=2.0 * e_off, dark_shot_noise_hz=d)
+        candidates.append(moments.with_observed_leak(e_on - e_off))
     if base.hot_pixel_fraction > 0:  # the model's hot pixels fire both polarities, a real one may fire one
         candidates += [c.replace(hot_pixel_fraction=0.0) for c in candidates]
     return candidates
