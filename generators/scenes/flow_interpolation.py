@@ -59,6 +59,7 @@ DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below
 STILL_LOG = 0.05  # still_where_unmoved: frames that agree to this (log radiance, mean over 3x3 pixels) are unchanged
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
 KEY_GROUP = 8  # key frames synthesised in one pass (the pass reads the upsampled frames once for all of them)
+SPARSE_ROW = 0.4  # _warp_blend warps a row's moving pixels one by one when they are at most this share of the row
 
 
 class FlowEstimator:
@@ -250,6 +251,7 @@ class FlowPair:
         self._keys = {0: log0, self.n_keys: log1}
         self._up = [upsampled0, None]  # both frames upsampled (made when the first key is synthesised)
         self._planar = None  # the flows as (4, H, W): F01 x, F01 y, F10 x, F10 y
+        self._centre = self._moving = self._row_start = None  # _still_parts
 
     @property
     def upsampled1(self) -> np.ndarray:
@@ -277,6 +279,11 @@ class FlowPair:
                 self._up[0] = upsample(self.log0)
             self.upsampled1  # noqa: B018 (made here)
             self._planar = np.ascontiguousarray(np.concatenate((self.flow01, self.flow10), axis=2).transpose(2, 0, 1))
+            h, w = self.log0.shape
+            self._centre = np.empty((2, h, w), np.float32)  # both copies sampled where a pixel without motion is
+            self._moving = np.empty(h * w, np.int32)  # per row, the columns with motion in either flow
+            self._row_start = np.empty(h + 1, np.int64)
+            _still_parts(self._up[0], self._up[1], self._planar, self._centre, self._moving, self._row_start)
 
     def _synthesise(self, fractions: np.ndarray) -> np.ndarray:
         """float32 (len(fractions), H, W): both frames warped to each fraction and blended (module docstring), in
@@ -286,7 +293,8 @@ class FlowPair:
         fractions = np.asarray(fractions, dtype=np.float64)
         out = np.empty((fractions.size, *self.log0.shape), dtype=np.float32)
         in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, fractions,
-                                               y0, y1, out), out.shape[1], _MIN_ROWS, per_thread=2)
+                                               self._centre, self._moving, self._row_start, y0, y1, out),
+                    out.shape[1], _MIN_ROWS, per_thread=2)
         return out
 
     def log_at(self, a: float) -> np.ndarray:
@@ -342,14 +350,46 @@ def upsample(img: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, fastmath=True)
-def _warp_blend(up0, up1, occ0, occ1, flows, fractions, y0, y1, out):
+def _still_parts(up0, up1, flows, centre, moving, row_start):
+    """What _warp_blend needs of the pixels without motion (both flows zero: still_where_unmoved): centre[i] = up_i
+    sampled bilinearly where such a pixel samples it at every fraction (at its centre: half-way between four
+    samples of the 4x copy), for every pixel; moving[row_start[y]:row_start[y + 1]] = the columns of row y with
+    motion in either flow."""
+    h, w = centre.shape[1], centre.shape[2]
+    w2 = _UP * w
+    half = np.float32(0.5)
+    u0f, u1f = up0.ravel(), up1.ravel()
+    n = 0
+    for y in range(h):
+        row_start[y] = n
+        k = (_UP * y + (_UP - 1) // 2) * w2 + (_UP - 1) // 2
+        for x in range(w):
+            j = k + _UP * x
+            a00, a01, a10, a11 = u0f[j], u0f[j + 1], u0f[j + w2], u0f[j + w2 + 1]
+            t0, t1 = a00 + half * (a01 - a00), a10 + half * (a11 - a10)
+            centre[0, y, x] = t0 + half * (t1 - t0)
+            a00, a01, a10, a11 = u1f[j], u1f[j + 1], u1f[j + w2], u1f[j + w2 + 1]
+            t0, t1 = a00 + half * (a01 - a00), a10 + half * (a11 - a10)
+            centre[1, y, x] = t0 + half * (t1 - t0)
+            if flows[0, y, x] != 0 or flows[1, y, x] != 0 or flows[2, y, x] != 0 or flows[3, y, x] != 0:
+                moving[n] = x
+                n += 1
+    row_start[h] = n
+
+
+@njit(cache=True, nogil=True, fastmath=True)
+def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_start, y0, y1, out):
     """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
     docstring), for every g: frame i's log radiance sampled bilinearly on up_i (upsampled _UP times, float32
     (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W):
     F01 x, y, F10 x, y (pixels). Row by row, every fraction of a row before the next row: the rows of the upsampled
     frames one row reads at nearby fractions are then still in the core's cache (one read of them per row and not
-    per fraction; half the cost of one fraction at a time at 720p). Three loops per row, each simple enough to
-    vectorise but the middle one (the gathers)."""
+    per fraction; half the cost of one fraction at a time at 720p). A row whose pixels with motion (the columns
+    moving lists from row_start; _still_parts) are at most SPARSE_ROW of it is made otherwise: the pixels without
+    motion blend their samples at the pixel (centre) for every fraction in loops that vectorise, and each moving
+    pixel is then warped to every fraction before the next one (its positions vectorised over the fractions). At
+    720p a moving pixel costs about twice a pixel of a dense row (14 against 7 ns a fraction, one core), a still
+    one a fifth."""
     h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
     floor = np.float32(1.0 + _WEIGHT_FLOOR)
@@ -361,20 +401,37 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, y0, y1, out):
                           np.empty(w, np.float32))
     v0, v1 = np.empty(w, np.float32), np.empty(w, np.float32)
     u0f, u1f, o0f, o1f = up0.ravel(), up1.ravel(), occ0.ravel(), occ1.ravel()
+    n = fractions.size
+    # per fraction: the coefficients of F_a0 and F_a1 (in upsampled pixels) and the blend's time weights
+    c00, c01, c10, c11 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                          np.empty(n, np.float32))
+    wa_g, wb_g = np.empty(n, np.float32), np.empty(n, np.float32)
+    for g in range(n):
+        a = fractions[g]
+        b = 1.0 - a
+        c00[g], c01[g], c10[g], c11[g] = -_UP * b * a, _UP * a * a, _UP * b * b, -_UP * a * b
+        wa_g[g], wb_g[g] = a, b
+    # the sparse rows' scratch, per fraction of one moving pixel: flat index of the upper left bilinear neighbour
+    # and of the nearest pixel (occlusion), the bilinear weights, the samples and the occlusion values
+    i0, i1, m0, m1 = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
+    gx0, gy0, gx1, gy1 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                          np.empty(n, np.float32))
+    s0, s1, e0, e1 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
+                      np.empty(n, np.float32))
     for y in range(y0, y1):
+        if row_start[y + 1] - row_start[y] <= SPARSE_ROW * w:
+            _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start, y, c00, c01, c10, c11,
+                        wa_g, wb_g, i0, i1, m0, m1, gx0, gy0, gx1, gy1, s0, s1, e0, e1, out)
+            continue
         yf = np.float32(_UP * y) + off
         ux, uy, vx, vy = flows[0, y], flows[1, y], flows[2, y], flows[3, y]
-        for g in range(fractions.size):
-            a = fractions[g]
-            b = 1.0 - a
+        for g in range(n):
             # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
-            c00, c01 = np.float32(-_UP * b * a), np.float32(_UP * a * a)
-            c10, c11 = np.float32(_UP * b * b), np.float32(-_UP * a * b)
-            wa, wb = np.float32(a), np.float32(b)
+            d00, d01, d10, d11, wa, wb = c00[g], c01[g], c10[g], c11[g], wa_g[g], wb_g[g]
             for x in range(w):  # sample positions (edge values beyond the image)
                 xf = np.float32(_UP * x) + off
-                p = xf + c00 * ux[x] + c01 * vx[x]
-                q = yf + c00 * uy[x] + c01 * vy[x]
+                p = xf + d00 * ux[x] + d01 * vx[x]
+                q = yf + d00 * uy[x] + d01 * vy[x]
                 p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
                 p = p if p < umax else umax
                 q = q if q > zero else zero
@@ -383,8 +440,8 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, y0, y1, out):
                 fx0[x], fy0[x] = p - np.float32(ip), q - np.float32(iq)
                 k0[x] = iq * w2 + ip
                 n0[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
-                p = xf + c10 * ux[x] + c11 * vx[x]
-                q = yf + c10 * uy[x] + c11 * vy[x]
+                p = xf + d10 * ux[x] + d11 * vx[x]
+                q = yf + d10 * uy[x] + d11 * vy[x]
                 p = p if p > zero else zero
                 p = p if p < umax else umax
                 q = q if q > zero else zero
@@ -407,6 +464,65 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, y0, y1, out):
             row = out[g, y]
             for x in range(w):
                 row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+
+
+@njit(cache=True, nogil=True, fastmath=True, inline="always")
+def _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start, y, c00, c01, c10, c11, wa, wb, i0,
+                i1, m0, m1, fx0, fy0, fx1, fy1, s0, s1, e0, e1, out):
+    """Row y of _warp_blend's out when few of its pixels move: every pixel blended from its samples at the pixel
+    (centre) at each fraction, then each moving pixel warped to every fraction (positions, gathers, blend)."""
+    n, w = c00.size, out.shape[2]
+    h = out.shape[1]
+    w2 = np.int32(_UP * w)
+    floor = np.float32(1.0 + _WEIGHT_FLOOR)
+    zero, half, off = np.float32(0.0), np.float32(0.5), np.float32((_UP - 1) / 2)
+    umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
+    c0, c1, oc0, oc1 = centre[0, y], centre[1, y], occ0[y], occ1[y]
+    for g in range(n):
+        row, ga, gb = out[g, y], wa[g], wb[g]
+        for x in range(w):
+            k0, k1 = gb * (floor - oc1[x]), ga * (floor - oc0[x])
+            row[x] = (k0 * c0[x] + k1 * c1[x]) / (k0 + k1)
+    yf = np.float32(_UP * y) + off
+    for j in range(row_start[y], row_start[y + 1]):
+        x = moving[j]
+        xf = np.float32(_UP * x) + off
+        ux, uy, vx, vy = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
+        for g in range(n):  # sample positions at every fraction (edge values beyond the image)
+            p = xf + c00[g] * ux + c01[g] * vx
+            q = yf + c00[g] * uy + c01[g] * vy
+            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
+            p = p if p < umax else umax
+            q = q if q > zero else zero
+            q = q if q < vmax else vmax
+            ip, iq = np.int32(p), np.int32(q)
+            fx0[g], fy0[g] = p - np.float32(ip), q - np.float32(iq)
+            i0[g] = iq * w2 + ip
+            m0[g] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+            p = xf + c10[g] * ux + c11[g] * vx
+            q = yf + c10[g] * uy + c11[g] * vy
+            p = p if p > zero else zero
+            p = p if p < umax else umax
+            q = q if q > zero else zero
+            q = q if q < vmax else vmax
+            ip, iq = np.int32(p), np.int32(q)
+            fx1[g], fy1[g] = p - np.float32(ip), q - np.float32(iq)
+            i1[g] = iq * w2 + ip
+            m1[g] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+        for g in range(n):  # the gathers
+            k = np.uintp(i0[g])
+            a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
+            t0, t1 = a00 + fx0[g] * (a01 - a00), a10 + fx0[g] * (a11 - a10)
+            s0[g] = t0 + fy0[g] * (t1 - t0)
+            k = np.uintp(i1[g])
+            a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
+            t0, t1 = a00 + fx1[g] * (a01 - a00), a10 + fx1[g] * (a11 - a10)
+            s1[g] = t0 + fy1[g] * (t1 - t0)
+            e0[g] = o1f[np.uintp(m1[g])]
+            e1[g] = o0f[np.uintp(m0[g])]
+        for g in range(n):
+            k0, k1 = wb[g] * (floor - e0[g]), wa[g] * (floor - e1[g])
+            out[g, y, x] = (k0 * s0[g] + k1 * s1[g]) / (k0 + k1)
 
 
 def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
