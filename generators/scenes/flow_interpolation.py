@@ -377,6 +377,33 @@ def _still_parts(up0, up1, flows, centre, moving, row_start):
     row_start[h] = n
 
 
+@njit(cache=True, inline="always")
+def _position(xf, yf, cu, cv, ux, uy, vx, vy, umax, vmax, w):
+    """Where a pixel at (xf, yf) of the 4x copy samples it at one fraction: (xf, yf) + cu (ux, uy) + cv (vx, vy)
+    kept inside [0, umax] x [0, vmax] (edge values beyond the image); returns its bilinear weights fx, fy, the flat
+    index of its upper left neighbour in the copy (w pixels wide at 1x) and that of the nearest 1x pixel."""
+    zero, half = np.float32(0.0), np.float32(0.5)
+    p = xf + cu * ux + cv * vx
+    q = yf + cu * uy + cv * vy
+    p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
+    p = p if p < umax else umax
+    q = q if q > zero else zero
+    q = q if q < vmax else vmax
+    ip, iq = np.int32(p), np.int32(q)
+    nearest = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+    return p - np.float32(ip), q - np.float32(iq), iq * np.int32(_UP * w) + ip, nearest
+
+
+@njit(cache=True, inline="always")
+def _bilinear(u, k, w2, fx, fy):
+    """The flat 4x copy u (w2 wide) interpolated at weights fx, fy from its sample k and its right, lower and lower
+    right neighbours."""
+    k = np.uintp(k)
+    a00, a01, a10, a11 = u[k], u[k + 1], u[k + w2], u[k + w2 + 1]
+    t0, t1 = a00 + fx * (a01 - a00), a10 + fx * (a11 - a10)
+    return t0 + fy * (t1 - t0)
+
+
 @njit(cache=True, nogil=True, fastmath=True)
 def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_start, y0, y1, out):
     """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
@@ -392,8 +419,7 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
     one a fifth."""
     h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
-    floor = np.float32(1.0 + _WEIGHT_FLOOR)
-    zero, half, off = np.float32(0.0), np.float32(0.5), np.float32((_UP - 1) / 2)
+    floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
     umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
     k0, k1 = np.empty(w, np.int32), np.empty(w, np.int32)  # flat index of the upper left bilinear neighbour
     n0, n1 = np.empty(w, np.int32), np.empty(w, np.int32)  # flat index of the nearest pixel (occlusion)
@@ -430,35 +456,11 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
             d00, d01, d10, d11, wa, wb = c00[g], c01[g], c10[g], c11[g], wa_g[g], wb_g[g]
             for x in range(w):  # sample positions (edge values beyond the image)
                 xf = np.float32(_UP * x) + off
-                p = xf + d00 * ux[x] + d01 * vx[x]
-                q = yf + d00 * uy[x] + d01 * vy[x]
-                p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
-                p = p if p < umax else umax
-                q = q if q > zero else zero
-                q = q if q < vmax else vmax
-                ip, iq = np.int32(p), np.int32(q)
-                fx0[x], fy0[x] = p - np.float32(ip), q - np.float32(iq)
-                k0[x] = iq * w2 + ip
-                n0[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
-                p = xf + d10 * ux[x] + d11 * vx[x]
-                q = yf + d10 * uy[x] + d11 * vy[x]
-                p = p if p > zero else zero
-                p = p if p < umax else umax
-                q = q if q > zero else zero
-                q = q if q < vmax else vmax
-                ip, iq = np.int32(p), np.int32(q)
-                fx1[x], fy1[x] = p - np.float32(ip), q - np.float32(iq)
-                k1[x] = iq * w2 + ip
-                n1[x] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+                fx0[x], fy0[x], k0[x], n0[x] = _position(xf, yf, d00, d01, ux[x], uy[x], vx[x], vy[x], umax, vmax, w)
+                fx1[x], fy1[x], k1[x], n1[x] = _position(xf, yf, d10, d11, ux[x], uy[x], vx[x], vy[x], umax, vmax, w)
             for x in range(w):  # the gathers; fx0, fy0 then hold the blend weights
-                k = np.uintp(k0[x])
-                a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
-                t0, t1 = a00 + fx0[x] * (a01 - a00), a10 + fx0[x] * (a11 - a10)
-                v0[x] = t0 + fy0[x] * (t1 - t0)
-                k = np.uintp(k1[x])
-                a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
-                t0, t1 = a00 + fx1[x] * (a01 - a00), a10 + fx1[x] * (a11 - a10)
-                v1[x] = t0 + fy1[x] * (t1 - t0)
+                v0[x] = _bilinear(u0f, k0[x], w2, fx0[x], fy0[x])
+                v1[x] = _bilinear(u1f, k1[x], w2, fx1[x], fy1[x])
                 fx0[x] = wb * (floor - o1f[np.uintp(n1[x])])
                 fy0[x] = wa * (floor - o0f[np.uintp(n0[x])])
             row = out[g, y]
@@ -474,8 +476,7 @@ def _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start
     n, w = c00.size, out.shape[2]
     h = out.shape[1]
     w2 = np.int32(_UP * w)
-    floor = np.float32(1.0 + _WEIGHT_FLOOR)
-    zero, half, off = np.float32(0.0), np.float32(0.5), np.float32((_UP - 1) / 2)
+    floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
     umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
     c0, c1, oc0, oc1 = centre[0, y], centre[1, y], occ0[y], occ1[y]
     for g in range(n):
@@ -489,35 +490,11 @@ def _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start
         xf = np.float32(_UP * x) + off
         ux, uy, vx, vy = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
         for g in range(n):  # sample positions at every fraction (edge values beyond the image)
-            p = xf + c00[g] * ux + c01[g] * vx
-            q = yf + c00[g] * uy + c01[g] * vy
-            p = p if p > zero else zero  # (conditionals, not min/max: they vectorise)
-            p = p if p < umax else umax
-            q = q if q > zero else zero
-            q = q if q < vmax else vmax
-            ip, iq = np.int32(p), np.int32(q)
-            fx0[g], fy0[g] = p - np.float32(ip), q - np.float32(iq)
-            i0[g] = iq * w2 + ip
-            m0[g] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
-            p = xf + c10[g] * ux + c11[g] * vx
-            q = yf + c10[g] * uy + c11[g] * vy
-            p = p if p > zero else zero
-            p = p if p < umax else umax
-            q = q if q > zero else zero
-            q = q if q < vmax else vmax
-            ip, iq = np.int32(p), np.int32(q)
-            fx1[g], fy1[g] = p - np.float32(ip), q - np.float32(iq)
-            i1[g] = iq * w2 + ip
-            m1[g] = (np.int32(q + half) >> _UP_SHIFT) * np.int32(w) + (np.int32(p + half) >> _UP_SHIFT)
+            fx0[g], fy0[g], i0[g], m0[g] = _position(xf, yf, c00[g], c01[g], ux, uy, vx, vy, umax, vmax, w)
+            fx1[g], fy1[g], i1[g], m1[g] = _position(xf, yf, c10[g], c11[g], ux, uy, vx, vy, umax, vmax, w)
         for g in range(n):  # the gathers
-            k = np.uintp(i0[g])
-            a00, a01, a10, a11 = u0f[k], u0f[k + 1], u0f[k + w2], u0f[k + w2 + 1]
-            t0, t1 = a00 + fx0[g] * (a01 - a00), a10 + fx0[g] * (a11 - a10)
-            s0[g] = t0 + fy0[g] * (t1 - t0)
-            k = np.uintp(i1[g])
-            a00, a01, a10, a11 = u1f[k], u1f[k + 1], u1f[k + w2], u1f[k + w2 + 1]
-            t0, t1 = a00 + fx1[g] * (a01 - a00), a10 + fx1[g] * (a11 - a10)
-            s1[g] = t0 + fy1[g] * (t1 - t0)
+            s0[g] = _bilinear(u0f, i0[g], w2, fx0[g], fy0[g])
+            s1[g] = _bilinear(u1f, i1[g], w2, fx1[g], fy1[g])
             e0[g] = o1f[np.uintp(m1[g])]
             e1[g] = o0f[np.uintp(m0[g])]
         for g in range(n):
