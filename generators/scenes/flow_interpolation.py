@@ -356,7 +356,7 @@ def _still_parts(up0, up1, flows, centre, moving, row_start):
     samples of the 4x copy), for every pixel; moving[row_start[y]:row_start[y + 1]] = the columns of row y with
     motion in either flow."""
     h, w = centre.shape[1], centre.shape[2]
-    w2 = _UP * w
+    w2 = np.int32(_UP * w)
     half = np.float32(0.5)
     u0f, u1f = up0.ravel(), up1.ravel()
     n = 0
@@ -364,13 +364,8 @@ def _still_parts(up0, up1, flows, centre, moving, row_start):
         row_start[y] = n
         k = (_UP * y + (_UP - 1) // 2) * w2 + (_UP - 1) // 2
         for x in range(w):
-            j = k + _UP * x
-            a00, a01, a10, a11 = u0f[j], u0f[j + 1], u0f[j + w2], u0f[j + w2 + 1]
-            t0, t1 = a00 + half * (a01 - a00), a10 + half * (a11 - a10)
-            centre[0, y, x] = t0 + half * (t1 - t0)
-            a00, a01, a10, a11 = u1f[j], u1f[j + 1], u1f[j + w2], u1f[j + w2 + 1]
-            t0, t1 = a00 + half * (a01 - a00), a10 + half * (a11 - a10)
-            centre[1, y, x] = t0 + half * (t1 - t0)
+            centre[0, y, x] = _bilinear(u0f, k + _UP * x, w2, half, half)
+            centre[1, y, x] = _bilinear(u1f, k + _UP * x, w2, half, half)
             if flows[0, y, x] != 0 or flows[1, y, x] != 0 or flows[2, y, x] != 0 or flows[3, y, x] != 0:
                 moving[n] = x
                 n += 1
