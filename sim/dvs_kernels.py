@@ -185,13 +185,13 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:17]
     todo, te_j, code_j = si[0], si[1], si[2]
     sv_f, sv_i, sv_u = np.empty((4, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)  # slow pixels
-    # pixels with several crossings (_multi_rounds): their state per candidate, events per round
-    mc_f, mc_i = np.empty((5, w)), np.empty((3, w), dtype=np.int64)
-    mc_t, mc_l = np.empty((_ROUNDS, w), dtype=np.int64), np.empty((_ROUNDS, w), dtype=np.uint8)
+    # pixels with several crossings (_multi_events): the candidates, their new state and events
+    mc_f, mc_i = np.empty((3, w)), np.empty((3, w), dtype=np.int64)
+    mc_t, mc_l = np.empty((_MULTI_MAX, w), dtype=np.int64), np.empty((_MULTI_MAX, w), dtype=np.uint8)
     # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
     # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
-    F = max(1, min(n, 32768 // w))
-    c_ch, l_ch, j_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
+    F = max(1, min(n, 2048 // w))
+    c_ch, l_ch, ij_ch, q_ch, em_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w), np.empty(F * w)
     bits = np.empty(F * w, dtype=np.int64)
     zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
     spill = _grown(out, zero, zero, zero)  # the spill, empty
@@ -216,7 +216,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                         c = float(frames[k + kk, y, x]) + dark
                         c_ch[o + x] = c
                         j = math.sqrt(cur[y, x] * c)  # the interval's geometric-mean photocurrent
-                        j_ch[o + x] = j
+                        ij_ch[o + x] = 1.0 / j  # (one division serves the filter and the noise rate)
                         q_ch[o + x] = -k_cut * hf * j
                         cur[y, x] = c
                 log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
@@ -225,23 +225,25 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
             o = (k % F) * w
             t1 = times[k]
             hf = float(t1 - t0)
+            dark_shot = dark_shot_rate * dark
             if k_cut > 0.0:
                 # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
+                inv_x = 1.0 / (k_cut * hf)  # x = h / tau = k_cut hf J
                 for x in range(w):
                     l0 = logi[y, x]
                     l1 = l_ch[o + x]
                     em = em_ch[o + x]
                     f0 = lf[y, x]
                     f0_t[x] = f0
-                    lf[y, x] = l1 + (l1 - l0) * em / (k_cut * hf * j_ch[o + x]) + (f0 - l0) * (1.0 + em)
+                    lf[y, x] = l1 + (l1 - l0) * em * (inv_x * ij_ch[o + x]) + (f0 - l0) * (1.0 + em)
                     logi[y, x] = l1
-                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot * ij_ch[o + x]
             else:
                 for x in range(w):
                     f0_t[x] = lf[y, x]
                     lf[y, x] = l_ch[o + x]
                     logi[y, x] = l_ch[o + x]
-                    lam_t[x] = shot_rate + dark_shot_rate * dark / j_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot * ij_ch[o + x]
             # Quiet pixels (no crossing, no shot-noise arrival, not blind, not hot) only run their shot-noise clock.
             # The comparison is linear in time, so there is no crossing iff the end point is inside the band. Hot
             # pixels (a few) always take the busy path, so this loop, which streams every pixel's state, leaves out
@@ -320,8 +322,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 tr2_j[j] = tr2 if reset else tr
                 es_j[j] = es
                 eh_j[j] = eh
-            if refractory > 0:  # several crossings without noise: in rounds over all such columns (code 32)
-                _multi_rounds(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t,
+            if refractory > 0:  # several crossings without noise (code 32)
+                _multi_events(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t,
                               mc_l)
             # The busy columns' events, in column order. The loop can run again from the start if the row outgrows
             # its buffer (rare): it reads the slow pixels' state from where it saved it on their first visit, so a rerun
@@ -333,7 +335,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 for j in range(n_busy):
                     x = np.uintp(todo[j])
                     code = code_j[j]
-                    if code & 32:  # several events (_multi_rounds)
+                    if code & 32:  # several events (_multi_events)
                         q = mc_i[2, j]
                         k_ev = mc_i[1, q]
                         if n_ev + k_ev > lim:
@@ -344,9 +346,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                             E[base + n_ev] = (mc_t[e, q] - t0) | hi | (np.int64(mc_l[e, q]) << (EV_LABEL_SHIFT + 1))
                             n_ev += 1
                         last_t[y, x] = mc_t[k_ev - 1, q]
-                        e_shot[y, x] = mc_f[3, q]
-                        ref[y, x] = mc_f[1, q]
-                        tref[y, x] = mc_f[2, q]
+                        ref[y, x] = mc_f[0, q]
+                        tref[y, x] = mc_f[1, q]
+                        e_shot[y, x] = mc_f[2, q]
                     elif code != 0:
                         if code & 16:
                             if n_ev == lim:
@@ -407,98 +409,84 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     return spill[:sp_n], spill_start
 
 
-_ROUNDS = 16  # most events of a pixel in one interval on the rounds of _multi_rounds (more: _pixel_events)
+_MULTI_MAX = 16  # most events of a pixel in one interval on _multi_events' path (more: _pixel_events)
 
 
 @njit(cache=True, nogil=True)
-def _multi_rounds(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t, mc_l):
-    """The busy columns left to _pixel_events (code_j 0) that are not hot pixels, with refractory > 0, in rounds
-    over all of them at once: round k computes each one's next event, in exactly _pixel_events' arithmetic for a
-    pixel without noise arrivals. A column whose events are all found (no noise arrival in the interval, at most
-    _ROUNDS events) gets code 32 + 2 * polarity bit, mc_i[2, j] = q its candidate index, mc_i[1, q] its event count,
-    mc_t[:, q] their times, mc_l[:, q] 1 for a leak label, and mc_f[1:4, q] its new reference, reference time and
-    shot budget; the others keep code 0 (_pixel_events). G: emulate_rows' gathered busy-column state."""
+def _multi_events(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t, mc_l):
+    """The busy columns left to _pixel_events (code_j 0) that are not hot pixels, with refractory > 0, one at a
+    time: each one's events in exactly _pixel_events' arithmetic for a pixel without noise arrivals. A column whose
+    events are all found (no noise arrival in the interval, 1 to _MULTI_MAX events) gets code 32 + 2 * polarity
+    bit, mc_i[2, j] = q its index here, mc_i[1, q] its event count, mc_t[:, q] their times, mc_l[:, q] 1 for a leak
+    label, and mc_f[:, q] its new reference, reference time and shot budget; the others keep code 0
+    (_pixel_events). G: emulate_rows' gathered busy-column state."""
+    inf = np.inf
     n_c = 0
     for j in range(n_busy):  # branch-free compaction of the candidates
         mc_i[0, n_c] = j
         n_c += (code_j[j] == 0) & (hot[y, np.uintp(todo[j])] == 0)
-    inf = np.inf
-    for q in range(n_c):  # the start, as _pixel_events: a pixel blind at t0 wakes at s0 (resets there)
-        j = mc_i[0, q]
+    q = 0
+    for c in range(n_c):
+        j = mc_i[0, c]
         x = np.uintp(todo[j])
         lam = lam_t[x]
-        f0, f1 = G[0, j], G[1, j]
+        f0, f1, dr, con, coff = G[0, j], G[1, j], G[4, j], G[5, j], G[6, j]
         g = (f1 - f0) / hf
         blind0 = G[9, j] != 0.0
         s0 = G[10, j]
         es = e_shot[y, x]
         used = lam * s0
-        ok = not (blind0 & ((s0 >= hf) | ((lam > 0.0) & (es <= used))))
-        es = es - used if blind0 & (lam > 0.0) else es
-        mc_f[0, q] = s0 if blind0 else 0.0
-        mc_f[1, q] = f0 + g * s0 if blind0 else G[2, j]
-        mc_f[2, q] = float(t0) + s0 if blind0 else G[3, j]
-        mc_f[3, q] = es
-        mc_f[4, q] = lam
-        mc_i[1, q] = 0 if ok else -1  # events so far; -1: left to _pixel_events
-    act = mc_i[2]  # the active candidates (mc_i[2] is reused for the column -> candidate map afterwards)
-    n_act = 0
-    for q in range(n_c):
-        act[n_act] = q
-        n_act += mc_i[1, q] == 0
-    rnd = 0
-    while n_act > 0:
-        n_next = 0
-        for i in range(n_act):
-            q = act[i]
-            j = mc_i[0, q]
-            f0, f1, r, tr, dr, con, coff = G[0, j], G[1, j], mc_f[1, q], mc_f[2, q], G[4, j], G[5, j], G[6, j]
-            s, es, lam = mc_f[0, q], mc_f[3, q], mc_f[4, q]
-            g = (f1 - f0) / hf
-            m = g + dr
-            inv_m = 1.0 / m if m != 0.0 else 0.0
-            target = con if m > 0.0 else -coff
+        if blind0 and (s0 >= hf or (lam > 0.0 and es <= used)):
+            continue
+        if blind0 and lam > 0.0:
+            es = es - used
+        s = s0 if blind0 else 0.0
+        r = f0 + g * s0 if blind0 else G[2, j]
+        tr = float(t0) + s0 if blind0 else G[3, j]
+        m = g + dr
+        inv_m = 1.0 / m if m != 0.0 else 0.0
+        target = con if m > 0.0 else -coff
+        inv_lam = 1.0 / lam if lam > 0.0 else 0.0
+        n_ev = 0
+        while True:
             d = f0 + g * s - r + dr * ((t0 - tr) + s)
             sc = max(s, s + (target - d) * inv_m) if m != 0.0 else inf
             d_hf = f1 - r + dr * ((t0 - tr) + hf)
             if sc > hf and m != 0.0 and ((d_hf >= con) if m > 0.0 else (d_hf <= -coff)):
                 sc = hf
-            sn = s + es * (1.0 / lam) if lam > 0.0 else inf
+            sn = s + es * inv_lam if lam > 0.0 else inf
             se = min(sc, sn)
             if se > hf:  # no more events
-                mc_f[3, q] = es - lam * (hf - s)
-                continue
-            if not sc <= sn or rnd == _ROUNDS:  # a noise arrival, or too many events: _pixel_events
-                mc_i[1, q] = -1
-                continue
+                es = es - lam * (hf - s)
+                break
+            if not sc <= sn or n_ev == _MULTI_MAX:  # a noise arrival, or too many events: _pixel_events
+                n_ev = -1
+                break
             es -= lam * (se - s)
             te = t0 + np.int64(math.ceil(se))
             if te <= t0:
                 te = t0 + 1
-            mc_t[rnd, q] = te
-            mc_l[rnd, q] = (m > 0.0) and dr * ((t0 - tr) + se) >= 0.5 * con
-            mc_i[1, q] = rnd + 1
+            mc_t[n_ev, q] = te
+            mc_l[n_ev, q] = (m > 0.0) and dr * ((t0 - tr) + se) >= 0.5 * con
+            n_ev += 1
             sb = float(te + refractory - t0)
             used = lam * ((hf if sb >= hf else sb) - se)
             if lam > 0.0 and es <= used:  # an arrival while blind: _pixel_events
-                mc_i[1, q] = -1
-                continue
-            mc_f[3, q] = es - used if lam > 0.0 else es
+                n_ev = -1
+                break
+            if lam > 0.0:
+                es = es - used
             if sb >= hf:  # blind to the end (the reference is reset after the interval)
-                continue
-            mc_f[0, q] = sb
-            mc_f[1, q] = f0 + g * sb
-            mc_f[2, q] = float(t0) + sb
-            act[n_next] = q
-            n_next += 1
-        n_act = n_next
-        rnd += 1
-    for q in range(n_c):
-        j = mc_i[0, q]
-        if mc_i[1, q] > 0:
+                break
+            s = sb
+            r = f0 + g * sb
+            tr = float(t0) + sb
+        if n_ev > 0:
+            mc_f[0, q], mc_f[1, q], mc_f[2, q] = r, tr, es
+            mc_i[1, q] = n_ev
             mc_i[2, j] = q
-            m = (G[1, j] - G[0, j]) / hf + G[4, j]
             code_j[j] = 32 + 2 * (m > 0.0)
+            q += 1
 
 
 @njit(cache=True)

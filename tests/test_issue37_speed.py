@@ -1,5 +1,5 @@
-"""Issue 37's speed-ups change no output: the DVS's rounds for pixels with several crossings per interval
-(sim.dvs_kernels._multi_rounds) give the events of the code before them (hashes computed with commit 06d684c), and
+"""Issue 37's speed-ups change no output: the DVS's path for pixels with several crossings per interval
+(sim.dvs_kernels._multi_events) gives the events of the code before it (hashes computed with commit 06d684c), and
 VideoScene's render-ahead gives the images a plain render gives, key frames made in groups are those made one at a
 time, and radiance_of_log's exp is float32-exact to one unit in the last place."""
 
@@ -29,7 +29,7 @@ def _texture(h: int, w: int, speed: float):
 
 
 @pytest.mark.parametrize("preset", sorted(DENSE_HASHES))
-def test_dense_events_match_the_code_before_the_rounds(preset):
+def test_dense_events_match_the_code_before_the_multi_crossing_path(preset):
     frames = _texture(40, 56, 1.6).frames(0, 60)
     emu = sim.DVSEmulator(40, 56, sim.DVSParams.preset(preset), seed=7, return_labels=True)
     events, labels = emu.feed(frames, np.arange(60, dtype=np.int64) * 1000)
