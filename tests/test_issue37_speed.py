@@ -1,7 +1,8 @@
 """Issue 37's speed-ups change no output: the DVS's path for pixels with several crossings per interval
 (sim.dvs_kernels._multi_events) gives the events of the code before it (hashes computed with commit 06d684c), and
 VideoScene's render-ahead gives the images a plain render gives, key frames made in groups are those made one at a
-time, and radiance_of_log's exp is float32-exact to one unit in the last place."""
+time, radiance_of_log's exp is float32-exact to one unit in the last place, and its blend between key frames gives
+the exp of the blended log."""
 
 import hashlib
 import importlib.util
@@ -53,6 +54,18 @@ def test_radiance_of_log_exp_is_within_one_float32_ulp_over_its_range():
     exact = np.exp(log.astype(np.float64))
     rel = np.abs(radiance_of_log(log, 0.0) / exact - 1)
     assert rel.max() <= np.finfo(np.float32).eps, rel.max()
+
+
+def test_radiance_between_keys_is_the_exp_of_the_blended_log():
+    rng = np.random.default_rng(5)
+    log0 = cv2.GaussianBlur(rng.normal(0, 1.5, (40, 56)).astype(np.float32), (0, 0), 2)
+    pair = FlowEstimator((-4.0, 4.0), scale=1.0).pair(log0, np.roll(log0, 5, axis=1))
+    for a in (0.0, 0.37 / pair.n_keys, 0.5, 1.0 - 1e-4, 1.0):  # at keys and between them (a 30 fps clip's samples)
+        blend = pair.log_at(a).astype(np.float64)
+        rel = np.abs(pair.radiance_at(a, 0.01).astype(np.float64) / (np.exp(blend) - 0.01) - 1)
+        assert rel.max() < 4 * np.abs(blend).max() * np.finfo(np.float32).eps, (a, rel.max())  # a few ulp of the log
+    linear = radiance_of_log(log0, 0.01, log0 + 1.0, 0.25)  # a linear blend between frames
+    np.testing.assert_allclose(linear, np.exp(log0.astype(np.float64) + 0.25) - 0.01, rtol=2e-6)
 
 
 def test_keys_made_in_groups_equal_keys_made_one_at_a_time():

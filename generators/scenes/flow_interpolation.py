@@ -299,9 +299,7 @@ class FlowPair:
 
     def log_at(self, a: float) -> np.ndarray:
         """float32 (H, W) log radiance at fraction a (0..1) of the interval."""
-        u = min(max(float(a), 0.0), 1.0) * self.n_keys
-        j = int(u)
-        f = np.float32(u - j)
+        j, f = self._between_keys(a)
         if f == 0:  # at a key (j = n_keys at a = 1)
             return self.key(j)
         k0 = self.key(j)
@@ -309,6 +307,20 @@ class FlowPair:
         out *= f
         out += k0
         return out
+
+    def radiance_at(self, a: float, eps: float) -> np.ndarray:
+        """float32 (H, W) radiance at fraction a (0..1) of the interval: radiance_of_log of log_at(a) with offset eps,
+        the blend between keys made in the same pass as the exp."""
+        j, f = self._between_keys(a)
+        if f == 0:
+            return radiance_of_log(self.key(j), eps)
+        return radiance_of_log(self.key(j), eps, self.key(j + 1), f)
+
+    def _between_keys(self, a: float) -> tuple[int, np.float32]:
+        """The key before fraction a and a's place between it and the next, (j, f) with 0 <= f < 1."""
+        u = min(max(float(a), 0.0), 1.0) * self.n_keys
+        j = int(u)
+        return j, np.float32(u - j)
 
 
 @njit(cache=True, nogil=True)
@@ -497,9 +509,11 @@ def _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start
             out[g, y, x] = (k0 * s0[g] + k1 * s1[g]) / (k0 + k1)
 
 
-def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
+def radiance_of_log(log: np.ndarray, eps: float, log_to: np.ndarray | None = None,
+                    fraction: float = 0.0) -> np.ndarray:
     """Radiance of a log image, max(exp(log) - eps, 0), on every core (one pass over the pixels; exp within one
-    unit in the last place of float32: _radiance_rows).
+    unit in the last place of float32: _radiance_rows); with log_to, of the blend log + fraction (log_to - log),
+    made in the same pass.
 
     Parameters
     ----------
@@ -507,6 +521,10 @@ def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
         float32 (H, W) log(radiance + eps).
     eps : float
         The offset of the log (radiance units).
+    log_to : ndarray, optional
+        float32 (H, W) the log image the blend goes to (default: none, no blend).
+    fraction : float
+        Its weight in the blend, 0..1.
 
     Returns
     -------
@@ -514,18 +532,22 @@ def radiance_of_log(log: np.ndarray, eps: float) -> np.ndarray:
         float32 (H, W) radiance, >= 0.
     """
     log = np.ascontiguousarray(log, dtype=np.float32)
+    log_to = log if log_to is None else np.ascontiguousarray(log_to, dtype=np.float32)
+    if log_to.shape != log.shape:
+        raise ValueError(f"log images of shapes {log.shape} and {log_to.shape} cannot be blended")
     out = np.empty_like(log)
-    in_parallel(lambda y0, y1: _radiance_rows(log, np.float32(eps), y0, y1, out), log.shape[0], _MIN_ROWS)
+    f = np.float32(fraction if log_to is not log else 0.0)
+    in_parallel(lambda y0, y1: _radiance_rows(log, log_to, f, np.float32(eps), y0, y1, out), log.shape[0], _MIN_ROWS)
     return out
 
 
 @njit(cache=True, nogil=True, fastmath={"nnan", "ninf", "nsz", "contract"})  # no reassociation: it undoes ln2_lo
-def _radiance_rows(log, eps, y0, y1, out):
-    """out[y0:y1] = max(exp(log) - eps, 0) (float32), exp as in Cephes' expf (Moshier 1989 [Moshier1989]):
-    exp(v) = 2^n e^r with n = round(v / ln 2) and |r| <= ln(2) / 2, e^r by a degree-7 polynomial, 2^n written as
-    float32 bits; within one unit in the last place of float32 for v in [-87, 88] (v is clamped there: e^-87 is
-    below the smallest normal float32's ten times, e^88 near its largest). Every loop vectorises (libm's scalar
-    exp costs 7x as much)."""
+def _radiance_rows(log, log_to, f, eps, y0, y1, out):
+    """out[y0:y1] = max(exp(v) - eps, 0) (float32) of v = log + f (log_to - log), exp as in Cephes' expf (Moshier
+    1989 [Moshier1989]): exp(v) = 2^n e^r with n = round(v / ln 2) and |r| <= ln(2) / 2, e^r by a degree-7
+    polynomial, 2^n written as float32 bits; within one unit in the last place of float32 for v in [-87, 88] (v is
+    clamped there: e^-87 is below the smallest normal float32's ten times, e^88 near its largest). Every loop
+    vectorises (libm's scalar exp costs 7x as much)."""
     lo, hi = np.float32(-87.0), np.float32(88.0)
     log2e, ln2_hi, ln2_lo = np.float32(1.4426950408889634), np.float32(0.693359375), np.float32(-2.12194440e-4)
     c0, c1, c2 = np.float32(1.9875691500e-4), np.float32(1.3981999507e-3), np.float32(8.3334519073e-3)
@@ -535,9 +557,9 @@ def _radiance_rows(log, eps, y0, y1, out):
     bits = np.empty(w, np.int32)
     two_n = bits.view(np.float32)
     for y in range(y0, y1):
-        row, o = log[y], out[y]
+        row, to, o = log[y], log_to[y], out[y]
         for x in range(w):
-            v = row[x]
+            v = row[x] + f * (to[x] - row[x])
             v = v if v > lo else lo  # (conditionals, not min/max: they vectorise)
             v = v if v < hi else hi
             n = np.floor(v * log2e + half)

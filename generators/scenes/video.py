@@ -723,10 +723,8 @@ class VideoScene(Scene):
         if a == 0 or self.upsample == "none":
             return self._frame(k)[0]
         if self.upsample == "flow":
-            log = self._pair(k).log_at(a)
-        else:
-            log = (1 - np.float32(a)) * self._frame(k)[1] + np.float32(a) * self._frame(k + 1)[1]
-        return radiance_of_log(log, self.log_eps)
+            return self._pair(k).radiance_at(a, self.log_eps)
+        return radiance_of_log(self._frame(k)[1], self.log_eps, self._frame(k + 1)[1], a)
 
     def log_linear_until(self, t_us: int) -> int:
         """The end of the piece from t_us over which log(radiance + log_eps) is linear in time: the next key frame
