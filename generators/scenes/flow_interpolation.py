@@ -138,8 +138,9 @@ class FlowEstimator:
         u8_0, u8_1 = self.to_u8(log0), self.to_u8(log1)
         f01, f10 = self.flow(u8_0, u8_1), self.flow(u8_1, u8_0)
         small0, small1 = (self._at_flow_size(img, f01.shape[:2]) for img in (log0, log1))
-        still_where_unmoved(f01, small0, small1)
-        still_where_unmoved(f10, small1, small0)
+        changing = changing_pixels(small0, small1)  # (the same for both directions)
+        still_where_unmoved(f01, small0, small1, changing)
+        still_where_unmoved(f10, small1, small0, changing)
         h, w = log0.shape
         px = max(h / f01.shape[0], w / f01.shape[1])  # one flow pixel in sensor pixels
         occ0, m0 = occlusion(f01, f10, px)  # pixels of frame 0 hidden in frame 1
@@ -165,7 +166,8 @@ class FlowEstimator:
         return out
 
 
-def still_where_unmoved(flow_ab: np.ndarray, log_a: np.ndarray, log_b: np.ndarray) -> np.ndarray:
+def still_where_unmoved(flow_ab: np.ndarray, log_a: np.ndarray, log_b: np.ndarray,
+                        changing: np.ndarray | None = None) -> np.ndarray:
     """Zero flow_ab (in place) where the frames agree and no changing content passes, and return the mask of those
     pixels. A pixel changes when the mean |log_a - log_b| over its 3x3 neighbourhood exceeds STILL_LOG; the content
     of each changing pixel q passes the pixels on the segment from q to q + flow_ab(q) (and their 8 neighbours: the
@@ -182,18 +184,38 @@ def still_where_unmoved(flow_ab: np.ndarray, log_a: np.ndarray, log_b: np.ndarra
         float32 (h, w, 2) flow from frame a to frame b, pixels (changed in place).
     log_a, log_b : numpy.ndarray
         float32 (h, w) the frames' log radiance at the flow's size.
+    changing : numpy.ndarray, optional
+        changing_pixels(log_a, log_b) when already made (for the flow of the other direction).
 
     Returns
     -------
     numpy.ndarray
         (h, w) bool: the pixels whose flow was set to zero.
     """
-    change = cv2.blur(cv2.absdiff(log_a, log_b), (3, 3), borderType=cv2.BORDER_REPLICATE)
-    swept = np.zeros(change.shape, np.uint8)
-    _sweep(change > STILL_LOG, flow_ab, swept)
+    if changing is None:
+        changing = changing_pixels(log_a, log_b)
+    swept = np.zeros(changing.shape, np.uint8)
+    _sweep(changing, flow_ab, swept)
     still = cv2.dilate(swept, np.ones((3, 3), np.uint8)) == 0
     flow_ab[still] = 0.0
     return still
+
+
+def changing_pixels(log_a: np.ndarray, log_b: np.ndarray) -> np.ndarray:
+    """The pixels that change between two frames for still_where_unmoved: mean |log_a - log_b| over 3x3 pixels above
+    STILL_LOG.
+
+    Parameters
+    ----------
+    log_a, log_b : numpy.ndarray
+        float32 (h, w) the frames' log radiance.
+
+    Returns
+    -------
+    numpy.ndarray
+        (h, w) bool.
+    """
+    return cv2.blur(cv2.absdiff(log_a, log_b), (3, 3), borderType=cv2.BORDER_REPLICATE) > STILL_LOG
 
 
 @njit(cache=True, nogil=True)
