@@ -13,8 +13,8 @@ Pixel model (every pixel independent; log is the natural logarithm; times in mic
   f_c = cutoff_hz * J / full_illumination, where J = sqrt((I0 + I_d)(I1 + I_d)) is the interval's geometric-mean
   photocurrent (constant over the interval; dim pixels are slow). For the linear input the ODE is solved exactly
   over the interval, however long: with x = h / tau and s = L1 - L0,
-  Lf1 = L1 - s (1 - e^-x) / x + (Lf0 - L0) e^-x (e^-x - 1 evaluated in float32: within 1.1e-7 relative, far below a
-  threshold's effect; the rest in float64). cutoff_hz = 0 makes Lf = L. Between samples the filtered level
+  Lf1 = L1 - s (1 - e^-x) / x + (Lf0 - L0) e^-x (J and e^-x - 1 evaluated in float32: within 1.2e-7 relative, far
+  below a threshold's effect; the rest in float64). cutoff_hz = 0 makes Lf = L. Between samples the filtered level
   Lf is again interpolated linearly, which gives the crossing times.
 - Events. A pixel compares Lf with its reference level R and fires ON when Lf - R reaches +C_on and OFF when it
   reaches -C_off (per-pixel thresholds, see DVSParams). Every crossing gets its own time, so an interval with several

@@ -54,8 +54,9 @@ N_FIXED = 5
 #   SC_REFRACTORY      int64    refractory period (us)
 #   SC_K_CUT           float64  photoreceptor bandwidth per unit photocurrent: 1 / tau = SC_K_CUT * J, J the
 #                               interval's geometric-mean photocurrent (per us per radiance unit; 0: no filter, Lf = L);
-#                               the decay factor expm1(-SC_K_CUT J h) is evaluated in float32 (expm1_row_f32: within
-#                               1.1e-7 relative, a quarter of float64's cost; docs/models/dvs.md)
+#                               J / I_d (>= 1) and the decay factor expm1(-SC_K_CUT J h) are evaluated in float32
+#                               (expm1_row_f32: within 1.1e-7 relative, a quarter of float64's cost;
+#                               docs/models/dvs.md), the filter and the noise clocks in float64
 #   SC_DARK            float64  dark current I_d (radiance units)
 #   SC_SHOT_RATE       float64  shot-noise rate (per us)
 #   SC_DARK_SHOT_RATE  float64  dark shot-noise rate at J = I_d (per us; the rate scales with I_d / J)
@@ -193,8 +194,11 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
     # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
     F = max(1, min(n, 2048 // w))
-    c_ch, l_ch, ij_ch = np.empty(F * w), np.empty(F * w), np.empty(F * w)
-    q_ch, em_ch = np.empty(F * w, dtype=np.float32), np.empty(F * w, dtype=np.float32)  # (see SC_K_CUT's note)
+    c_ch, l_ch = np.empty(F * w), np.empty(F * w)
+    # float32 (see SC_K_CUT's note): I_d / J, the filter's exponent and its decay factor
+    ij_ch, q_ch, em_ch = (np.empty(F * w, dtype=np.float32), np.empty(F * w, dtype=np.float32),
+                          np.empty(F * w, dtype=np.float32))
+    inv_dark2 = 1.0 / (dark * dark)
     bits, bits32 = np.empty(F * w, dtype=np.int64), np.empty(F * w, dtype=np.int32)
     zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
     spill = _grown(out, zero, zero, zero)  # the spill, empty
@@ -215,12 +219,14 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                     o = kk * w
                     hf = float(times[k + kk] - tk)
                     tk = times[k + kk]
+                    q_dark = np.float32(-k_cut * hf * dark)
                     for x in range(w):
                         c = float(frames[k + kk, y, x]) + dark
                         c_ch[o + x] = c
-                        j = math.sqrt(cur[y, x] * c)  # the interval's geometric-mean photocurrent
-                        ij_ch[o + x] = 1.0 / j  # (one division serves the filter and the noise rate)
-                        q_ch[o + x] = np.float32(-k_cut * hf * j)
+                        # J / I_d (>= 1) for the interval's geometric-mean photocurrent J: float32 without underflow
+                        jr = np.sqrt(np.float32(cur[y, x] * c * inv_dark2))
+                        ij_ch[o + x] = np.float32(1.0) / jr  # (one division serves the filter and the noise rate)
+                        q_ch[o + x] = q_dark * jr
                         cur[y, x] = c
                 log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
                 if k_cut > 0.0:  # distinct in/out arrays: aliasing would prevent vectorisation
@@ -228,25 +234,25 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
             o = (k % F) * w
             t1 = times[k]
             hf = float(t1 - t0)
-            dark_shot = dark_shot_rate * dark
             if k_cut > 0.0:
                 # Photoreceptor: exact first-order response to the linear-in-time log input over the interval.
-                inv_x = 1.0 / (k_cut * hf)  # x = h / tau = k_cut hf J
+                inv_x = 1.0 / (k_cut * hf * dark)  # x = h / tau = k_cut hf J, J = I_d / ij
                 for x in range(w):
                     l0 = logi[y, x]
                     l1 = l_ch[o + x]
                     em = np.float64(em_ch[o + x])
                     f0 = lf[y, x]
                     f0_t[x] = f0
-                    lf[y, x] = l1 + (l1 - l0) * em * (inv_x * ij_ch[o + x]) + (f0 - l0) * (1.0 + em)
+                    ij = np.float64(ij_ch[o + x])
+                    lf[y, x] = l1 + (l1 - l0) * em * (inv_x * ij) + (f0 - l0) * (1.0 + em)
                     logi[y, x] = l1
-                    lam_t[x] = shot_rate + dark_shot * ij_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot_rate * ij
             else:
                 for x in range(w):
                     f0_t[x] = lf[y, x]
                     lf[y, x] = l_ch[o + x]
                     logi[y, x] = l_ch[o + x]
-                    lam_t[x] = shot_rate + dark_shot * ij_ch[o + x]
+                    lam_t[x] = shot_rate + dark_shot_rate * np.float64(ij_ch[o + x])
             # Quiet pixels (no crossing, no shot-noise arrival, not blind, not hot) only run their shot-noise clock.
             # The comparison is linear in time, so there is no crossing iff the end point is inside the band. Hot
             # pixels (a few) always take the busy path, so this loop, which streams every pixel's state, leaves out

@@ -37,7 +37,7 @@ def _digest(*arrays: np.ndarray) -> str:
     return h.hexdigest()[:16]
 
 
-DVS_HASHES = {"ideal": "ec5c723727f83e01", "davis346": "33fdeec7b284de54", "noisy": "992e09773f10958a"}
+DVS_HASHES = {"ideal": "ec5c723727f83e01", "davis346": "a10a66d93a99947b", "noisy": "992e09773f10958a"}
 AKF_HASHES = {"akf": "99eb95d8da4ab4d3", "cf": "64e1a6cef77558de", "akf_leak": "6811bb3d1287e039"}
 
 

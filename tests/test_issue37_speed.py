@@ -1,7 +1,7 @@
 """Issue 37's speed-ups change no output: the DVS's path for pixels with several crossings per interval
 (sim.dvs_kernels._multi_events) gives the events and state of its general pixel path, dense events are pinned (the
-counts of commit 06d684c, before that path; hashes re-pinned when the filter's decay factor went to float32, which
-moved event times by 1-2 us), and
+counts of commit 06d684c, before that path; hashes re-pinned when the filter's J and decay factor went to float32,
+which moved event times by 1-2 us), and
 VideoScene's render-ahead gives the images a plain render gives, key frames made in groups are those made one at a
 time, radiance_of_log's exp is float32-exact to one unit in the last place, and its blend between key frames gives
 the exp of the blended log."""
@@ -22,7 +22,7 @@ from generators.scenes.flow_interpolation import KEY_GROUP, FlowEstimator, radia
 
 BENCH = Path(__file__).resolve().parents[1] / "bench"
 # speed 1.6 px per frame: about 34,000 of the pixel-intervals have several events
-DENSE_HASHES = {"davis346": (127_972, "27330f65fa27a380"), "noisy": (128_271, "d2ff4389040a285f")}
+DENSE_HASHES = {"davis346": (127_972, "f1186482127258cc"), "noisy": (128_271, "d837874361c02b1b")}
 
 
 def _texture(h: int, w: int, speed: float):
