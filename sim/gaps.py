@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from .errors import InvalidParameterError
 
@@ -42,17 +43,42 @@ def _empty(shape: int = 0) -> npt.NDArray[np.int64]:
     return np.zeros((shape, 2), np.int64)
 
 
+@njit(cache=True, nogil=True)
+def _long_steps(t, min_step):
+    """Indices i with t[i + 1] - t[i] >= min_step, in one pass over t (a strided view of the events' times is
+    read in place: no (N,) differences array)."""
+    n = 0
+    for i in range(t.size - 1):
+        n += t[i + 1] - t[i] >= min_step
+    out = np.empty(n, np.int64)
+    n = 0
+    for i in range(t.size - 1):
+        if t[i + 1] - t[i] >= min_step:
+            out[n] = i
+            n += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _events_in(t, starts, ends):
+    """The number of times t (sorted) in the windows [starts[k], ends[k]), summed over k (binary searches on t in
+    place: numpy's searchsorted would copy a strided view of the events' times)."""
+    n = 0
+    for k in range(starts.size):
+        n += np.searchsorted(t, ends[k]) - np.searchsorted(t, starts[k])
+    return n
+
+
 def _busy_gaps(t: np.ndarray) -> np.ndarray:
     """Gaps of the busy-stream rule (see the module) in the sorted int64 times t."""
-    d = np.diff(t)
-    i = np.flatnonzero(d >= MIN_GAP_US)  # candidate: the empty span between events i and i + 1
+    i = _long_steps(t, MIN_GAP_US)  # candidate: the empty span between events i and i + 1
     if i.size == 0:
         return _empty()
     n_before = np.minimum(i, BUSY_EVENTS)  # events before event i (the span is from event i - n to event i)
     span_before = t[i] - t[i - n_before]
     n_after = np.minimum(t.size - 2 - i, BUSY_EVENTS)
     span_after = t[i + 1 + n_after] - t[i + 1]
-    dd = d[i].astype(np.float64)
+    dd = (t[i + 1] - t[i]).astype(np.float64)
     busy = ((n_before >= SIGNIFICANCE) & (n_before * dd >= SIGNIFICANCE * span_before)
             & (n_after >= SIGNIFICANCE) & (n_after * dd >= SIGNIFICANCE * span_after))
     i = i[busy]
@@ -67,9 +93,9 @@ def _gated_gaps(t: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarr
     between = between[between[:, 1] > between[:, 0]]
     if between.size == 0:
         return _empty()
-    inside = np.sum(np.searchsorted(t, ends) - np.searchsorted(t, starts))
+    inside = _events_in(t, starts, ends)
     exposed = float(np.sum(np.maximum(ends - starts, 0)))
-    outside = np.sum(np.searchsorted(t, between[:, 1]) - np.searchsorted(t, between[:, 0]))
+    outside = _events_in(t, np.ascontiguousarray(between[:, 0]), np.ascontiguousarray(between[:, 1]))
     expected = inside / exposed * float(np.sum(between[:, 1] - between[:, 0])) if exposed > 0 else 0.0
     return between.astype(np.int64) if outside == 0 and expected >= SIGNIFICANCE else _empty()
 
