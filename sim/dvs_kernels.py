@@ -191,8 +191,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     # pixels with several crossings (_multi_events): the candidates, their new state and events
     mc_f, mc_i = np.empty((3, w)), np.empty((3, w), dtype=np.int64)
     mc_t, mc_l = np.empty((_MULTI_MAX, w), dtype=np.int64), np.empty((_MULTI_MAX, w), dtype=np.uint8)
-    # per-chunk inputs of F frames of a row (photocurrent, log response, geometric-mean photocurrent, filter
-    # exponent and factor), each computed for the whole chunk in one call: fewer calls, longer vector loops
+    # per-chunk inputs of F frames of a row (photocurrent, log response, I_d / J, the filter's exponent and decay
+    # factor), each computed for the whole chunk in one call: fewer calls, longer vector loops (2048 samples: the
+    # chunk's arrays stay in the L2 cache)
     F = max(1, min(n, 2048 // w))
     c_ch, l_ch = np.empty(F * w), np.empty(F * w)
     # float32 (see SC_K_CUT's note): I_d / J, the filter's exponent and its decay factor
