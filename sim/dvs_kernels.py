@@ -55,7 +55,7 @@ N_FIXED = 5
 #   SC_K_CUT           float64  photoreceptor bandwidth per unit photocurrent: 1 / tau = SC_K_CUT * J, J the
 #                               interval's geometric-mean photocurrent (per us per radiance unit; 0: no filter, Lf = L);
 #                               J / I_d (>= 1) and the decay factor expm1(-SC_K_CUT J h) are evaluated in float32
-#                               (expm1_row_f32: within 1.1e-7 relative, a quarter of float64's cost;
+#                               (expm1_row_f32: within 1.2e-7 relative, a quarter of float64's cost;
 #                               docs/models/dvs.md), the filter and the noise clocks in float64
 #   SC_DARK            float64  dark current I_d (radiance units)
 #   SC_SHOT_RATE       float64  shot-noise rate (per us)

@@ -86,8 +86,9 @@ def log_row(a, bits, out):
 
 @njit(cache=True, error_model="numpy")
 def expm1_row_f32(a, bits, out):
-    """out = expm1(a) in float32 for float32 a <= 0 (within 1.5 units in the last place of float32, 1.1e-7
-    relative); written so that LLVM vectorises it (8 lanes, a degree-7 polynomial: a quarter of the float64 cost).
+    """out = expm1(a) in float32 for float32 a <= 0, within 1.2e-7 relative (about one float32 unit in the last
+    place: at most 1.16e-7, near -0.35, over 30 M sampled inputs); written so that LLVM vectorises it (8 lanes, a
+    degree-7 polynomial: a quarter of the float64 cost).
 
     Cody-Waite reduction by ln 2 in two parts, e^r - 1 by its Taylor polynomial for |r| <= ln(2) / 2 (truncation
     below 1.5e-8 relative), then 2^k e^r - 1 = 2^k (e^r - 1) + (2^k - 1). Below -40 the result is -1 (e^-40 <
