@@ -20,9 +20,6 @@ _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _S30, _S27, _S31 = np.uint64(30), np.uint64(27), np.uint64(31)
 _LN2 = math.log(2.0)
-_LN2_HI, _LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10  # Cody-Waite split of ln 2
-_INV_LN2 = 1.0 / _LN2
-_ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2**52: (x + M) - M rounds x to an integer
 _SQRT_HALF_BITS = np.int64(0x3FE6A09E667F3BCD)  # bit pattern of sqrt(1/2)
 # expm1_row_f32's constants (float32: numba keeps float32 arithmetic only between float32 values)
 _F32_M40, _F32_ONE, _F32_ROUND = np.float32(-40.0), np.float32(1.0), np.float32(1.5 * 2**23)
