@@ -84,6 +84,14 @@ LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log
 _LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
 
 
+@njit(cache=True, inline="always")
+def _event_word(dt, x, on, label):
+    """The event word (EV_*) of an event dt us after its interval's start at column x; on: non-zero for ON; label:
+    a LABEL_* value."""
+    return (np.int64(dt) | (np.int64(x) << EV_X_SHIFT) | (np.int64(on != 0) << EV_ON_SHIFT)
+            | (np.int64(label) << EV_LABEL_SHIFT))
+
+
 @intrinsic
 def _store_i64(typingctx, buf, i, v):
     """buf[i : i + 8] = the bytes of the int64 v in machine order, one unaligned store (buf: a uint8 array; no
@@ -195,8 +203,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     # factor), each computed for the whole chunk in one call: fewer calls, longer vector loops (2048 samples: the
     # chunk's arrays stay in the L2 cache)
     F = max(1, min(n, 2048 // w))
-    c_ch, l_ch = np.empty(F * w), np.empty(F * w)
-    # float32 (see SC_K_CUT's note): I_d / J, the filter's exponent and its decay factor
+    c_ch, l_ch = np.empty(F * w), np.empty(F * w)  # (the rest float32: see SC_K_CUT's note)
     ij_ch, q_ch, em_ch = (np.empty(F * w, dtype=np.float32), np.empty(F * w, dtype=np.float32),
                           np.empty(F * w, dtype=np.float32))
     inv_dark2 = 1.0 / (dark * dark)
@@ -351,9 +358,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                         if n_ev + k_ev > lim:
                             need = n_ev + k_ev + n_busy
                             break
-                        hi = (np.int64(x) << EV_X_SHIFT) | ((code & 2) << (EV_ON_SHIFT - 1))
-                        for e in range(k_ev):  # (mc_l 1: LABEL_LEAK, 2 << EV_LABEL_SHIFT)
-                            E[base + n_ev] = (mc_t[e, q] - t0) | hi | (np.int64(mc_l[e, q]) << (EV_LABEL_SHIFT + 1))
+                        for e in range(k_ev):  # (code & 2: ON; mc_l 1: LABEL_LEAK)
+                            E[base + n_ev] = _event_word(mc_t[e, q] - t0, x, code & 2, LABEL_LEAK * mc_l[e, q])
                             n_ev += 1
                         last_t[y, x] = mc_t[k_ev - 1, q]
                         ref[y, x] = mc_f[0, q]
@@ -364,10 +370,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                             if n_ev == lim:
                                 need = n_ev + n_busy
                                 break
-                            # (code & 2: ON, code & 4: LABEL_LEAK, 2 << EV_LABEL_SHIFT)
-                            E[base + n_ev] = ((te_j[j] - t0) | (np.int64(x) << EV_X_SHIFT)
-                                              | ((code & 2) << (EV_ON_SHIFT - 1))
-                                              | ((code & 4) << (EV_LABEL_SHIFT - 1)))
+                            # (code & 2: ON; code & 4: LABEL_LEAK, its value 2)
+                            E[base + n_ev] = _event_word(te_j[j] - t0, x, code & 2, (code & 4) >> 1)
                             n_ev += 1
                             last_t[y, x] = te_j[j]
                         e_shot[y, x] = es_j[j]
@@ -572,8 +576,7 @@ def _pixel_events(t0, hf, f0, f1, lam_s, lam_h, pixel, x, refractory, key, es, e
         if te <= t0:
             te = t0 + 1
         if cnt < cap:
-            out[base + cnt] = ((te - t0) | (np.int64(x) << EV_X_SHIFT) | (np.int64(pol > 0) << EV_ON_SHIFT)
-                               | (np.int64(label) << EV_LABEL_SHIFT))
+            out[base + cnt] = _event_word(te - t0, x, pol > 0, label)
         cnt += 1
         lt = te
         if refractory > 0:
