@@ -69,6 +69,33 @@ def _note(message, category, filename, lineno, file=None, line=None) -> None:
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
+def _run(args: argparse.Namespace) -> int:
+    """args.func(args), with Ctrl-C or SIGTERM raised as themselves when the code they interrupted wrapped them in
+    another exception (a C extension's import turns the signal handler's exception into "ImportError:
+    initialization failed", with it as the cause): the run is interrupted, not failed with a bug.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The command's exit code.
+    """
+    try:
+        return args.func(args)
+    except Exception as e:
+        seen, cause = set(), e
+        while cause is not None and id(cause) not in seen:  # (a chain can loop)
+            if isinstance(cause, (KeyboardInterrupt, Terminated)):
+                raise cause from None
+            seen.add(id(cause))
+            cause = cause.__cause__ or cause.__context__
+        raise
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the `evsim` command line (see the module docstring).
 
@@ -95,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         check_paths(args)
         with warnings.catch_warnings():
             warnings.showwarning = _note  # the library's notes (an export leaving parts out) as one line each
-            return args.func(args)
+            return _run(args)
     except sim.EvsimInputError as e:
         print(f"evsim: error: {getattr(e, 'cli_message', e)}", file=sys.stderr)  # in flags (sim.OptionError)
         return 2

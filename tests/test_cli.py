@@ -108,6 +108,24 @@ def test_unexpected_errors_exit_1(monkeypatch, tmp_path, capsys):
     assert "RuntimeError: boom" in err and "unexpected error" in err
 
 
+def test_ctrl_c_wrapped_by_an_import_is_an_interruption_not_a_bug(monkeypatch, tmp_path, capsys):
+    """A signal that lands while a C extension is being imported (OpenEXR's, on the first write of an EXR file)
+    comes out as "ImportError: initialization failed" caused by the handler's exception (tests/test_kill_outputs.py
+    met it with SIGTERM): the command is interrupted (130, 143 for SIGTERM), not an unexpected error (1)."""
+    import generators.dataset
+
+    def interrupted_import(*a, **k):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as e:
+            raise ImportError("initialization failed") from e
+
+    monkeypatch.setattr(generators.dataset, "generate_dataset", interrupted_import)
+    assert main(["generate", "ahdr", "--scene", "sun", "--out", str(tmp_path / "x"), *SMALL]) == 130
+    err = capsys.readouterr().err
+    assert "evsim: interrupted" in err and "unexpected error" not in err and "Traceback" not in err
+
+
 @pytest.mark.slow  # a subprocess
 def test_console_entry_point_help_documents_units():
     out = subprocess.run([sys.executable, "-m", "evsim_app.cli", "generate", "ahdr", "--help"],
