@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import llvmlite.ir as llvm_ir
 import numpy as np
 from numba import njit
 from numba.core import types
@@ -46,6 +47,22 @@ def _as_float64(typingctx, x):
         return builder.bitcast(args[0], context.get_value_type(types.float64))
 
     return types.float64(types.int64), codegen
+
+
+@intrinsic
+def load_pair_f32(typingctx, u, k):
+    """(u[k], u[k + 1]) of a float32 array u by one 8-byte load (two loads of a bilinear interpolation's four; no
+    bounds check: the caller keeps k + 1 < u.size)."""
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        pair = builder.load(builder.bitcast(builder.gep(data, [args[1]]), llvm_ir.VectorType(llvm_ir.FloatType(), 2)
+                                            .as_pointer()))
+        pair.align = 4
+        first, second = (builder.extract_element(pair, llvm_ir.Constant(llvm_ir.IntType(32), i)) for i in (0, 1))
+        return context.make_tuple(builder, signature.return_type, (first, second))
+
+    return types.UniTuple(types.float32, 2)(u, types.uintp), codegen
 
 
 @njit(cache=True)
