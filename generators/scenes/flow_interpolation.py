@@ -60,7 +60,7 @@ DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below
 STILL_LOG = 0.05  # still_where_unmoved: frames that agree to this (log radiance, mean over 3x3 pixels) are unchanged
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
 KEY_GROUP = 8  # key frames synthesised in one pass (the pass reads the upsampled frames once for all of them)
-SPARSE_ROW = 0.4  # _warp_blend warps a row's moving pixels one by one when they are at most this share of the row
+SPARSE_ROW = 0.7  # _warp_blend warps only a row's moving pixels when they are at most this share of the row
 
 
 class FlowEstimator:
@@ -444,12 +444,10 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
     (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W):
     F01 x, y, F10 x, y (pixels). Row by row, every fraction of a row before the next row: the rows of the upsampled
     frames one row reads at nearby fractions are then still in the core's cache (one read of them per row and not
-    per fraction; half the cost of one fraction at a time at 720p). A row whose pixels with motion (the columns
-    moving lists from row_start; _still_parts) are at most SPARSE_ROW of it is made otherwise: the pixels without
-    motion blend their samples at the pixel (centre) for every fraction in loops that vectorise, and each moving
-    pixel is then warped to every fraction before the next one (its positions vectorised over the fractions). At
-    720p a moving pixel costs about twice a pixel of a dense row (14 against 7 ns a fraction, one core), a still
-    one a fifth."""
+    per fraction; half the cost of one fraction at a time at 720p). In a row whose pixels with motion (the columns
+    moving lists from row_start; _still_parts) are at most SPARSE_ROW of it, the pixels without motion blend their
+    samples at the pixel (centre) for every fraction in loops that vectorise, and only the moving pixels, gathered
+    into a row of their own, are warped; in the other rows every pixel is."""
     h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
     floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
@@ -459,6 +457,9 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
     fx0, fy0, fx1, fy1 = (np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32),
                           np.empty(w, np.float32))
     v0, v1 = np.empty(w, np.float32), np.empty(w, np.float32)
+    # the warped pixels of a row: their columns, x in the upsampled copy and flows
+    cols, xs = np.empty(w, np.int32), np.empty(w, np.float32)
+    ux, uy, vx, vy = np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32)
     u0f, u1f, o0f, o1f = up0.ravel(), up1.ravel(), occ0.ravel(), occ1.ravel()
     n = fractions.size
     # per fraction: the coefficients of F_a0 and F_a1 (in upsampled pixels) and the blend's time weights
@@ -470,69 +471,45 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
         b = 1.0 - a
         c00[g], c01[g], c10[g], c11[g] = -_UP * b * a, _UP * a * a, _UP * b * b, -_UP * a * b
         wa_g[g], wb_g[g] = a, b
-    # the sparse rows' scratch, per fraction of one moving pixel: flat index of the upper left bilinear neighbour
-    # and of the nearest pixel (occlusion), the bilinear weights, the samples and the occlusion values
-    i0, i1, m0, m1 = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32), np.empty(n, np.int32)
-    gx0, gy0, gx1, gy1 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
-                          np.empty(n, np.float32))
-    s0, s1, e0, e1 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
-                      np.empty(n, np.float32))
     for y in range(y0, y1):
-        if row_start[y + 1] - row_start[y] <= SPARSE_ROW * w:
-            _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start, y, c00, c01, c10, c11,
-                        wa_g, wb_g, i0, i1, m0, m1, gx0, gy0, gx1, gy1, s0, s1, e0, e1, out)
-            continue
+        first, m = row_start[y], row_start[y + 1] - row_start[y]
+        if m <= SPARSE_ROW * w:
+            c0, c1, oc0, oc1 = centre[0, y], centre[1, y], occ0[y], occ1[y]
+            for g in range(n):
+                row, ga, gb = out[g, y], wa_g[g], wb_g[g]
+                for x in range(w):
+                    e0, e1 = gb * (floor - oc1[x]), ga * (floor - oc0[x])
+                    row[x] = (e0 * c0[x] + e1 * c1[x]) / (e0 + e1)
+            for j in range(m):
+                x = moving[first + j]
+                cols[j] = x
+                ux[j], uy[j], vx[j], vy[j] = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
+        else:
+            m = w
+            for x in range(w):
+                cols[x] = x
+                ux[x], uy[x], vx[x], vy[x] = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
+        for j in range(m):
+            xs[j] = np.float32(_UP * cols[j]) + off
         yf = np.float32(_UP * y) + off
-        ux, uy, vx, vy = flows[0, y], flows[1, y], flows[2, y], flows[3, y]
         for g in range(n):
             # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
             d00, d01, d10, d11, wa, wb = c00[g], c01[g], c10[g], c11[g], wa_g[g], wb_g[g]
-            for x in range(w):  # sample positions (edge values beyond the image)
-                xf = np.float32(_UP * x) + off
-                fx0[x], fy0[x], k0[x], n0[x] = _position(xf, yf, d00, d01, ux[x], uy[x], vx[x], vy[x], umax, vmax, w)
-                fx1[x], fy1[x], k1[x], n1[x] = _position(xf, yf, d10, d11, ux[x], uy[x], vx[x], vy[x], umax, vmax, w)
-            for x in range(w):  # the gathers; fx0, fy0 then hold the blend weights
-                v0[x] = _bilinear(u0f, k0[x], w2, fx0[x], fy0[x])
-                v1[x] = _bilinear(u1f, k1[x], w2, fx1[x], fy1[x])
-                fx0[x] = wb * (floor - o1f[np.uintp(n1[x])])
-                fy0[x] = wa * (floor - o0f[np.uintp(n0[x])])
+            for j in range(m):  # sample positions (edge values beyond the image)
+                fx0[j], fy0[j], k0[j], n0[j] = _position(xs[j], yf, d00, d01, ux[j], uy[j], vx[j], vy[j], umax, vmax, w)
+                fx1[j], fy1[j], k1[j], n1[j] = _position(xs[j], yf, d10, d11, ux[j], uy[j], vx[j], vy[j], umax, vmax, w)
+            for j in range(m):  # the gathers; fx0, fy0 then hold the blend weights
+                v0[j] = _bilinear(u0f, k0[j], w2, fx0[j], fy0[j])
+                v1[j] = _bilinear(u1f, k1[j], w2, fx1[j], fy1[j])
+                fx0[j] = wb * (floor - o1f[np.uintp(n1[j])])
+                fy0[j] = wa * (floor - o0f[np.uintp(n0[j])])
             row = out[g, y]
-            for x in range(w):
-                row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
-
-
-@njit(cache=True, nogil=True, fastmath=True, inline="always")
-def _sparse_row(u0f, u1f, o0f, o1f, occ0, occ1, flows, centre, moving, row_start, y, c00, c01, c10, c11, wa, wb, i0,
-                i1, m0, m1, fx0, fy0, fx1, fy1, s0, s1, e0, e1, out):
-    """Row y of _warp_blend's out when few of its pixels move: every pixel blended from its samples at the pixel
-    (centre) at each fraction, then each moving pixel warped to every fraction (positions, gathers, blend)."""
-    n, w = c00.size, out.shape[2]
-    h = out.shape[1]
-    w2 = np.int32(_UP * w)
-    floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
-    umax, vmax = np.float32(_UP * w - 1) - np.float32(1e-3), np.float32(_UP * h - 1) - np.float32(1e-3)
-    c0, c1, oc0, oc1 = centre[0, y], centre[1, y], occ0[y], occ1[y]
-    for g in range(n):
-        row, ga, gb = out[g, y], wa[g], wb[g]
-        for x in range(w):
-            k0, k1 = gb * (floor - oc1[x]), ga * (floor - oc0[x])
-            row[x] = (k0 * c0[x] + k1 * c1[x]) / (k0 + k1)
-    yf = np.float32(_UP * y) + off
-    for j in range(row_start[y], row_start[y + 1]):
-        x = moving[j]
-        xf = np.float32(_UP * x) + off
-        ux, uy, vx, vy = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
-        for g in range(n):  # sample positions at every fraction (edge values beyond the image)
-            fx0[g], fy0[g], i0[g], m0[g] = _position(xf, yf, c00[g], c01[g], ux, uy, vx, vy, umax, vmax, w)
-            fx1[g], fy1[g], i1[g], m1[g] = _position(xf, yf, c10[g], c11[g], ux, uy, vx, vy, umax, vmax, w)
-        for g in range(n):  # the gathers
-            s0[g] = _bilinear(u0f, i0[g], w2, fx0[g], fy0[g])
-            s1[g] = _bilinear(u1f, i1[g], w2, fx1[g], fy1[g])
-            e0[g] = o1f[np.uintp(m1[g])]
-            e1[g] = o0f[np.uintp(m0[g])]
-        for g in range(n):
-            k0, k1 = wb[g] * (floor - e0[g]), wa[g] * (floor - e1[g])
-            out[g, y, x] = (k0 * s0[g] + k1 * s1[g]) / (k0 + k1)
+            if m == w:
+                for x in range(w):
+                    row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+            else:
+                for j in range(m):
+                    row[np.uintp(cols[j])] = (fx0[j] * v0[j] + fy0[j] * v1[j]) / (fx0[j] + fy0[j])
 
 
 def radiance_of_log(log: np.ndarray, eps: float, log_to: np.ndarray | None = None,
