@@ -27,6 +27,7 @@ import math
 import platform
 import time
 from collections.abc import Iterable
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -42,6 +43,7 @@ from sim.seeding import as_seed_sequence, child_seed, seed_record
 from .choices import OUTPUTS
 from .dvs_input import MAX_FIXED_SAMPLES, DVSInput
 from .formats.native import NativeWriter, check_compression
+from .sampling import read_ahead
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -472,25 +474,25 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
         # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
         bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
         stack, times, n_fed = [], [], 0
-        samples = iter(sampler)
-        while True:
-            t0 = clock.now()
-            item = next(samples, None)
-            clock.add("scene", t0)  # rendering and step control
-            if item is None:
-                break
-            t, img = item
-            if t in ref_times and "reference" in config.outputs:
-                write("add_reference", img, t + origin)
-                counts["references"] += 1
-            stack.append(img)
-            times.append(t)
-            if len(stack) == chunk:
-                feed(stack, times)
-                n_fed += len(stack)
-                bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
-                bar.update(t - bar.n)
-                stack, times = [], []
+        with closing(read_ahead(sampler, 2 * chunk)) as samples:  # the scene rendered while the DVS runs
+            while True:
+                t0 = clock.now()
+                item = next(samples, None)
+                clock.add("scene", t0)  # waiting for rendering and step control
+                if item is None:
+                    break
+                t, img = item
+                if t in ref_times and "reference" in config.outputs:
+                    write("add_reference", img, t + origin)
+                    counts["references"] += 1
+                stack.append(img)
+                times.append(t)
+                if len(stack) == chunk:
+                    feed(stack, times)
+                    n_fed += len(stack)
+                    bar.set_postfix_str(_rates(t, duration, n_fed, counts["events"], bar), refresh=False)
+                    bar.update(t - bar.n)
+                    stack, times = [], []
         if stack:
             feed(stack, times)
             n_fed += len(stack)

@@ -21,6 +21,9 @@ pairs (one image alive at a time, so memory stays flat) that count the samples t
   frequency): the prediction from two samples one flicker period apart would see no change.
 - FixedRateSampler: a regular grid at rate_hz, plus the end time.
 
+read_ahead runs a sampler on a thread of its own a few samples ahead of its consumer, so that rendering the scene
+overlaps with feeding the DVS.
+
 Times are int64 microseconds, strictly increasing, from t_start_us to t_end_us inclusive, and include every
 time of `breakpoints_us` in that range (e.g. the reference-frame times, so that the DVS state is exact there).
 
@@ -29,8 +32,10 @@ References (docs/models/references.md): Rebecq et al. 2018 [Rebecq2018], Gehrig 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+import queue
+import threading
+from collections.abc import Iterable, Iterator
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -41,6 +46,7 @@ if TYPE_CHECKING:
 
     from sim.source import RadianceSource
 
+T = TypeVar("T")
 # Fraction of the predicted step actually taken, so that a constant rate of change lands below the bound.
 _SAFETY = 0.9
 #: AdaptiveSampler's longest step for a source with max_frequency_hz (a flickering light): this many per period, so
@@ -188,3 +194,60 @@ def make_sampler(source: RadianceSource, mode: str = "adaptive", **kwargs: Any) 
     if mode not in samplers:
         raise InvalidParameterError(f"sampling mode must be one of {sorted(samplers)}, got {mode!r}")
     return samplers[mode](source, **kwargs)
+
+
+def read_ahead(items: Iterable[T], depth: int) -> Iterator[T]:
+    """The items of `items` in order, produced on a thread of their own up to `depth` ahead of the consumer.
+
+    A scene's rendering (numba kernels and OpenCV, which release the GIL) then overlaps with what the consumer does
+    with each sample (the DVS update): both cores stay busy. The thread is the only one iterating `items`. An
+    exception raised by `items` is raised to the consumer at the item where it happened; closing the iterator early
+    (a break, an exception or an interruption in the consumer) stops the thread after its current item.
+
+    Parameters
+    ----------
+    items : iterable
+        What to iterate (a sampler).
+    depth : int
+        The most items held ready, >= 1.
+
+    Yields
+    ------
+    object
+        The items of `items`.
+    """
+    ready: queue.Queue = queue.Queue(maxsize=max(1, int(depth)))
+    stop = threading.Event()
+    end = object()
+
+    def put(entry) -> bool:
+        while not stop.is_set():
+            try:
+                ready.put(entry, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def produce() -> None:
+        try:
+            for item in items:
+                if not put((item, None)):
+                    return
+            put((end, None))
+        except BaseException as e:  # noqa: BLE001 (raised to the consumer)
+            put((end, e))
+
+    thread = threading.Thread(target=produce, name="evsim-samples", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item, error = ready.get()
+            if item is end:
+                if error is not None:
+                    raise error
+                return
+            yield item
+    finally:
+        stop.set()
+        thread.join()

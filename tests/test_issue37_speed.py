@@ -2,7 +2,8 @@
 (sim.dvs_kernels._multi_events) gives the events and state of its general pixel path, dense events are pinned (the
 counts of commit 06d684c, before that path; hashes re-pinned when the filter's J and decay factor went to float32,
 which moved event times by 1-2 us), and
-VideoScene's render-ahead gives the images a plain render gives, key frames made in groups are those made one at a
+a sampler read ahead on a thread of its own (generators.sampling.read_ahead) gives the samples of a plain pass
+and passes on its errors, key frames made in groups are those made one at a
 time, radiance_of_log's exp is float32-exact to one unit in the last place, and its blend between key frames gives
 the exp of the blended log."""
 
@@ -16,7 +17,7 @@ import pytest
 
 import sim
 import sim.dvs_kernels as K
-from generators.sampling import AdaptiveSampler
+from generators.sampling import AdaptiveSampler, read_ahead
 from generators.scenes import Trajectory, VideoScene, builtin_image_scene
 from generators.scenes.flow_interpolation import KEY_GROUP, FlowEstimator, radiance_of_log
 
@@ -126,15 +127,39 @@ def test_keys_made_in_groups_equal_keys_made_one_at_a_time():
         np.testing.assert_array_equal(pair.key(j), alone._synthesise(np.array([j / alone.n_keys]))[0])
 
 
-def test_render_ahead_gives_the_images_of_a_plain_render(tmp_path):
+def test_a_sampler_read_ahead_gives_the_samples_of_a_plain_pass(tmp_path):
     h, w, fps = 48, 64, 24.0
     scene = builtin_image_scene(h, w, 300_001, Trajectory(pan_px_per_s=(120.0, 30.0)))
     clip = tmp_path / "clip.npy"
     np.save(clip, np.stack([scene.radiance(int(t)) for t in np.arange(0, 300_001, 1e6 / fps)]).astype(np.float32))
-    stepping = VideoScene(clip, fps=fps)
-    samples = list(AdaptiveSampler(stepping, threshold=0.2))  # key to key: every image but the first two ahead
-    assert stepping._render_worker is not None and len(samples) > 10
-    plain = VideoScene(clip, fps=fps)
-    for t, img in samples[::-1]:  # backwards: no render-ahead
-        np.testing.assert_array_equal(plain.radiance(t), img)
-    assert plain._render_worker is None
+    ahead = list(read_ahead(AdaptiveSampler(VideoScene(clip, fps=fps), threshold=0.2), 3))
+    plain = list(AdaptiveSampler(VideoScene(clip, fps=fps), threshold=0.2))
+    assert len(ahead) == len(plain) > 10
+    for (t, img), (t_plain, img_plain) in zip(ahead, plain):
+        assert t == t_plain
+        np.testing.assert_array_equal(img, img_plain)
+
+
+def test_read_ahead_raises_the_producers_error_in_order_and_stops_when_closed():
+    def items():
+        yield from range(5)
+        raise ValueError("frame 5 is unreadable")
+
+    got = []
+    with pytest.raises(ValueError, match="frame 5 is unreadable"):
+        for item in read_ahead(items(), 2):
+            got.append(item)
+    assert got == [0, 1, 2, 3, 4]
+    produced = []
+
+    def endless():
+        while True:
+            produced.append(len(produced))
+            yield produced[-1]
+
+    reader = read_ahead(endless(), 4)
+    assert [next(reader) for _ in range(3)] == [0, 1, 2]
+    reader.close()  # the producer stops: it made at most depth + 1 items beyond those taken, and makes no more
+    n = len(produced)
+    assert n <= 3 + 4 + 1
+    assert len(produced) == n

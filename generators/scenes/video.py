@@ -538,12 +538,6 @@ class VideoScene(Scene):
         self._generation = 0  # passes over the clip (restarts)
         self._worker: ThreadPoolExecutor | None = None
         self._ahead: Future | None = None  # the look-ahead's pair
-        # the render-ahead: while the caller feeds a key frame to the DVS, the next key frame is rendered on a
-        # thread of its own (see _render): (time, generation, Future) of the image rendered ahead, and the time
-        # at which a call continues stepping from key to key
-        self._render_worker: ThreadPoolExecutor | None = None
-        self._rendered_ahead: tuple[int, int, Future] | None = None
-        self._next_key_us: int | None = None
         self._restart()
 
     @property
@@ -692,29 +686,6 @@ class VideoScene(Scene):
 
     # ----- the radiance source -------------------------------------------------------------------------
     def _render(self, t_us):
-        """The radiance at t_us. With flow upsampling, a call at the key frame after the previous call's (the adaptive
-        sampler stepping from key to key) also starts rendering the next key frame on a thread of its own, so that
-        the interpolation overlaps with the caller's DVS update (both cores busy); the next call takes it when it
-        asks for that time, else it is not used."""
-        if self.upsample != "flow":
-            return self._render_now(t_us)
-        ahead, self._rendered_ahead = self._rendered_ahead, None
-        if ahead is not None and ahead[0] == t_us and ahead[1] == self._generation:
-            img = ahead[2].result()
-        else:
-            if ahead is not None:
-                ahead[2].cancel()
-            img = self._render_now(t_us)
-        stepping = self._next_key_us == t_us
-        self._next_key_us = self.log_linear_until(t_us) if t_us < self.duration_us else None
-        if stepping and self._next_key_us is not None:
-            if self._render_worker is None:
-                self._render_worker = ThreadPoolExecutor(1, thread_name_prefix="evsim-render")
-            t_next, generation = self._next_key_us, self._generation
-            self._rendered_ahead = (t_next, generation, self._render_worker.submit(self._render_now, t_next))
-        return img
-
-    def _render_now(self, t_us):
         n = self.times.size
         k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
         a = (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
