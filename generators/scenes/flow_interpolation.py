@@ -437,7 +437,7 @@ def _bilinear(u, k, w2, fx, fy):
     return t0 + fy * (t1 - t0)
 
 
-@njit(cache=True, nogil=True, fastmath=True)
+@njit(cache=True, nogil=True, fastmath=True, error_model="numpy")  # (no zero check: vectorised divisions)
 def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_start, y0, y1, out):
     """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
     docstring), for every g: frame i's log radiance sampled bilinearly on up_i (upsampled _UP times, float32
