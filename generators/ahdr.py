@@ -459,15 +459,17 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
         getattr(writer, method)(*args)
         clock.add("writing", t0)
 
+    chunk = max(2, _CHUNK_PIXEL_SAMPLES // (writer.height * writer.width))
+    block = np.empty((chunk, writer.height, writer.width), np.float32)  # reused: a new one each time costs page faults
+
     def feed(stack, times):
         t0 = clock.now()
-        out = dvs.feed(np.stack(stack), np.asarray(times, dtype=np.int64))
+        out = dvs.feed(np.stack(stack, out=block[:len(stack)]), np.asarray(times, dtype=np.int64))
         clock.add("dvs", t0)
         events, labels = dvs_input.scene_events(*(out if config.labels else (out, None)))
         write("add_events", events, labels)
         counts["events"] += events.size
 
-    chunk = max(2, _CHUNK_PIXEL_SAMPLES // (writer.height * writer.width))
     # over scene time (its ETA is the run's), showing the DVS input frames and events per second of wall time
     with tqdm(total=duration, desc="events", disable=not progress, leave=False,
               bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:

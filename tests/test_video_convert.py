@@ -239,6 +239,13 @@ def test_bad_inputs_get_clear_errors(tmp_path):
     with pytest.raises(sim.EvsimInputError, match="holds both videos and images"):
         _write_video(folder / "v.avi", np.zeros((2, 10, 12), np.uint8))
         clips(folder)
+    stack = np.ones((4, 10, 12), np.float32)
+    stack[2, 3, 4] = np.nan  # VideoScene checks its frames as they are decoded, not its renders (renders_finite)
+    np.save(tmp_path / "nan.npy", stack)
+    scene = VideoScene(tmp_path / "nan.npy", fps=10)
+    assert np.all(np.isfinite(scene.radiance(50_000)))  # frames 0 and 1
+    with pytest.raises(DatasetFormatError, match="frame 2: image holds NaN"):
+        scene.radiance(150_000)
 
 
 def test_cli_reports_bad_input_with_exit_code_2(tmp_path, capsys):

@@ -21,6 +21,9 @@ class Scene:
     height: int
     width: int
     duration_us: int
+    #: True for a scene whose renders are finite by construction, its inputs checked where they enter (a video's
+    #: frames as they are decoded): radiance() then skips its pass over every image
+    renders_finite: bool = False
 
     def __init_subclass__(cls, **kwargs):
         """Every scene's constructor ends with a check that its numeric parameters (_params()) are finite: a NaN
@@ -62,7 +65,8 @@ class Scene:
                 f"{type(self).__name__}: t_us={t_us} is outside the source's time range [0, {self.duration_us}] us"
             )
         img = np.ascontiguousarray(self._render(int(t_us)), dtype=np.float32)
-        if img.size and not img.max() < np.inf:  # NaN (max propagates it) or beyond float32 (3.4e38)
+        # NaN (max propagates it) or beyond float32 (3.4e38)
+        if not self.renders_finite and img.size and not img.max() < np.inf:
             raise InvalidParameterError(f"{type(self).__name__}: the radiance at t={t_us} us is not finite (NaN, or "
                                         "beyond float32's 3.4e38): check the scene's parameters")
         return img

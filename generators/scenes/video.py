@@ -460,6 +460,10 @@ class VideoScene(Scene):
     a recording's first mid-exposure): generation writes its times from there.
     """
 
+    # frames are checked as they are decoded (to_luminance; an exposure ratio of recorded frames, integer codes, keeps
+    # them far below float32's limit) and the blends' exp is clamped: radiance() need not check each render
+    renders_finite = True
+
     def __init__(self, path: str | Path, *, height: int | None = None, width: int | None = None,
                  fps: float | None = None, timestamps: str | Path | None = None, start_s: float = 0.0,
                  stop_s: float | None = None, upsample: str = "flow", flow: str = "dis", flow_preset: str = "medium",
@@ -645,7 +649,13 @@ class VideoScene(Scene):
                 raw = next(self._raw, None)
                 if raw is None:
                     raise fail(self.path, f"the input ended before frame {self._first + self._next}")
-                self._window[self._next] = self._process(raw, self._next, self._conditioner)
+                try:
+                    self._window[self._next] = self._process(raw, self._next, self._conditioner)
+                except BaseException:
+                    # the stream is past a frame it could not use: the next request decodes from the start again
+                    # (and fails at this frame again), so that no later frame takes its place
+                    self._restart()
+                    raise
                 self._next += 1
                 while len(self._window) > 3:
                     self._window.pop(min(self._window))
