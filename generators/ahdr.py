@@ -26,8 +26,7 @@ import importlib.metadata
 import math
 import platform
 import time
-from collections.abc import Callable, Iterable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Iterable
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -451,35 +450,17 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
              ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
     """The DVS pass: the scene's samples fed to the DVS in chunks (about 16 MB of radiance each), its events and
     the reference images written as they come (every reference time is a sampler breakpoint: the image the pass
-    rendered there is the reference). Three threads: the scene's samples are rendered ahead (read_ahead), the DVS
-    runs on this one, and the writes run in order on one of their own, at most two behind (a write's error is
-    raised here at the next write or at the end)."""
-    with ThreadPoolExecutor(1, thread_name_prefix="evsim-write") as writing:
-        pending: list = []
-
-        def timed_write(method, *args):
-            t0 = clock.now()
-            getattr(writer, method)(*args)
-            clock.add("writing", t0)
-
-        def write(method, *args):
-            pending.append(writing.submit(timed_write, method, *args))
-            while len(pending) > 2:
-                pending.pop(0).result()
-
-        _feed_dvs(write, dvs, dvs_input, sampler, config, ref_times, counts, clock, progress)
-        for job in pending:
-            job.result()
-
-
-def _feed_dvs(write: Callable, dvs: sim.DVSEmulator, dvs_input: DVSInput, sampler: Iterator, config: AHDRConfig,
-              ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
-    """_run_dvs's loop over the samples, with write(method, *args) calling the writer's method."""
+    rendered there is the reference)."""
     duration = int(dvs_input.source.duration_us)
     origin = dvs_input.time_origin_us
 
-    chunk = max(2, _CHUNK_PIXEL_SAMPLES // (dvs.height * dvs.width))
-    block = np.empty((chunk, dvs.height, dvs.width), np.float32)  # reused: a new one each time costs page faults
+    def write(method, *args):
+        t0 = clock.now()
+        getattr(writer, method)(*args)
+        clock.add("writing", t0)
+
+    chunk = max(2, _CHUNK_PIXEL_SAMPLES // (writer.height * writer.width))
+    block = np.empty((chunk, writer.height, writer.width), np.float32)  # reused: a new one each time costs page faults
 
     def feed(stack, times):
         t0 = clock.now()
