@@ -23,7 +23,7 @@ PACKAGES = ("crf_models", "sim", "akf", "generators", "evsim_eval", "evsim_app")
 
 def _unannotated(path: Path) -> list[str]:
     """Public functions and methods of public classes in path with a parameter or the return unannotated (numba
-    kernels excepted: their types come from the call)."""
+    kernels and intrinsics excepted: their types come from the call)."""
     out = []
 
     def visit(body, owner=""):
@@ -31,7 +31,7 @@ def _unannotated(path: Path) -> list[str]:
             if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
                 visit(node.body, f"{node.name}.")
             elif isinstance(node, ast.FunctionDef) and (not node.name.startswith("_") or node.name == "__init__"):
-                if any("jit" in ast.unparse(d) for d in node.decorator_list):
+                if any(k in ast.unparse(d) for d in node.decorator_list for k in ("jit", "intrinsic")):
                     continue
                 a = node.args
                 params = [p for p in [*a.posonlyargs, *a.args, *a.kwonlyargs, a.vararg, a.kwarg]
