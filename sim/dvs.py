@@ -160,6 +160,12 @@ class DVSEmulator:
         return self._t
 
     @property
+    def dark_level(self) -> float:
+        """The dark level added to radiance before the log response: dark_fraction x full_illumination (radiance
+        units); feed_log takes log(radiance + dark_level)."""
+        return float(self._scal[K.SC_DARK])
+
+    @property
     def threshold_map(self) -> np.ndarray:
         """(2, H, W) float32 per-pixel contrast thresholds [C_on, C_off] (positive, log units)."""
         return np.stack((self._fixed[K.FX_C_ON], self._fixed[K.FX_C_OFF])).astype(np.float32)
@@ -221,15 +227,43 @@ class DVSEmulator:
             With return_labels: their uint8 labels (EVENT_LABELS: signal, shot, leak, hot), as (events, labels).
         """
         frames, times = self._check_input(radiance, t_us)
+        return self._feed(frames, times, log_in=False)
+
+    def feed_log(self, log_radiance: npt.ArrayLike,
+                 t_us: int | npt.ArrayLike) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """feed() for input that is already the log response: log(radiance + dark_level), as a scene that
+        interpolates in log space holds it (the video conversion's key frames). It saves the emulator's log (a
+        fifth of its per-pixel cost) and the scene's exp; the photocurrent is its float32 exp. Calls of feed and
+        feed_log may alternate.
+
+        Parameters
+        ----------
+        log_radiance : array_like
+            (H, W) or (N, H, W) float32 natural log of (radiance + dark_level), finite, at least log(dark_level)
+            (values up to 1e-5 below it, float32 rounding, are taken as radiance 0).
+        t_us : int or array_like of int
+            As for feed().
+
+        Returns
+        -------
+        events : numpy.ndarray
+            As for feed().
+        labels : numpy.ndarray
+            As for feed().
+        """
+        frames, times = self._check_input(log_radiance, t_us, log_in=True)
+        return self._feed(frames, times, log_in=True)
+
+    def _feed(self, frames: np.ndarray, times: np.ndarray, log_in: bool):
         if self._t is None:
-            self._initialise(frames[0], int(times[0]))
+            self._initialise(frames[0], int(times[0]), log_in)
             frames, times = frames[1:], times[1:]
         per_block = max(1, _BLOCK_PIXEL_FRAMES // (self.height * self.width))
         plans, i = [], 0
         while i < len(times):
             # until the event rate is known, a short block measures it (it sizes the event buffers)
             m = per_block if self._row_rate is not None else min(per_block, 4)
-            plans.append(self._run(frames[i:i + m], times[i:i + m], fresh=bool(plans)))
+            plans.append(self._run(frames[i:i + m], times[i:i + m], log_in, fresh=bool(plans)))
             i += m
         # every block's events gathered into one array (no copy to join them)
         total = sum(int(plan[5][-1]) for plan in plans)
@@ -242,11 +276,14 @@ class DVSEmulator:
             done += n_out
         return (events, labels) if self.return_labels else events
 
-    def _check_input(self, radiance, t_us):
+    def _check_input(self, radiance, t_us, log_in: bool = False):
         frames = np.asarray(radiance)
+        what = "log_radiance" if log_in else "radiance"
         if frames.dtype.kind not in "fiu":
-            raise EvsimInputError(f"radiance must be a real float (or integer) array, got dtype {frames.dtype}")
-        if frames.dtype not in (np.float32, np.float64):  # integers, float16, other byte orders
+            raise EvsimInputError(f"{what} must be a real float (or integer) array, got dtype {frames.dtype}")
+        if log_in:  # (float32: the kernels' exp of it is float32)
+            frames = frames.astype(np.float32, copy=False)
+        elif frames.dtype not in (np.float32, np.float64):  # integers, float16, other byte orders
             frames = frames.astype(np.float32 if frames.dtype.itemsize <= 2 else np.float64)
         times = np.asarray(t_us)
         if times.dtype.kind not in "iu":
@@ -256,13 +293,13 @@ class DVSEmulator:
             frames, times = frames[None], times[None]
         elif not (frames.ndim == 3 and times.ndim == 1 and len(times) == len(frames)):
             raise EvsimInputError(
-                f"expected a frame {hw} with a scalar time or a stack (N, *{hw}) with times (N,), got radiance "
+                f"expected a frame {hw} with a scalar time or a stack (N, *{hw}) with times (N,), got {what} "
                 f"shape {frames.shape} and t_us shape {times.shape}"
             )
         if len(frames) == 0:
             raise EvsimInputError("no frames given")
         if frames.shape[1:] != hw:
-            raise EvsimInputError(f"radiance frames must be {hw}, got {frames.shape[1:]}")
+            raise EvsimInputError(f"{what} frames must be {hw}, got {frames.shape[1:]}")
         times = check_times_us(times)
         if len(times) > 1:
             steps = np.diff(times)
@@ -281,27 +318,36 @@ class DVSEmulator:
                                         f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
         valid = [True]
+        lowest = np.log(self.dark_level) - 1e-5 if log_in else 0.0  # (float32 rounding of log(0 + dark))
 
         def check(a, b):
-            valid.append(K.frames_valid(frames[a:b]))
+            valid.append(K.frames_valid(frames[a:b], lowest))
 
         if len(frames) * frames[0].size <= 1 << 18:
             check(0, len(frames))
         else:
             in_parallel(check, len(frames), max(1, (1 << 18) // frames[0].size))
         if not all(valid):
-            for what, bad in (("NaN", np.isnan), ("infinite", np.isinf), ("negative", lambda a: a < 0)):
+            below = f"below log(dark_level) = {lowest + 1e-5:.6g} (negative radiance)" if log_in else "negative"
+            for kind, bad in (("NaN", np.isnan), ("infinite", np.isinf), (below, lambda a: a < lowest)):
                 idx = np.argwhere(bad(frames))
                 if idx.size:
                     k, y, x = idx[0]
-                    raise EvsimInputError(f"radiance has {what} values, first in frame {k} at (y={y}, x={x})")
+                    raise EvsimInputError(f"{what} has {kind} values, first in frame {k} at (y={y}, x={x})")
         return frames, times
 
-    def _initialise(self, frame: np.ndarray, t: int) -> None:
+    def _initialise(self, frame: np.ndarray, t: int, log_in: bool) -> None:
         shape = (self.height, self.width)
-        cur = frame.astype(np.float64) + self._scal[K.SC_DARK]
         logi = np.empty(shape)  # the kernels' log response, so that a pixel back at its first level is at it
-        K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))
+        if log_in:  # as emulate_rows reads log input
+            dark = self.dark_level
+            current = np.empty(frame.size, np.float32)
+            K.exp_minus_row_f32(frame.ravel(), np.float32(0.0), np.empty(frame.size, np.int32), current)
+            cur = np.maximum(current.astype(np.float64), dark).reshape(shape)
+            logi[:] = (np.maximum(frame.astype(np.float64), np.log(dark)) + K.LOG_ROUND) - K.LOG_ROUND
+        else:
+            cur = frame.astype(np.float64) + self._scal[K.SC_DARK]
+            K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))
         # random leak phase: as if the reference had been reset a uniform fraction of a leak period ago
         drift = self._fixed[K.FX_DRIFT]
         since = np.divide(self._leak_phase * self._fixed[K.FX_C_ON], drift, out=np.zeros(shape), where=drift > 0)
@@ -318,10 +364,10 @@ class DVSEmulator:
         })
         self._t = t
 
-    def _run(self, frames: np.ndarray, times: np.ndarray, fresh: bool = False) -> tuple:
-        """Advance all rows through a block of frames; return the plan of its gather (see _gather): buffers, spill,
-        row offsets, interval plan, times, row parts and counts. fresh: in an event buffer of its own (the reused one
-        holds an earlier block's events, not gathered yet)."""
+    def _run(self, frames: np.ndarray, times: np.ndarray, log_in: bool, fresh: bool = False) -> tuple:
+        """Advance all rows through a block of frames (radiance, or its log response with log_in); return the plan
+        of its gather (see _gather): buffers, spill, row offsets, interval plan, times, row parts and counts. fresh:
+        in an event buffer of its own (the reused one holds an earlier block's events, not gathered yet)."""
         h, n = self.height, len(times)
         cap = int((self._row_rate or 0.02 * self.width) * n * 1.5) + 16
         buf = np.empty(h * cap, dtype=np.int64) if fresh else self._buffers(h * cap)
@@ -336,7 +382,7 @@ class DVSEmulator:
         shape = (parts.size - 1, int(bins[0]))
         counted = n == 1 and shape[0] * shape[1] <= 2 * h * cap + 1024
         counts = np.zeros(shape if counted else (0, 0), dtype=np.int64)
-        spills = self._emulate(frames, times, t_prev, cap, buf, ends, parts, counts, t_base)
+        spills = self._emulate(frames, times, t_prev, cap, buf, ends, parts, counts, t_base, log_in)
         offsets, src_b, buf_b = self._rows * cap, np.zeros(h, dtype=np.bool_), buf
         over = np.flatnonzero(ends[:, -1] > cap)
         if over.size:  # rows that outgrew their buffer have all their events in the parts' spills
@@ -366,7 +412,7 @@ class DVSEmulator:
 
         in_parallel(gather, len(times), 1 if len(times) < 8 else 4, per_thread=_PARTS_PER_THREAD)
 
-    def _emulate(self, frames, times, t_prev, cap, buf, ends, parts, counts, t_base) -> dict:
+    def _emulate(self, frames, times, t_prev, cap, buf, ends, parts, counts, t_base, log_in) -> dict:
         """K.emulate_rows over the parts of the rows (bounds `parts`) on the numba threads (row y's events at
         buf[y * cap:]), part p counting its events in counts[p] (when counts has rows).
 
@@ -377,7 +423,8 @@ class DVSEmulator:
         def block(a, b):
             c = counts[index[a]] if counts.shape[0] else empty
             spills[a] = _returning_arrays(K.emulate_rows, frames, times, t_prev, rows[a:b], cap, self._state,
-                                          self._fixed, self._scal, buf[a * cap:b * cap], ends[a:b], c, t_base)
+                                          self._fixed, self._scal, buf[a * cap:b * cap], ends[a:b], c, t_base,
+                                          log_in)
 
         in_parallel(block, rows.size, 1, bounds=parts.tolist())
         return spills

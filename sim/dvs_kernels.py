@@ -18,7 +18,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from .events import EVENT_DTYPE
-from .kernel_math import GOLDEN, expm1_row_f32, log_row, mix64, stable_argsort
+from .kernel_math import GOLDEN, exp_minus_row_f32, expm1_row_f32, log_row, mix64, stable_argsort
 
 NO_EVENT_US = np.iinfo(np.int64).min  # last_event_us of a pixel that has not fired yet
 LABEL_SIGNAL, LABEL_SHOT, LABEL_LEAK, LABEL_HOT = 0, 1, 2, 3
@@ -81,7 +81,7 @@ _EV_SIZE = EVENT_DTYPE.itemsize
 _TWO_STORES = (sys.byteorder == "little" and _EV_SIZE == 13
                and [EVENT_DTYPE.fields[f][1] for f in "txyp"] == [0, 8, 10, 12])
 LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
-_LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+LOG_ROUND = 1.5 * 2.0**20  # (x + LOG_ROUND) - LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
 
 
 @njit(cache=True, inline="always")
@@ -116,7 +116,7 @@ def log_response(a, bits, out):
     """
     log_row(a, bits, out)
     for i in range(a.size):
-        out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
+        out[i] = (out[i] + LOG_ROUND) - LOG_ROUND
 
 
 @njit(cache=True)
@@ -143,8 +143,8 @@ def _drop_arrivals(budget, rate, duration, pixel_key, counter):
 
 
 @njit(cache=True, nogil=True)
-def frames_valid(frames):
-    """True when every sample is finite and >= 0 (NaN fails both comparisons)."""
+def frames_valid(frames, lowest):
+    """True when every sample is finite and >= lowest (NaN fails both comparisons)."""
     n, h, w = frames.shape
     ok = np.empty(n * h, dtype=np.bool_)
     for i in range(n * h):
@@ -152,7 +152,7 @@ def frames_valid(frames):
         row_ok = True
         for x in range(w):
             v = frames[k, y, x]
-            row_ok &= (v >= 0.0) & (v < np.inf)
+            row_ok &= (v >= lowest) & (v < np.inf)
         ok[i] = row_ok
     n_bad = 0
     for i in range(n * h):
@@ -161,8 +161,10 @@ def frames_valid(frames):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends, t_counts, t_base):
-    """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev.
+def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends, t_counts, t_base, log_in):
+    """Advance the listed rows through frames (N, H, W) at times (N,) us, starting from time t_prev: radiance, or with
+    log_in float32 log(radiance + SC_DARK) (clamped to log(SC_DARK) from below; its exp, within one float32 ulp, is
+    the photocurrent).
 
     state, fixed, scal: tuples of the per-pixel state (updated in place), the per-pixel fixed pattern and the
         scalars, with the slots ST_*, FX_* and SC_* above.
@@ -208,6 +210,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                           np.empty(F * w, dtype=np.float32))
     inv_dark2 = 1.0 / (dark * dark)
     bits, bits32 = np.empty(F * w, dtype=np.int64), np.empty(F * w, dtype=np.int32)
+    e_ch = np.empty(F * w if log_in else 0, dtype=np.float32)  # log input: its exp
+    log_dark, zero32 = math.log(dark), np.float32(0.0)
     zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
     spill = _grown(out, zero, zero, zero)  # the spill, empty
     sp_n = zero
@@ -228,15 +232,26 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                     hf = float(times[k + kk] - tk)
                     tk = times[k + kk]
                     q_dark = np.float32(-k_cut * hf * dark)
+                    if log_in:
+                        exp_minus_row_f32(frames[k + kk, y], zero32, bits32[o:o + w], e_ch[o:o + w])
+                        for x in range(w):
+                            v = float(frames[k + kk, y, x])
+                            v = v if v > log_dark else log_dark
+                            l_ch[o + x] = (v + LOG_ROUND) - LOG_ROUND  # (log_response's grid)
+                            c = float(e_ch[o + x])
+                            c_ch[o + x] = c if c > dark else dark
+                    else:
+                        for x in range(w):
+                            c_ch[o + x] = float(frames[k + kk, y, x]) + dark
                     for x in range(w):
-                        c = float(frames[k + kk, y, x]) + dark
-                        c_ch[o + x] = c
+                        c = c_ch[o + x]
                         # J / I_d (>= 1) for the interval's geometric-mean photocurrent J: float32 without underflow
                         jr = np.sqrt(np.float32(cur[y, x] * c * inv_dark2))
                         ij_ch[o + x] = np.float32(1.0) / jr  # (one division serves the filter and the noise rate)
                         q_ch[o + x] = q_dark * jr
                         cur[y, x] = c
-                log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
+                if not log_in:
+                    log_response(c_ch[:nk * w], bits[:nk * w], l_ch[:nk * w])
                 if k_cut > 0.0:  # distinct in/out arrays: aliasing would prevent vectorisation
                     expm1_row_f32(q_ch[:nk * w], bits32[:nk * w], em_ch[:nk * w])
             o = (k % F) * w

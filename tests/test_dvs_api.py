@@ -366,3 +366,37 @@ def test_emulator_runs_in_a_forked_child_after_the_parent_used_its_threads():
     with multiprocessing.get_context("fork").Pool(1) as pool:
         child = pool.map_async(_emulate_small, [0]).get(timeout=120)[0]
     assert child == parent
+
+
+def test_log_input_gives_the_events_of_radiance_input_and_mixes_with_it():
+    """feed_log(log(radiance + dark_level)) is feed(radiance) with the log taken (float32 input, its exp the
+    photocurrent: within a float32 ulp of it), so nearly every event is the same; the two may alternate."""
+    frames, times = moving_scene(n=120)
+    frames = frames * 50
+    params = sim.DVSParams.preset("noisy", full_illumination=float(frames.max()))
+    plain = sim.DVSEmulator(H, W, params, 3, return_labels=True)
+    events, labels = plain.feed(frames, times)
+    logs = np.log(frames.astype(np.float64) + plain.dark_level).astype(np.float32)
+    mixed = sim.DVSEmulator(H, W, params, 3, return_labels=True)
+    parts = [mixed.feed_log(logs[:50], times[:50]), mixed.feed(frames[50:80], times[50:80]),
+             mixed.feed_log(logs[80:], times[80:])]
+    got = np.concatenate([p[0] for p in parts])
+    assert events.size > 2000 and abs(got.size / events.size - 1) < 2e-3
+    same = np.isin(events[["t", "x", "y", "p"]], got[["t", "x", "y", "p"]])
+    assert same.mean() > 0.995
+    np.testing.assert_allclose(mixed.log_intensity, plain.log_intensity, atol=1e-6)
+
+
+def test_log_input_errors_name_the_log():
+    dvs = sim.DVSEmulator(H, W, sim.DVSParams(full_illumination=10.0), 0)
+    good = np.full((H, W), np.log(5.0 + dvs.dark_level), np.float32)
+    bad = good.copy()
+    bad[2, 3] = np.nan
+    with pytest.raises(sim.EvsimInputError, match=r"log_radiance has NaN values, first in frame 0 at \(y=2, x=3\)"):
+        dvs.feed_log(bad, 0)
+    bad[2, 3] = np.log(dvs.dark_level) - 0.01
+    with pytest.raises(sim.EvsimInputError, match=r"below log\(dark_level\).*negative radiance"):
+        dvs.feed_log(bad, 0)
+    bad[2, 3] = np.log(dvs.dark_level) - 1e-6  # float32 rounding of log(0 + dark_level): radiance 0
+    dvs.feed_log(bad, 0)
+    assert dvs.time_us == 0
