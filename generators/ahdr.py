@@ -322,6 +322,13 @@ class _TimedSource:
         self.seconds = (self.seconds[0] + w1 - w0, self.seconds[1] + c1 - c0)
         return img
 
+    def offset_log(self, t_us, offset):
+        w0, c0 = _Clock.now()
+        img = self._source.offset_log(t_us, offset)
+        w1, c1 = _Clock.now()
+        self.seconds = (self.seconds[0] + w1 - w0, self.seconds[1] + c1 - c0)
+        return img
+
     def max_speed_px_per_s(self):
         return self._source.max_speed_px_per_s()
 
@@ -401,9 +408,10 @@ def generate_ahdr(scene: RadianceSource, path: str | Path, config: AHDRConfig | 
         writer.set_crf(meta["crf"])
         if config.threshold_maps:
             writer.set_threshold_maps(dvs.threshold_map)
-        sampler = dvs_input.sampler()
-        _run_dvs(writer, dvs, dvs_input, sampler, config, set(refs) | set(schedule[:, 1].tolist()), counts, clock,
-                 progress)
+        log_in = _holds_the_log_response(scene, dvs, dvs_input)
+        sampler = dvs_input.sampler(dvs.dark_level if log_in else None)
+        _run_dvs(writer, dvs, dvs_input, sampler, log_in, config, set(refs) | set(schedule[:, 1].tolist()), counts,
+                 clock, progress)
         rendered_for_dvs = src.seconds
         if "frames" in config.outputs:
             _run_camera(writer, camera, src, len(schedule), dvs_input.time_origin_us, counts, clock, progress)
@@ -446,11 +454,20 @@ def _metadata(scene: RadianceSource, config: AHDRConfig, ss: np.random.SeedSeque
     }
 
 
-def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sampler: Iterator, config: AHDRConfig,
-             ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
-    """The DVS pass: the scene's samples fed to the DVS in chunks (about 16 MB of radiance each), its events and
-    the reference images written as they come (every reference time is a sampler breakpoint: the image the pass
-    rendered there is the reference)."""
+def _holds_the_log_response(scene: RadianceSource, dvs: sim.DVSEmulator, dvs_input: DVSInput) -> bool:
+    """Whether the scene holds the DVS's log response, log(radiance + dark level), without an exp (has_log_at the
+    dark level): the pass then samples it (offset_log; the adaptive sampler only in log-linear pieces) and feeds it
+    to DVSEmulator.feed_log."""
+    return (getattr(scene, "has_log_at", lambda offset: False)(dvs.dark_level)
+            and (dvs_input.mode == "fixed" or getattr(scene, "log_linear_until", None) is not None))
+
+
+def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sampler: Iterator, log_in: bool,
+             config: AHDRConfig, ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
+    """The DVS pass: the scene's samples (its radiance, or with log_in its log response) fed to the DVS in chunks
+    (about 16 MB each), its events and the reference images written as they come (every reference time is a
+    sampler breakpoint: the image the pass rendered there is the reference, or with log_in the radiance rendered
+    there beside it)."""
     duration = int(dvs_input.source.duration_us)
     origin = dvs_input.time_origin_us
 
@@ -464,7 +481,8 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
 
     def feed(stack, times):
         t0 = clock.now()
-        out = dvs.feed(np.stack(stack, out=block[:len(stack)]), np.asarray(times, dtype=np.int64))
+        out = (dvs.feed_log if log_in else dvs.feed)(np.stack(stack, out=block[:len(stack)]),
+                                                    np.asarray(times, dtype=np.int64))
         clock.add("dvs", t0)
         events, labels = dvs_input.scene_events(*(out if config.labels else (out, None)))
         write("add_events", events, labels)
@@ -476,16 +494,23 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
         # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
         bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
         stack, times, n_fed = [], [], 0
-        with closing(read_ahead(sampler, 2 * chunk)) as samples:  # the scene rendered while the DVS runs
+        references = "reference" in config.outputs
+
+        def with_references():  # (on read_ahead's thread: the only one rendering the scene meanwhile)
+            for t, img in sampler:
+                reference = references and t in ref_times
+                yield t, img, (dvs_input.source.radiance(t) if log_in else img) if reference else None
+
+        with closing(read_ahead(with_references(), 2 * chunk)) as samples:  # rendered while the DVS runs
             while True:
                 t0 = clock.now()
                 item = next(samples, None)
                 clock.add("scene", t0)  # waiting for rendering and step control
                 if item is None:
                     break
-                t, img = item
-                if t in ref_times and "reference" in config.outputs:
-                    write("add_reference", img, t + origin)
+                t, img, reference = item
+                if reference is not None:
+                    write("add_reference", reference, t + origin)
                     counts["references"] += 1
                 stack.append(img)
                 times.append(t)

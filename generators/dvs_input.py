@@ -139,15 +139,22 @@ class DVSInput:
         self.warm_up_us = min(int(getattr(scene, "warm_up_us", 0)), duration)
         self.time_origin_us = int(getattr(scene, "time_origin_us", 0))
 
-    def sampler(self) -> Iterator[tuple[int, np.ndarray]]:
+    def sampler(self, log_offset: float | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """The sampler over the whole scene, from t = 0 to the end, with the breakpoints.
+
+        Parameters
+        ----------
+        log_offset : float, optional
+            Sample log(radiance + log_offset) (the source's offset_log) instead of radiance.
 
         Returns
         -------
         iterator of (int, numpy.ndarray)
-            (t_us, radiance) pairs: scene time (us) and (H, W) float32 linear radiance; its n_samples counts them.
+            (t_us, image) pairs: scene time (us) and (H, W) float32 linear radiance (or its log); its n_samples
+            counts them.
         """
-        return make_sampler(self.source, self.mode, breakpoints_us=self.breakpoints_us, **self.options)
+        return make_sampler(self.source, self.mode, breakpoints_us=self.breakpoints_us, log_offset=log_offset,
+                            **self.options)
 
     def warm_up(self) -> tuple[list, np.ndarray]:
         """The warm-up input (warm_up_input over the scene's first warm_up_us); ([], empty) without a warm-up.

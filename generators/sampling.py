@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import queue
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
@@ -80,13 +80,15 @@ class AdaptiveSampler:
 
     threshold: the DVS contrast threshold (natural-log units); fraction: its share allowed between samples
     (0 < fraction <= 1); min_step_us, max_step_us: step bounds (microseconds); log_eps: the offset in log(I + eps),
-    in radiance units (use the DVS's dark level). After iteration: n_samples (yielded), n_evaluations (radiance
-    calls, including rejected trials) and n_at_min_step (steps accepted at min_step_us although above the bound).
+    in radiance units (use the DVS's dark level); log_offset: yield log(radiance + log_offset) (the source's
+    offset_log; sources with log_linear_until only) instead of radiance. After iteration: n_samples (yielded),
+    n_evaluations (renders, including rejected trials) and n_at_min_step (steps accepted at min_step_us although
+    above the bound).
     """
 
     def __init__(self, source: RadianceSource, *, threshold: float, fraction: float = 0.5, min_step_us: int = 10,
                  max_step_us: int = 10_000, log_eps: float = 1e-4, t_start_us: int = 0, t_end_us: int | None = None,
-                 breakpoints_us: ArrayLike = (), quantile: float = 1.0):
+                 breakpoints_us: ArrayLike = (), quantile: float = 1.0, log_offset: float | None = None):
         if not threshold > 0 or not 0 < fraction <= 1:
             raise InvalidParameterError(f"need threshold > 0 and 0 < fraction <= 1, got threshold={threshold!r}, "
                                         f"fraction={fraction!r}")
@@ -108,6 +110,10 @@ class AdaptiveSampler:
         self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
         self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)
         self.n_samples = self.n_evaluations = self.n_at_min_step = 0
+        if log_offset is not None and getattr(source, "log_linear_until", None) is None:
+            raise InvalidParameterError("log_offset: log samples need a source that is log-linear between known "
+                                        "times (log_linear_until): the step control of other sources reads radiance")
+        self._sample = _sample_of(source, log_offset)
 
     def _log(self, img: np.ndarray) -> np.ndarray:
         if self.quantile < 1 and min(img.shape) > 1:
@@ -124,13 +130,13 @@ class AdaptiveSampler:
     def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
         self.n_samples = self.n_evaluations = self.n_at_min_step = 0
         t = self.t_start
-        img = self.source.radiance(t)
-        log_prev = self._log(img)
+        linear_until = getattr(self.source, "log_linear_until", None)
+        img = self._sample(t)
+        log_prev = self._log(img) if linear_until is None else None
         self.n_evaluations += 1
         self.n_samples += 1
         yield t, img
         rate = None  # largest per-pixel |dL/dt| seen between the last two samples, per microsecond
-        linear_until = getattr(self.source, "log_linear_until", None)
         while t < self.t_end:
             dt = (self.max_step if not rate
                   else int(np.clip(_SAFETY * self.max_change / rate, self.min_step, self.max_step)))
@@ -139,7 +145,7 @@ class AdaptiveSampler:
             if linear_until is not None:  # a log-linear piece: step to its end (or a breakpoint), no bound check
                 dt = min(max(int(linear_until(t)) - t, 1), self.max_step, to_break)
                 t += dt
-                img = self.source.radiance(t)
+                img = self._sample(t)
                 self.n_evaluations += 1
                 self.n_samples += 1
                 yield t, img
@@ -164,10 +170,10 @@ class AdaptiveSampler:
 
 class FixedRateSampler:
     """Samples of `source` every round(1e6 / rate_hz) microseconds from t_start_us, at the breakpoints, and at
-    t_end_us."""
+    t_end_us; with log_offset, log(radiance + log_offset) (the source's offset_log) instead of radiance."""
 
     def __init__(self, source: RadianceSource, *, rate_hz: float, t_start_us: int = 0, t_end_us: int | None = None,
-                 breakpoints_us: ArrayLike = ()):
+                 breakpoints_us: ArrayLike = (), log_offset: float | None = None):
         if not rate_hz > 0 or not np.isfinite(rate_hz):
             raise InvalidParameterError(f"rate_hz must be a finite positive number, got {rate_hz!r}")
         self.source = source
@@ -175,6 +181,7 @@ class FixedRateSampler:
         self.t_start, self.t_end = _time_range(source, t_start_us, t_end_us)
         self.breakpoints = _breakpoints(breakpoints_us, self.t_start, self.t_end)
         self.n_samples = 0
+        self._sample = _sample_of(source, log_offset)
 
     def times(self) -> np.ndarray:
         """The sample times (int64 microseconds)."""
@@ -185,7 +192,18 @@ class FixedRateSampler:
         self.n_samples = 0
         for t in self.times():
             self.n_samples += 1
-            yield int(t), self.source.radiance(int(t))
+            yield int(t), self._sample(int(t))
+
+
+def _sample_of(source: RadianceSource, log_offset: float | None) -> Callable[[int], np.ndarray]:
+    """What a sampler yields at a time: the source's radiance, or with log_offset its log(radiance + log_offset)
+    (source.offset_log: a scene that interpolates in log space has it without an exp and a log)."""
+    if log_offset is None:
+        return source.radiance
+    offset_log = getattr(source, "offset_log", None)
+    if offset_log is None:
+        raise InvalidParameterError(f"log_offset: {type(source).__name__} has no offset_log(t_us, offset)")
+    return lambda t: offset_log(t, log_offset)
 
 
 def make_sampler(source: RadianceSource, mode: str = "adaptive", **kwargs: Any) -> AdaptiveSampler | FixedRateSampler:

@@ -21,7 +21,10 @@ class RadianceSource(Protocol):
     static or flicker-only sources), used to choose how many sub-frames a blurred exposure needs.
 
     Optional: max_frequency_hz(), the highest temporal frequency of the radiance that is not motion (a flickering
-    light); an exposure then takes at least sim.camera.SUBFRAMES_PER_PERIOD sub-frames per period of it.
+    light); an exposure then takes at least sim.camera.SUBFRAMES_PER_PERIOD sub-frames per period of it. And
+    offset_log(t_us, offset), float32 log(radiance + offset), with has_log_at(offset), whether the source holds it
+    without an exp (a scene that interpolates in log space, generators' VideoScene): at the DVS's dark level,
+    generation then feeds it to DVSEmulator.feed_log, which needs no log.
 
     Attributes
     ----------

@@ -707,6 +707,58 @@ class VideoScene(Scene):
             return self._pair(k).radiance_at(a, self.log_eps)
         return radiance_of_log(self._frame(k)[1], self.log_eps, self._frame(k + 1)[1], a)
 
+    def has_log_at(self, offset: float) -> bool:
+        """Whether offset_log(t_us, offset) is the interpolation's own log: offset within 1e-6 of log_eps, relative
+        (the DVS's dark level, from the same frame's 99th percentile, can differ from it by a float32 rounding; the
+        logs then differ by at most that share of the dark level, 1e-10 of a log unit).
+
+        Parameters
+        ----------
+        offset : float
+            Radiance units.
+
+        Returns
+        -------
+        bool
+            True when offset_log at this offset needs no exp and no log.
+        """
+        return abs(float(offset) - self.log_eps) <= 1e-6 * self.log_eps
+
+    def offset_log(self, t_us: int, offset: float) -> np.ndarray:
+        """log(radiance(t_us) + offset) as float32: at an offset has_log_at accepts, the interpolation's own log
+        (the key frames' blend: no exp here and no log in a DVS fed it, DVSEmulator.feed_log), else computed from
+        the radiance.
+
+        Parameters
+        ----------
+        t_us : int
+            Scene time (us), in [0, duration_us].
+        offset : float
+            Added to the radiance before the log (radiance units), > 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            float32 (height, width) natural log (read-only: it may be a key frame the scene keeps).
+        """
+        if not self.has_log_at(offset):
+            return np.log(self.radiance(t_us) + np.float32(offset))
+        if not 0 <= t_us <= self.duration_us:
+            self.radiance(t_us)  # (its error)
+        n = self.times.size
+        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
+        a = (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
+        if a >= 1 or a == 0 or self.upsample == "none":
+            kept = self._frame(k + 1 if a >= 1 else k)[1]
+        elif self.upsample == "flow":
+            kept = self._pair(k).log_at(a)
+        else:
+            log0, log1 = self._frame(k)[1], self._frame(k + 1)[1]
+            return log0 + np.float32(a) * (log1 - log0)
+        view = kept.view()
+        view.flags.writeable = False
+        return view
+
     def log_linear_until(self, t_us: int) -> int:
         """The end of the piece from t_us over which log(radiance + log_eps) is linear in time: the next key frame
         (flow), the next input frame (linear), or, holding frames (none), one microsecond before the next input
