@@ -63,15 +63,21 @@ def make_clip(folder: Path, duration_s: float, which: str) -> tuple[Path, dict]:
 
 
 class _Recorder:
-    """A radiance source proxy that keeps every image it renders, with its time (the DVS pass's samples)."""
+    """A radiance source proxy that keeps every image it renders, with its time (the DVS pass's samples): its
+    radiance, or its log response when the pass samples that (offset_log: the DVS is then fed it by feed_log)."""
 
     def __init__(self, source):
-        self._source, self.samples = source, []
+        self._source, self.samples, self.logs = source, [], []
         self.height, self.width, self.duration_us = source.height, source.width, source.duration_us
 
     def radiance(self, t_us):
         img = self._source.radiance(t_us)
         self.samples.append((int(t_us), img))
+        return img
+
+    def offset_log(self, t_us, offset):
+        img = self._source.offset_log(t_us, offset)
+        self.logs.append((int(t_us), img.copy()))
         return img
 
     def __getattr__(self, name):
@@ -93,7 +99,8 @@ def hd_case(folder: Path, duration_s: float, which: str) -> dict:
     config = AHDRConfig(outputs=("events",), crf="srgb")  # what `evsim convert` runs at defaults
     rec = _Recorder(VideoScene(path, height=h, width=w, **options))
     generate_ahdr(rec, folder / "record.h5", config, 0, progress=False)  # untimed: records the DVS pass's samples
-    samples = rec.samples[2:]  # (resolve_sensors and the metadata render t = 0 before the pass)
+    log_in = bool(rec.logs)  # the pass sampled the scene's log response (a log-linear VideoScene at defaults)
+    samples = rec.logs if log_in else rec.samples[2:]  # (resolve_sensors and the metadata render t = 0 first)
     dvs_params = resolve_sensors(rec, config)[0]
     del rec
     t_wall, t_cpu = time.perf_counter(), time.process_time()
@@ -105,7 +112,8 @@ def hd_case(folder: Path, duration_s: float, which: str) -> dict:
     for i in range(0, len(samples), chunk):
         part = samples[i:i + chunk]
         w0, c0 = time.perf_counter(), time.process_time()
-        n_events += dvs.feed(np.stack([img for _, img in part]), np.array([t for t, _ in part], np.int64)).size
+        n_events += (dvs.feed_log if log_in else dvs.feed)(np.stack([img for _, img in part]),
+                                                           np.array([t for t, _ in part], np.int64)).size
         d_wall += time.perf_counter() - w0
         d_cpu += time.process_time() - c0
     return {"clip": path.name, "clip_s": duration_s, "samples": len(samples), "events": r.n_events,
