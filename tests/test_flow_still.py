@@ -85,7 +85,8 @@ def test_rows_with_few_moving_pixels_give_what_the_dense_rows_give():
     fractions = np.arange(1, pair.n_keys) / pair.n_keys
     sparse, dense = (np.empty((fractions.size, h, w), np.float32) for _ in range(2))
     every, starts = np.tile(np.arange(w, dtype=np.int32), h), np.arange(h + 1, dtype=np.int64) * w
-    args = (pair._up[0], pair._up[1], pair.occlusion0, pair.occlusion1, pair._planar, fractions, pair._centre)
+    args = (pair._up[0], pair._up[1], pair.occlusion0, pair.occlusion1, pair._planar, fractions, pair.lowest,
+            pair._centre)
     _warp_blend(*args, pair._moving, pair._row_start, 0, h, sparse)
     _warp_blend(*args, every, starts, 0, h, dense)
     np.testing.assert_allclose(sparse, dense, rtol=0, atol=1e-6)

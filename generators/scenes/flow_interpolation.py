@@ -260,13 +260,16 @@ class FlowPair:
     motion, for which the flow itself is not that precise); between keys the log radiance is linear in time,
     which is also how the DVS emulator interpolates between its samples. Keys are made when first needed, with
     the missing keys after them up to KEY_GROUP in one pass, and kept for the pair's lifetime (at most max_keys
-    images).
+    images). lowest: the log of radiance 0 (log(log_eps) of a scene), below which no key goes (the bicubic copies
+    overshoot below the frames' darkest values; -inf: no bound).
     """
 
     def __init__(self, log0: np.ndarray, log1: np.ndarray, flow01: np.ndarray, flow10: np.ndarray,
                  occlusion0: np.ndarray, occlusion1: np.ndarray, max_motion_px: float, *,
-                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS, upsampled0: np.ndarray | None = None):
+                 key_step_px: float = 0.5, max_keys: int = MAX_KEYS, upsampled0: np.ndarray | None = None,
+                 lowest: float = -np.inf):
         self.log0, self.log1 = log0, log1
+        self.lowest = np.float32(lowest)
         self.flow01, self.flow10 = flow01, flow10
         self.occlusion0, self.occlusion1 = occlusion0, occlusion1  # of frame 0 hidden in frame 1, and back
         self.max_motion_px = max_motion_px  # largest displacement over the interval among the visible pixels
@@ -318,7 +321,7 @@ class FlowPair:
         fractions = np.asarray(fractions, dtype=np.float64)
         out = np.empty((fractions.size, *self.log0.shape), dtype=np.float32)
         in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, fractions,
-                                               self._centre, self._moving, self._row_start, y0, y1, out),
+                                               self.lowest, self._centre, self._moving, self._row_start, y0, y1, out),
                     out.shape[1], _MIN_ROWS, per_thread=2)
         return out
 
@@ -438,16 +441,16 @@ def _bilinear(u, k, w2, fx, fy):
 
 
 @njit(cache=True, nogil=True, fastmath=True, error_model="numpy")  # (no zero check: vectorised divisions)
-def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_start, y0, y1, out):
+def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, row_start, y0, y1, out):
     """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
     docstring), for every g: frame i's log radiance sampled bilinearly on up_i (upsampled _UP times, float32
     (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W):
-    F01 x, y, F10 x, y (pixels). Row by row, every fraction of a row before the next row: the rows of the upsampled
-    frames one row reads at nearby fractions are then still in the core's cache (one read of them per row and not
-    per fraction; half the cost of one fraction at a time at 720p). In a row whose pixels with motion (the columns
-    moving lists from row_start; _still_parts) are at most SPARSE_ROW of it, the pixels without motion blend their
-    samples at the pixel (centre) for every fraction in loops that vectorise, and only the moving pixels, gathered
-    into a row of their own, are warped; in the other rows every pixel is."""
+    F01 x, y, F10 x, y (pixels); no value below lowest (float32). Row by row, every fraction of a row before the next
+    row: the rows of the upsampled frames one row reads at nearby fractions are then still in the core's cache (one
+    read of them per row and not per fraction; half the cost of one fraction at a time at 720p). In a row whose
+    pixels with motion (the columns moving lists from row_start; _still_parts) are at most SPARSE_ROW of it, the
+    pixels without motion blend their samples at the pixel (centre) for every fraction in loops that vectorise, and
+    only the moving pixels, gathered into a row of their own, are warped; in the other rows every pixel is."""
     h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
     floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
@@ -479,7 +482,8 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
                 row, ga, gb = out[g, y], wa_g[g], wb_g[g]
                 for x in range(w):
                     e0, e1 = gb * (floor - oc1[x]), ga * (floor - oc0[x])
-                    row[x] = (e0 * c0[x] + e1 * c1[x]) / (e0 + e1)
+                    v = (e0 * c0[x] + e1 * c1[x]) / (e0 + e1)
+                    row[x] = v if v > lowest else lowest
             for j in range(m):
                 x = moving[first + j]
                 cols[j] = x
@@ -506,10 +510,12 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, centre, moving, row_star
             row = out[g, y]
             if m == w:
                 for x in range(w):
-                    row[x] = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+                    v = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
+                    row[x] = v if v > lowest else lowest
             else:
                 for j in range(m):
-                    row[np.uintp(cols[j])] = (fx0[j] * v0[j] + fy0[j] * v1[j]) / (fx0[j] + fy0[j])
+                    v = (fx0[j] * v0[j] + fy0[j] * v1[j]) / (fx0[j] + fy0[j])
+                    row[np.uintp(cols[j])] = v if v > lowest else lowest
 
 
 def radiance_of_log(log: np.ndarray, eps: float, log_to: np.ndarray | None = None,

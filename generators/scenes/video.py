@@ -686,7 +686,7 @@ class VideoScene(Scene):
                 prev = self._pairs.get(k - 1)  # its frame 1, upsampled, is this pair's frame 0
                 up0 = prev.upsampled1 if prev is not None and prev.log1 is log0 else None
                 pair = self._flow.pair(log0, log1, key_step_px=self.key_step_px, max_keys=self.max_keys,
-                                       upsampled0=up0)
+                                       upsampled0=up0, lowest=np.log(np.float32(self.log_eps)))
                 pair.prepare()
                 self._pairs[k] = pair
                 self._pair_motion[k] = pair.max_motion_px
