@@ -159,7 +159,9 @@ def benchmarks_page(b: dict, m: dict) -> str:
               f"frames per second, `davis346` sensor, compression {g['compression']}: {w['n_events']:,} events, "
               f"{w['n_frames']} frames, {w['n_dvs_samples']:,} DVS input samples, a {w['file_mb']:.1f} MB file. "
               "Work is CPU time (all threads) of the call in a process whose imports and numba kernels are "
-              "already loaded.", "", f"Command: `{g['command']}`", "",
+              "already loaded. The scene is rendered on a thread of its own while the DVS runs: its row is the time "
+              "the DVS waited for it (and the camera's rendering), the DVS's row includes the scene's work beside "
+              "it.", "", f"Command: `{g['command']}`", "",
               "| stage | CPU-s | share | wall (s) |", "|---|---|---|---|"]
     stages = ("scene", "dvs", "camera", "writing")
     for k in stages:

@@ -212,11 +212,12 @@ class GenerationResult:
     n_dvs_samples : int
         Radiance samples the DVS was fed.
     timings_s : dict
-        Wall-clock seconds by stage: "scene" (scene rendering and sampling-step control), "dvs" (the emulator),
+        Wall-clock seconds by stage, of the calling thread: "scene" (during the DVS pass, waiting for the scene,
+        which is rendered on a thread of its own meanwhile; rendering for the camera), "dvs" (the emulator),
         "camera" (exposure, noise, CRF; without rendering), "writing" (the HDF5 file), "total" (the whole call).
     cpu_s : dict
-        CPU seconds of the process by the same stages (time.process_time: all threads, so a stage on 2 threads
-        counts twice its wall time).
+        CPU seconds of the process over the same intervals (time.process_time: all threads, so a stage counts the
+        work of the threads running beside it, the scene's during the DVS pass).
     """
 
     path: Path
