@@ -710,7 +710,7 @@ class VideoScene(Scene):
     def has_log_at(self, offset: float) -> bool:
         """Whether offset_log(t_us, offset) is the interpolation's own log: offset within 1e-6 of log_eps, relative
         (the DVS's dark level, from the same frame's 99th percentile, can differ from it by a float32 rounding; the
-        logs then differ by at most that share of the dark level, 1e-10 of a log unit).
+        logs then differ by at most 1e-6, at black, against DVS thresholds of about 0.2).
 
         Parameters
         ----------
