@@ -19,6 +19,7 @@ from generators.ahdr import AHDRConfig, generate_ahdr
 from generators.config import build_scene, parse_config, to_ahdr_config
 from generators.convert import clips, convert, convert_config
 from generators.formats import DatasetFormatError, load
+from generators.sampling import AdaptiveSampler, FixedRateSampler
 from generators.scenes import FrameSequenceScene, Trajectory, VideoScene, builtin_image_scene
 from generators.scenes.flow_interpolation import FlowEstimator
 
@@ -299,3 +300,24 @@ def test_keys_stay_at_or_above_the_log_of_black_where_the_upsampling_overshoots(
     out = tmp_path / "square.h5"
     r = generate_ahdr(scene, out, AHDRConfig(outputs=("events",), crf="srgb"), 0, progress=False)
     assert r.n_events > 100
+
+
+def test_samplers_yield_the_log_a_video_holds_and_refuse_it_elsewhere(tmp_path):
+    frames = np.stack([np.full((10, 12), 1.0 + i, np.float32) for i in range(4)])
+    frames[:, 2:5, 3:7] *= 5.0
+    np.save(tmp_path / "clip.npy", frames)
+    scene = VideoScene(tmp_path / "clip.npy", fps=10, upsample="linear")
+    eps = scene.log_eps
+    for sampler in (AdaptiveSampler(scene, threshold=0.2, log_offset=eps),
+                    FixedRateSampler(scene, rate_hz=40.0, log_offset=eps)):
+        samples = list(sampler)
+        assert len(samples) > 4
+        for t, log in samples:
+            np.testing.assert_allclose(log, np.log(scene.radiance(t) + np.float32(eps)), rtol=0, atol=2e-6)
+    assert not scene.has_log_at(2 * eps)  # another offset: computed from the radiance
+    np.testing.assert_allclose(scene.offset_log(50_000, 2 * eps), np.log(scene.radiance(50_000) + np.float32(2 * eps)))
+    still = builtin_image_scene(10, 12, 100_000, Trajectory())
+    with pytest.raises(sim.InvalidParameterError, match="log-linear"):
+        AdaptiveSampler(still, threshold=0.2, log_offset=eps)
+    with pytest.raises(sim.InvalidParameterError, match="has no offset_log"):
+        FixedRateSampler(still, rate_hz=40.0, log_offset=eps)
