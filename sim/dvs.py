@@ -339,12 +339,10 @@ class DVSEmulator:
     def _initialise(self, frame: np.ndarray, t: int, log_in: bool) -> None:
         shape = (self.height, self.width)
         logi = np.empty(shape)  # the kernels' log response, so that a pixel back at its first level is at it
-        if log_in:  # as emulate_rows reads log input
-            dark = self.dark_level
-            current = np.empty(frame.size, np.float32)
-            K.exp_minus_row_f32(frame.ravel(), np.float32(0.0), np.empty(frame.size, np.int32), current)
-            cur = np.maximum(current.astype(np.float64), dark).reshape(shape)
-            logi[:] = (np.maximum(frame.astype(np.float64), np.log(dark)) + K.LOG_ROUND) - K.LOG_ROUND
+        if log_in:
+            cur = np.empty(shape)
+            K.log_input(np.ascontiguousarray(frame).ravel(), self.dark_level, np.empty(frame.size, np.int32),
+                        np.empty(frame.size, np.float32), cur.reshape(-1), logi.reshape(-1))
         else:
             cur = frame.astype(np.float64) + self._scal[K.SC_DARK]
             K.log_response(cur.ravel(), np.empty(cur.size, dtype=np.int64), logi.reshape(-1))

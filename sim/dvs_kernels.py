@@ -81,7 +81,7 @@ _EV_SIZE = EVENT_DTYPE.itemsize
 _TWO_STORES = (sys.byteorder == "little" and _EV_SIZE == 13
                and [EVENT_DTYPE.fields[f][1] for f in "txyp"] == [0, 8, 10, 12])
 LOG_GRID = 2.0**-32  # the log response is rounded to multiples of this (see log_response)
-LOG_ROUND = 1.5 * 2.0**20  # (x + LOG_ROUND) - LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
+_LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multiple of LOG_GRID for |x| < 2**19
 
 
 @njit(cache=True, inline="always")
@@ -116,7 +116,22 @@ def log_response(a, bits, out):
     """
     log_row(a, bits, out)
     for i in range(a.size):
-        out[i] = (out[i] + LOG_ROUND) - LOG_ROUND
+        out[i] = (out[i] + _LOG_ROUND) - _LOG_ROUND
+
+
+@njit(cache=True, error_model="numpy")
+def log_input(v, dark, bits, e, c, out):
+    """The photocurrent c (float64, >= dark) and log response out (log_response's grid) of log input v = float32
+    log(radiance + dark), clamped to log(dark) from below: c is v's float32 exp (exp_minus_row_f32, one ulp).
+    bits: int32 and e: float32 scratch of v's size."""
+    log_dark = math.log(dark)
+    exp_minus_row_f32(v, np.float32(0.0), bits, e)
+    for i in range(v.size):
+        lv = float(v[i])
+        lv = lv if lv > log_dark else log_dark
+        out[i] = (lv + _LOG_ROUND) - _LOG_ROUND
+        ci = float(e[i])
+        c[i] = ci if ci > dark else dark
 
 
 @njit(cache=True)
@@ -211,7 +226,6 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     inv_dark2 = 1.0 / (dark * dark)
     bits, bits32 = np.empty(F * w, dtype=np.int64), np.empty(F * w, dtype=np.int32)
     e_ch = np.empty(F * w if log_in else 0, dtype=np.float32)  # log input: its exp
-    log_dark, zero32 = math.log(dark), np.float32(0.0)
     zero = np.int64(0)  # one integer type for every call of _grown (each type would compile it again)
     spill = _grown(out, zero, zero, zero)  # the spill, empty
     sp_n = zero
@@ -233,13 +247,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                     tk = times[k + kk]
                     q_dark = np.float32(-k_cut * hf * dark)
                     if log_in:
-                        exp_minus_row_f32(frames[k + kk, y], zero32, bits32[o:o + w], e_ch[o:o + w])
-                        for x in range(w):
-                            v = float(frames[k + kk, y, x])
-                            v = v if v > log_dark else log_dark
-                            l_ch[o + x] = (v + LOG_ROUND) - LOG_ROUND  # (log_response's grid)
-                            c = float(e_ch[o + x])
-                            c_ch[o + x] = c if c > dark else dark
+                        log_input(frames[k + kk, y], dark, bits32[o:o + w], e_ch[o:o + w], c_ch[o:o + w],
+                                  l_ch[o:o + w])
                     else:
                         for x in range(w):
                             c_ch[o + x] = float(frames[k + kk, y, x]) + dark

@@ -134,7 +134,7 @@ def exp_minus_row_f32(v_row, eps, bits, o):
     [-87, 88] (v is clamped there: e^-87 is below the smallest normal float32's ten times, e^88 near its largest).
     Every loop vectorises (libm's scalar exp costs 7x as much)."""
     lo, hi = np.float32(-87.0), np.float32(88.0)
-    log2e, ln2_hi, ln2_lo = np.float32(1.4426950408889634), np.float32(0.693359375), np.float32(-2.12194440e-4)
+    log2e, ln2_hi, ln2_lo = _F32_INV_LN2, _F32_LN2_HI, _F32_LN2_LO
     c0, c1, c2 = np.float32(1.9875691500e-4), np.float32(1.3981999507e-3), np.float32(8.3334519073e-3)
     c3, c4, c5 = np.float32(4.1665795894e-2), np.float32(1.6666665459e-1), np.float32(5.0000001201e-1)
     zero, half, one = np.float32(0.0), np.float32(0.5), np.float32(1.0)
