@@ -60,16 +60,20 @@ class Scene:
         numpy.ndarray
             float32 (height, width) linear radiance (the scene's radiance units), >= 0.
         """
-        if not 0 <= t_us <= self.duration_us:
-            raise EvsimInputError(
-                f"{type(self).__name__}: t_us={t_us} is outside the source's time range [0, {self.duration_us}] us"
-            )
+        self._check_time(t_us)
         img = np.ascontiguousarray(self._render(int(t_us)), dtype=np.float32)
         # NaN (max propagates it) or beyond float32 (3.4e38)
         if not self.renders_finite and img.size and not img.max() < np.inf:
             raise InvalidParameterError(f"{type(self).__name__}: the radiance at t={t_us} us is not finite (NaN, or "
                                         "beyond float32's 3.4e38): check the scene's parameters")
         return img
+
+    def _check_time(self, t_us: int) -> None:
+        """EvsimInputError unless t_us is in [0, duration_us]."""
+        if not 0 <= t_us <= self.duration_us:
+            raise EvsimInputError(
+                f"{type(self).__name__}: t_us={t_us} is outside the source's time range [0, {self.duration_us}] us"
+            )
 
     def log_radiance(self, t_us: int) -> np.ndarray:
         """Natural log of radiance(t_us).

@@ -330,11 +330,7 @@ class FlowPair:
         j, f = self._between_keys(a)
         if f == 0:  # at a key (j = n_keys at a = 1)
             return self.key(j)
-        k0 = self.key(j)
-        out = np.subtract(self.key(j + 1), k0)
-        out *= f
-        out += k0
-        return out
+        return blend_logs(self.key(j), self.key(j + 1), f)
 
     def radiance_at(self, a: float, eps: float) -> np.ndarray:
         """float32 (H, W) radiance at fraction a (0..1) of the interval: radiance_of_log of log_at(a) with offset eps,
@@ -440,6 +436,13 @@ def _bilinear(u, k, w2, fx, fy):
     return t0 + fy * (t1 - t0)
 
 
+@njit(cache=True, inline="always")
+def _blend(w0, v0, w1, v1, lowest):
+    """The weighted mean of v0 and v1 (weights w0, w1 > 0), at least lowest."""
+    v = (w0 * v0 + w1 * v1) / (w0 + w1)
+    return v if v > lowest else lowest
+
+
 @njit(cache=True, nogil=True, fastmath=True, error_model="numpy")  # (no zero check: vectorised divisions)
 def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, row_start, y0, y1, out):
     """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
@@ -481,9 +484,7 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, 
             for g in range(n):
                 row, ga, gb = out[g, y], wa_g[g], wb_g[g]
                 for x in range(w):
-                    e0, e1 = gb * (floor - oc1[x]), ga * (floor - oc0[x])
-                    v = (e0 * c0[x] + e1 * c1[x]) / (e0 + e1)
-                    row[x] = v if v > lowest else lowest
+                    row[x] = _blend(gb * (floor - oc1[x]), c0[x], ga * (floor - oc0[x]), c1[x], lowest)
             for j in range(m):
                 x = moving[first + j]
                 cols[j] = x
@@ -508,14 +509,33 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, 
                 fx0[j] = wb * (floor - o1f[np.uintp(n1[j])])
                 fy0[j] = wa * (floor - o0f[np.uintp(n0[j])])
             row = out[g, y]
-            if m == w:
+            if m == w:  # (contiguous stores: they vectorise)
                 for x in range(w):
-                    v = (fx0[x] * v0[x] + fy0[x] * v1[x]) / (fx0[x] + fy0[x])
-                    row[x] = v if v > lowest else lowest
+                    row[x] = _blend(fx0[x], v0[x], fy0[x], v1[x], lowest)
             else:
                 for j in range(m):
-                    v = (fx0[j] * v0[j] + fy0[j] * v1[j]) / (fx0[j] + fy0[j])
-                    row[np.uintp(cols[j])] = v if v > lowest else lowest
+                    row[np.uintp(cols[j])] = _blend(fx0[j], v0[j], fy0[j], v1[j], lowest)
+
+
+def blend_logs(log0: np.ndarray, log1: np.ndarray, f: np.float32) -> np.ndarray:
+    """log0 + f (log1 - log0): the log radiance linear in time between two images, at fraction f of the way.
+
+    Parameters
+    ----------
+    log0, log1 : numpy.ndarray
+        float32 (H, W) log images.
+    f : numpy.float32
+        The fraction, 0..1.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 (H, W), a new array.
+    """
+    out = np.subtract(log1, log0)
+    out *= f
+    out += log0
+    return out
 
 
 def radiance_of_log(log: np.ndarray, eps: float, log_to: np.ndarray | None = None,

@@ -72,7 +72,7 @@ from ..formats.common import DatasetFormatError, fail, quiet_native_output
 from .base import Scene, positive
 from .capture_rate import capture_fps
 from .conditioning import ConditioningParams, InputConditioner, condition_linear
-from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair, radiance_of_log
+from .flow_interpolation import FLOW_SCALE, MAX_KEYS, FlowEstimator, FlowPair, blend_logs, radiance_of_log
 from .image_motion import _read_exr
 from .luminance import REC709_WEIGHTS, to_luminance
 from .recording_frames import RecordingFrames, is_recording, sha256_of
@@ -695,10 +695,14 @@ class VideoScene(Scene):
             return self._pairs[k]
 
     # ----- the radiance source -------------------------------------------------------------------------
+    def _interval(self, t_us: int) -> tuple[int, float]:
+        """The input frame interval k holding t_us (frames k, k + 1; the last one at the end) and t_us's place in it,
+        a in [0, 1]."""
+        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, self.times.size - 2)
+        return k, (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
+
     def _render(self, t_us):
-        n = self.times.size
-        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
-        a = (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
+        k, a = self._interval(t_us)
         if a >= 1:
             return self._frame(k + 1)[0]
         if a == 0 or self.upsample == "none":
@@ -743,18 +747,14 @@ class VideoScene(Scene):
         """
         if not self.has_log_at(offset):
             return np.log(self.radiance(t_us) + np.float32(offset))
-        if not 0 <= t_us <= self.duration_us:
-            self.radiance(t_us)  # (its error)
-        n = self.times.size
-        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
-        a = (t_us - self.times[k]) / (self.times[k + 1] - self.times[k])
+        self._check_time(t_us)
+        k, a = self._interval(t_us)
         if a >= 1 or a == 0 or self.upsample == "none":
             kept = self._frame(k + 1 if a >= 1 else k)[1]
         elif self.upsample == "flow":
             kept = self._pair(k).log_at(a)
         else:
-            log0, log1 = self._frame(k)[1], self._frame(k + 1)[1]
-            return log0 + np.float32(a) * (log1 - log0)
+            return blend_logs(self._frame(k)[1], self._frame(k + 1)[1], np.float32(a))
         view = kept.view()
         view.flags.writeable = False
         return view
@@ -774,11 +774,10 @@ class VideoScene(Scene):
         int
             The piece's end, microseconds (at most the duration).
         """
-        n = self.times.size
         t_us = int(t_us)
         if t_us >= self.duration_us:
             return self.duration_us
-        k = min(int(np.searchsorted(self.times, t_us, side="right")) - 1, n - 2)
+        k = self._interval(t_us)[0]
         t0, t1 = int(self.times[k]), int(self.times[k + 1])
         if self.upsample == "none":
             return t1 - 1 if t_us < t1 - 1 else t1
