@@ -77,7 +77,7 @@ class _Recorder:
 
     def offset_log(self, t_us, offset):
         img = self._source.offset_log(t_us, offset)
-        self.logs.append((int(t_us), img.copy()))
+        self.logs.append((int(t_us), img))  # (read-only: the scene never changes it)
         return img
 
     def __getattr__(self, name):

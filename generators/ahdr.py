@@ -309,7 +309,8 @@ def resolve_sensors(scene: RadianceSource,
 
 
 class _TimedSource:
-    """A RadianceSource proxy that adds up the time spent in radiance() (scene rendering): seconds = (wall, cpu)."""
+    """A RadianceSource proxy that adds up the time spent in radiance() and offset_log() (scene rendering):
+    seconds = (wall, cpu)."""
 
     def __init__(self, source):
         self._source = source
@@ -317,15 +318,14 @@ class _TimedSource:
         self.seconds = (0.0, 0.0)
 
     def radiance(self, t_us):
-        w0, c0 = _Clock.now()
-        img = self._source.radiance(t_us)
-        w1, c1 = _Clock.now()
-        self.seconds = (self.seconds[0] + w1 - w0, self.seconds[1] + c1 - c0)
-        return img
+        return self._timed(self._source.radiance, t_us)
 
     def offset_log(self, t_us, offset):
+        return self._timed(self._source.offset_log, t_us, offset)
+
+    def _timed(self, render, *args):
         w0, c0 = _Clock.now()
-        img = self._source.offset_log(t_us, offset)
+        img = render(*args)
         w1, c1 = _Clock.now()
         self.seconds = (self.seconds[0] + w1 - w0, self.seconds[1] + c1 - c0)
         return img
