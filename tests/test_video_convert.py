@@ -315,6 +315,8 @@ def test_samplers_yield_the_log_a_video_holds_and_refuse_it_elsewhere(tmp_path):
         for t, log in samples:
             np.testing.assert_allclose(log, np.log(scene.radiance(t) + np.float32(eps)), rtol=0, atol=2e-6)
     assert not scene.has_log_at(2 * eps)  # another offset: computed from the radiance
+    with pytest.raises(sim.EvsimInputError, match="outside the source's time range"):
+        scene.offset_log(scene.duration_us + 1, eps)
     np.testing.assert_allclose(scene.offset_log(50_000, 2 * eps), np.log(scene.radiance(50_000) + np.float32(2 * eps)))
     still = builtin_image_scene(10, 12, 100_000, Trajectory())
     with pytest.raises(sim.InvalidParameterError, match="log-linear"):
