@@ -60,7 +60,7 @@ DIS_MIN_SIDE = 12  # OpenCV's DIS refuses (or fails on) frames with a side below
 STILL_LOG = 0.05  # still_where_unmoved: frames that agree to this (log radiance, mean over 3x3 pixels) are unchanged
 MAX_KEYS = 32  # default cap on key intervals per frame pair (README, "Converting videos": fast motion)
 KEY_GROUP = 8  # key frames synthesised in one pass (the pass reads the upsampled frames once for all of them)
-SPARSE_ROW = 0.7  # _warp_blend warps only a row's moving pixels when they are at most this share of the row
+STEP_CLASSES = 4  # a pixel is warped at every 1st, 2nd, 4th or 8th key (KEY_GROUP: its anchors stay in one group)
 
 
 class FlowEstimator:
@@ -258,10 +258,14 @@ class FlowPair:
     inside the interval, n_keys = ceil(largest motion / key_step_px) (1 for a still pair, at most max_keys), so
     that the image moves by at most key_step_px between keys (largest motion / max_keys when that is more: fast
     motion, for which the flow itself is not that precise); between keys the log radiance is linear in time,
-    which is also how the DVS emulator interpolates between its samples. Keys are made when first needed, with
-    the missing keys after them up to KEY_GROUP in one pass, and kept for the pair's lifetime (at most max_keys
-    images). lowest: the log of radiance 0 (log(log_eps) of a scene), below which no key goes (the bicubic copies
-    overshoot below the frames' darkest values; -inf: no bound).
+    which is also how the DVS emulator interpolates between its samples. The same rule holds per pixel: a pixel
+    whose own samples move by at most key_step_px over 2, 4 or 8 key intervals is warped at every 2nd, 4th or 8th
+    key only and linear in log radiance between those (its step, _still_parts), which leaves its events as they
+    were within seed noise (tests/test_flow_keys.py) at a fraction of the warps where the motion is uneven. Keys are
+    made when first needed in groups of KEY_GROUP (keys 8q + 1 .. 8q + 8, after key 8q: every pixel's anchors are
+    then in the group, key 8q or frame 1), and kept for the pair's lifetime (at most max_keys images). lowest: the
+    log of radiance 0 (log(log_eps) of a scene), below which no key goes (the bicubic copies overshoot below the
+    frames' darkest values; -inf: no bound).
     """
 
     def __init__(self, log0: np.ndarray, log1: np.ndarray, flow01: np.ndarray, flow10: np.ndarray,
@@ -274,10 +278,11 @@ class FlowPair:
         self.occlusion0, self.occlusion1 = occlusion0, occlusion1  # of frame 0 hidden in frame 1, and back
         self.max_motion_px = max_motion_px  # largest displacement over the interval among the visible pixels
         self.n_keys = int(min(max(np.ceil(self.max_motion_px / key_step_px), 1), max_keys))
+        self.step_limit_px = key_step_px * self.n_keys  # a pixel's step s: s x its motion within this (_still_parts)
         self._keys = {0: log0, self.n_keys: log1}
         self._up = [upsampled0, None]  # both frames upsampled (made when the first key is synthesised)
         self._planar = None  # the flows as (4, H, W): F01 x, F01 y, F10 x, F10 y
-        self._centre = self._moving = self._row_start = None  # _still_parts
+        self._centre = self._moving = self._row_start = self._class_end = None  # _still_parts
 
     @property
     def upsampled1(self) -> np.ndarray:
@@ -288,12 +293,11 @@ class FlowPair:
 
     def key(self, j: int) -> np.ndarray:
         """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys. A missing key is made
-        with the missing keys after it, up to KEY_GROUP of them, in one pass (_synthesise)."""
+        with its group (KEY_GROUP keys) in one pass (_synthesise), after the key that starts it."""
         if j not in self._keys:
-            group = [j]
-            while len(group) < KEY_GROUP and group[-1] + 1 < self.n_keys and group[-1] + 1 not in self._keys:
-                group.append(group[-1] + 1)
-            for i, img in zip(group, self._synthesise(np.array(group) / self.n_keys)):
+            group = (j - 1) // KEY_GROUP
+            self.key(group * KEY_GROUP)  # (made first: the group's anchors start at it)
+            for i, img in enumerate(self._synthesise(group), start=group * KEY_GROUP + 1):
                 self._keys[i] = img
         return self._keys[j]
 
@@ -309,20 +313,23 @@ class FlowPair:
             self._planar[0], self._planar[1] = self.flow01[..., 0], self.flow01[..., 1]
             self._planar[2], self._planar[3] = self.flow10[..., 0], self.flow10[..., 1]
             self._centre = np.empty((2, h, w), np.float32)  # both copies sampled where a pixel without motion is
-            self._moving = np.empty(h * w, np.int32)  # per row, the columns with motion in either flow
+            self._moving = np.empty(h * w, np.int32)  # per row, the columns it warps, by step (_still_parts)
             self._row_start = np.empty(h + 1, np.int64)
-            _still_parts(self._up[0], self._up[1], self._planar, self._centre, self._moving, self._row_start)
+            self._class_end = np.empty((h, STEP_CLASSES), np.int64)
+            _still_parts(self._up[0], self._up[1], self._planar, self.step_limit_px, self._centre, self._moving,
+                         self._row_start, self._class_end)
 
-    def _synthesise(self, fractions: np.ndarray) -> np.ndarray:
-        """float32 (len(fractions), H, W): both frames warped to each fraction and blended (module docstring), in
-        one pass over the rows on every core."""
+    def _synthesise(self, group: int) -> np.ndarray:
+        """float32 (n, H, W): keys group * KEY_GROUP + 1 .. + n (the group's, up to key n_keys - 1), both frames
+        warped and blended (module docstring), in one pass over the rows on every core; key group * KEY_GROUP is
+        made."""
         self.prepare()
-        up0, up1 = self._up[0], self._up[1]
-        fractions = np.asarray(fractions, dtype=np.float64)
-        out = np.empty((fractions.size, *self.log0.shape), dtype=np.float32)
-        in_parallel(lambda y0, y1: _warp_blend(up0, up1, self.occlusion0, self.occlusion1, self._planar, fractions,
-                                               self.lowest, self._centre, self._moving, self._row_start, y0, y1, out),
-                    out.shape[1], _MIN_ROWS, per_thread=2)
+        first = group * KEY_GROUP + 1
+        out = np.empty((min(KEY_GROUP, self.n_keys - first), *self.log0.shape), dtype=np.float32)
+        args = (self._up[0], self._up[1], self.occlusion0, self.occlusion1, self._planar, first, self.n_keys,
+                self.lowest, self._centre, self._moving, self._row_start, self._class_end,
+                np.ascontiguousarray(self._keys[first - 1]), np.ascontiguousarray(self.log1))
+        in_parallel(lambda y0, y1: _warp_blend(*args, y0, y1, out), out.shape[1], _MIN_ROWS, per_thread=2)
         return out
 
     def log_at(self, a: float) -> np.ndarray:
@@ -386,25 +393,47 @@ def upsample(img: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, fastmath=True)
-def _still_parts(up0, up1, flows, centre, moving, row_start):
-    """What _warp_blend needs of the pixels without motion (both flows zero: still_where_unmoved): centre[i] = up_i
-    sampled bilinearly where such a pixel samples it at every fraction (at its centre: half-way between four
-    samples of the 4x copy), for every pixel; moving[row_start[y]:row_start[y + 1]] = the columns of row y with
-    motion in either flow."""
+def _still_parts(up0, up1, flows, step_limit, centre, moving, row_start, class_end):
+    """What _warp_blend needs, per row: centre[i] = up_i sampled bilinearly where a pixel without motion (both flows
+    zero: still_where_unmoved) samples it at every fraction (at its centre: half-way between four samples of the
+    4x copy), for every pixel; moving[row_start[y]:row_start[y + 1]] = the columns of row y with motion in either
+    flow, by step class c (step 2**c keys) from 0 up, class_end[y, c] the number of those of class c or below. A
+    pixel's class is the largest c < STEP_CLASSES with 2**c x its motion < step_limit (px), its motion the largest
+    speed of its two sample positions over the pair (F_a0, F_a1 of the module docstring: |F01|, |F01 + 2 F10|,
+    |2 F01 + F10|, |F10|)."""
     h, w = centre.shape[1], centre.shape[2]
     w2 = np.int32(_UP * w)
     half = np.float32(0.5)
     u0f, u1f = up0.ravel(), up1.ravel()
+    lim2, two = np.float32(step_limit) * np.float32(step_limit), np.float32(2.0)
+    cls = np.empty(w, np.int32)
     n = 0
     for y in range(h):
         row_start[y] = n
         k = (_UP * y + (_UP - 1) // 2) * w2 + (_UP - 1) // 2
+        counts = np.zeros(STEP_CLASSES, np.int64)
         for x in range(w):
             centre[0, y, x] = _bilinear(u0f, k + _UP * x, w2, half, half)
             centre[1, y, x] = _bilinear(u1f, k + _UP * x, w2, half, half)
-            if flows[0, y, x] != 0 or flows[1, y, x] != 0 or flows[2, y, x] != 0 or flows[3, y, x] != 0:
-                moving[n] = x
-                n += 1
+            ax, ay, bx, by = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
+            m2 = max(ax * ax + ay * ay, bx * bx + by * by, (ax + two * bx) ** 2 + (ay + two * by) ** 2,
+                     (two * ax + bx) ** 2 + (two * ay + by) ** 2)
+            c = 0
+            while c + 1 < STEP_CLASSES and np.float32(4 ** (c + 1)) * m2 < lim2:
+                c += 1
+            moves = ax != 0 or ay != 0 or bx != 0 or by != 0
+            cls[x] = c if moves else -1
+            if moves:
+                counts[c] += 1
+        acc = n
+        for c in range(STEP_CLASSES):  # counts -> where each class starts
+            acc, counts[c] = acc + counts[c], acc
+            class_end[y, c] = acc - n
+        for x in range(w):
+            if cls[x] >= 0:
+                moving[counts[cls[x]]] = x
+                counts[cls[x]] += 1
+        n = acc
     row_start[h] = n
 
 
@@ -444,16 +473,18 @@ def _blend(w0, v0, w1, v1, lowest):
 
 
 @njit(cache=True, nogil=True, fastmath=True, error_model="numpy")  # (no zero check: vectorised divisions)
-def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, row_start, y0, y1, out):
-    """out[g, y0:y1] = the occlusion-weighted blend of both frames warped to fraction fractions[g] (module
-    docstring), for every g: frame i's log radiance sampled bilinearly on up_i (upsampled _UP times, float32
-    (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the nearest pixel; flows (4, H, W):
-    F01 x, y, F10 x, y (pixels); no value below lowest (float32). Row by row, every fraction of a row before the next
-    row: the rows of the upsampled frames one row reads at nearby fractions are then still in the core's cache (one
-    read of them per row and not per fraction; half the cost of one fraction at a time at 720p). In a row whose
-    pixels with motion (the columns moving lists from row_start; _still_parts) are at most SPARSE_ROW of it, the
-    pixels without motion blend their samples at the pixel (centre) for every fraction in loops that vectorise, and
-    only the moving pixels, gathered into a row of their own, are warped; in the other rows every pixel is."""
+def _warp_blend(up0, up1, occ0, occ1, flows, first, n_keys, lowest, centre, moving, row_start, class_end, before,
+                log1, y0, y1, out):
+    """out[g, y0:y1] = key first + g (at fraction (first + g) / n_keys), for g < len(out): the occlusion-weighted
+    blend of both frames warped to its fraction (module docstring), frame i's log radiance sampled bilinearly on up_i
+    (upsampled _UP times, float32 (_UP H, _UP W)) at p + F_ai(p), its occlusion mask occ_i (float32 (H, W)) at the
+    nearest pixel; flows (4, H, W): F01 x, y, F10 x, y (pixels); no value below lowest (float32). Row by row, every
+    key of a row before the next row: the rows of the upsampled frames one row reads at nearby fractions are then
+    still in the core's cache (one read of them per row and not per key; half the cost of one key at a time at
+    720p). The pixels with motion (the columns moving lists from row_start, by step class with class_end;
+    _still_parts) are warped at the keys their step divides and linear between those (their anchors: key first - 1
+    is `before`, key n_keys log1; first - 1 a multiple of KEY_GROUP); the pixels without motion blend their samples
+    at the pixel (centre) for every key in loops that vectorise."""
     h, w = out.shape[1], out.shape[2]
     w2 = np.int32(_UP * w)
     floor, off = np.float32(1.0 + _WEIGHT_FLOOR), np.float32((_UP - 1) / 2)
@@ -467,54 +498,67 @@ def _warp_blend(up0, up1, occ0, occ1, flows, fractions, lowest, centre, moving, 
     cols, xs = np.empty(w, np.int32), np.empty(w, np.float32)
     ux, uy, vx, vy = np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.float32)
     u0f, u1f, o0f, o1f = up0.ravel(), up1.ravel(), occ0.ravel(), occ1.ravel()
-    n = fractions.size
-    # per fraction: the coefficients of F_a0 and F_a1 (in upsampled pixels) and the blend's time weights
+    n = out.shape[0]
+    # per key: the coefficients of F_a0 and F_a1 (in upsampled pixels), the blend's time weights and how many of a
+    # row's columns it warps (those of step class <= the number of trailing zero bits of the key's index)
     c00, c01, c10, c11 = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32),
                           np.empty(n, np.float32))
-    wa_g, wb_g = np.empty(n, np.float32), np.empty(n, np.float32)
+    wa_g, wb_g, top = np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.int64)
     for g in range(n):
-        a = fractions[g]
+        a = (first + g) / n_keys
         b = 1.0 - a
         c00[g], c01[g], c10[g], c11[g] = -_UP * b * a, _UP * a * a, _UP * b * b, -_UP * a * b
         wa_g[g], wb_g[g] = a, b
+        c = 0
+        while c + 1 < STEP_CLASSES and (first + g) % (2 << c) == 0:
+            c += 1
+        top[g] = c
     for y in range(y0, y1):
-        first, m = row_start[y], row_start[y + 1] - row_start[y]
-        if m <= SPARSE_ROW * w:
+        first_col, m = row_start[y], row_start[y + 1] - row_start[y]
+        if m < w:
             c0, c1, oc0, oc1 = centre[0, y], centre[1, y], occ0[y], occ1[y]
             for g in range(n):
                 row, ga, gb = out[g, y], wa_g[g], wb_g[g]
                 for x in range(w):
                     row[x] = _blend(gb * (floor - oc1[x]), c0[x], ga * (floor - oc0[x]), c1[x], lowest)
-            for j in range(m):
-                x = moving[first + j]
-                cols[j] = x
-                ux[j], uy[j], vx[j], vy[j] = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
-        else:
-            m = w
-            for x in range(w):
-                cols[x] = x
-                ux[x], uy[x], vx[x], vy[x] = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
         for j in range(m):
-            xs[j] = np.float32(_UP * cols[j]) + off
+            x = moving[first_col + j]
+            cols[j] = x
+            ux[j], uy[j], vx[j], vy[j] = flows[0, y, x], flows[1, y, x], flows[2, y, x], flows[3, y, x]
+            xs[j] = np.float32(_UP * x) + off
         yf = np.float32(_UP * y) + off
         for g in range(n):
             # F_a0 = -(1 - a) a F01 + a^2 F10, F_a1 = (1 - a)^2 F01 - a (1 - a) F10, in upsampled pixels
             d00, d01, d10, d11, wa, wb = c00[g], c01[g], c10[g], c11[g], wa_g[g], wb_g[g]
-            for j in range(m):  # sample positions (edge values beyond the image)
+            mg = class_end[y, top[g]]
+            for j in range(mg):  # sample positions (edge values beyond the image)
                 fx0[j], fy0[j], k0[j], n0[j] = _position(xs[j], yf, d00, d01, ux[j], uy[j], vx[j], vy[j], umax, vmax, w)
                 fx1[j], fy1[j], k1[j], n1[j] = _position(xs[j], yf, d10, d11, ux[j], uy[j], vx[j], vy[j], umax, vmax, w)
-            for j in range(m):  # the gathers; fx0, fy0 then hold the blend weights
+            for j in range(mg):  # the gathers; fx0, fy0 then hold the blend weights
                 v0[j] = _bilinear(u0f, k0[j], w2, fx0[j], fy0[j])
                 v1[j] = _bilinear(u1f, k1[j], w2, fx1[j], fy1[j])
                 fx0[j] = wb * (floor - o1f[np.uintp(n1[j])])
                 fy0[j] = wa * (floor - o0f[np.uintp(n0[j])])
             row = out[g, y]
-            if m == w:  # (contiguous stores: they vectorise)
+            if class_end[y, 0] == w:  # every column, in order (contiguous stores: they vectorise)
                 for x in range(w):
                     row[x] = _blend(fx0[x], v0[x], fy0[x], v1[x], lowest)
             else:
-                for j in range(m):
+                for j in range(mg):
                     row[np.uintp(cols[j])] = _blend(fx0[j], v0[j], fy0[j], v1[j], lowest)
+        for g in range(n):  # the other columns: linear between their anchors
+            kj = first + g
+            for c in range(top[g] + 1, STEP_CLASSES):
+                step = 1 << c
+                j0 = kj - kj % step
+                j1 = min(j0 + step, n_keys)
+                f = np.float32((kj - j0) / (j1 - j0))
+                r0 = before[y] if j0 < first else out[j0 - first, y]
+                r1 = log1[y] if j1 == n_keys else out[j1 - first, y]
+                row = out[g, y]
+                for j in range(class_end[y, c - 1], class_end[y, c]):
+                    x = np.uintp(cols[j])
+                    row[x] = r0[x] + f * (r1[x] - r0[x])
 
 
 def blend_logs(log0: np.ndarray, log1: np.ndarray, f: np.float32) -> np.ndarray:
