@@ -209,7 +209,9 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     w = cur.shape[1]
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
-    sf, si, slow = np.empty((17, w)), np.empty((3, w), dtype=np.int64), np.empty(w, dtype=np.bool_)
+    w8 = (w + 7) // 8 * 8  # (whole 8-byte words of `slow`; its padding stays False)
+    sf, si, slow = np.empty((17, w)), np.empty((3, w8), dtype=np.int64), np.zeros(w8, dtype=np.bool_)
+    slow_words = slow.view(np.uint64)
     f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:17]
     todo, te_j, code_j = si[0], si[1], si[2]
     sv_f, sv_i, sv_u = np.empty((4, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)  # slow pixels
@@ -299,9 +301,11 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 slow[x] = busy
                 e_shot[y, x] = e_shot[y, x] if busy else es
             n_busy = 0
-            for x in range(w):  # branch-free compaction of the busy columns
-                todo[n_busy] = x
-                n_busy += slow[x]
+            for q in range(w8 // 8):  # compaction of the busy columns, skipping 8 quiet ones at a time
+                if slow_words[q] != 0:
+                    for x in range(8 * q, 8 * q + 8):  # (branch-free)
+                        todo[n_busy] = x
+                        n_busy += slow[x]
             # Events over (t0, t0 + hf] of the busy columns (Lf goes linearly from f0_t to lf_y).
             for j in range(n_busy):  # gather the busy columns' state (LLVM does not emit vector gathers for this CPU)
                 x = np.uintp(todo[j])  # unsigned: no negative-index wraparound code on each access
@@ -319,6 +323,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 G[10, j] = float(last_t[y, x] + refractory - t0) if blind0 else 0.0
             # The common cases for all busy columns at once (vectorised), each with no noise arrival: exactly one
             # crossing, or (for a pixel blind at t0) none, the pixel waking in the interval or staying blind.
+            n_other = 0  # busy columns left to _multi_events or _pixel_events
             for j in range(n_busy):
                 f0 = G[0, j]
                 f1 = G[1, j]
@@ -359,11 +364,12 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 # reference unchanged) + 16 * an event
                 reset = fires & ((refractory == 0) | (sb < hf))  # a reset after the event, in the interval
                 code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * (s0 >= hf) + 16 * fires) if ok else 0
+                n_other += not ok
                 r2_j[j] = r2 if reset else r
                 tr2_j[j] = tr2 if reset else tr
                 es_j[j] = es
                 eh_j[j] = eh
-            if refractory > 0:  # several crossings without noise (code 32)
+            if refractory > 0 and n_other > 0:  # several crossings without noise (code 32)
                 _multi_events(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t,
                               mc_l)
             # The busy columns' events, in column order. The loop can run again from the start if the row outgrows
