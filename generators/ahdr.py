@@ -482,8 +482,9 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
 
     def feed(stack, times):
         t0 = clock.now()
-        out = (dvs.feed_log if log_in else dvs.feed)(np.stack(stack, out=block[:len(stack)]),
-                                                    np.asarray(times, dtype=np.int64))
+        run = _planes_in_a_row(stack)
+        samples = run if run is not None else np.stack(stack, out=block[:len(stack)])
+        out = (dvs.feed_log if log_in else dvs.feed)(samples, np.asarray(times, dtype=np.int64))
         clock.add("dvs", t0)
         events, labels = dvs_input.scene_events(*(out if config.labels else (out, None)))
         write("add_events", events, labels)
@@ -513,6 +514,11 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
                 if reference is not None:
                     write("add_reference", reference, t + origin)
                     counts["references"] += 1
+                if (stack and (len(stack) > 1 or _is_plane(img)) and _planes_in_a_row(stack) is not None
+                        and _planes_in_a_row([stack[-1], img]) is None):
+                    feed(stack, times)  # a run of key frames, fed without a copy (_planes_in_a_row), ends here
+                    n_fed += len(stack)
+                    stack, times = [], []
                 stack.append(img)
                 times.append(t)
                 if len(stack) == chunk:
@@ -527,6 +533,28 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
         bar.set_postfix_str(_rates(duration, duration, n_fed, counts["events"], bar), refresh=False)
         bar.update(duration - bar.n)
         bar.refresh()  # the final rates, however soon after the last update
+
+
+def _is_plane(image: np.ndarray) -> bool:
+    """Whether image is a view into a larger array (a key frame of a group)."""
+    return image.base is not None
+
+
+def _planes_in_a_row(images: list[np.ndarray]) -> np.ndarray | None:
+    """images as one (n, H, W) array without a copy when they lie one after the other in one array (a group of key
+    frames of a video, scenes.flow_interpolation) or when there is one, else None."""
+    first = images[0]
+    if len(images) == 1:
+        return first[None]
+    if first.base is None or not first.flags.c_contiguous:
+        return None
+    start, plane = first.__array_interface__["data"][0], first.nbytes
+    for i, img in enumerate(images):
+        if (img.base is not first.base or img.shape != first.shape or img.dtype != first.dtype
+                or not img.flags.c_contiguous or img.__array_interface__["data"][0] != start + i * plane):
+            return None
+    return np.lib.stride_tricks.as_strided(first, (len(images), *first.shape), (plane, *first.strides),
+                                           writeable=False)
 
 
 def _run_camera(writer: NativeWriter, camera: sim.LDRCamera, src: _TimedSource, n_frames: int, origin: int,

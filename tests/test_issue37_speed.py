@@ -17,6 +17,7 @@ import pytest
 
 import sim
 import sim.dvs_kernels as K
+from generators.ahdr import _planes_in_a_row
 from generators.sampling import AdaptiveSampler, read_ahead
 from generators.scenes import Trajectory, VideoScene, builtin_image_scene
 from generators.scenes.flow_interpolation import KEY_GROUP, FlowEstimator, radiance_of_log
@@ -163,3 +164,15 @@ def test_read_ahead_raises_the_producers_error_in_order_and_stops_when_closed():
     reader.close()  # the producer stops: it made at most depth + 1 items beyond those taken, and its thread is gone
     assert len(produced) <= 3 + 4 + 1
     assert not any(t.name == "evsim-samples" for t in threading.enumerate())
+
+
+def test_consecutive_key_planes_go_to_the_dvs_without_a_copy():
+    group = np.arange(5 * 3 * 4, dtype=np.float32).reshape(5, 3, 4)
+    run = _planes_in_a_row(list(group[1:4]))
+    assert run is not None and np.shares_memory(run, group) and np.array_equal(run, group[1:4])
+    assert _planes_in_a_row([group[1], group[3]]) is None  # a gap
+    assert _planes_in_a_row([group[2], group[1]]) is None  # out of order
+    assert _planes_in_a_row([group[1], group[2].copy()]) is None  # another array
+    assert _planes_in_a_row([group[0][:, :2], group[1][:, :2]]) is None  # not whole planes
+    alone = np.ones((3, 4), np.float32)
+    assert np.shares_memory(_planes_in_a_row([alone]), alone)
