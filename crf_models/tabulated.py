@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.io
 
 from .base import CRF, CRFError, as_float_array
 
@@ -136,6 +135,8 @@ def load_dorf(path: str | os.PathLike[str], index: int) -> TabulatedCRF:
         raise CRFError(f"DoRF file not found: {path}")
     if path.suffix.lower() == ".mat":
         try:
+            import scipy.io  # (here: it takes a tenth of a second to import, and only .mat files need it)
+
             data = scipy.io.loadmat(path)
             I, B = np.atleast_2d(data["I"]), np.atleast_2d(data["B"])
         except (ValueError, KeyError, OSError) as exc:
