@@ -229,8 +229,8 @@ class DVSEmulator:
         frames, times = self._check_input(radiance, t_us)
         return self._feed(frames, times, log_in=False)
 
-    def feed_log(self, log_radiance: npt.ArrayLike,
-                 t_us: int | npt.ArrayLike) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    def feed_log(self, log_radiance: npt.ArrayLike, t_us: int | npt.ArrayLike, *,
+                 check_finite: bool = True) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """feed() for input that is already the log response: log(radiance + dark_level), as a scene that
         interpolates in log space holds it (the video conversion's key frames). It saves the emulator's log (a
         fifth of its per-pixel cost) and the scene's exp; the photocurrent is its float32 exp. Calls of feed and
@@ -243,6 +243,10 @@ class DVSEmulator:
             (values up to 1e-5 below it, float32 rounding, are taken as radiance 0).
         t_us : int or array_like of int
             As for feed().
+        check_finite : bool
+            Check every value first (default; a pass over the input, as scipy.linalg's check_finite). False
+            skips that for input known to hold these bounds (the video conversion's key frames, clamped at its
+            floor): a NaN or infinite value then gives undefined events, a value below the floor is taken as it.
 
         Returns
         -------
@@ -251,7 +255,7 @@ class DVSEmulator:
         labels : numpy.ndarray
             As for feed().
         """
-        frames, times = self._check_input(log_radiance, t_us, log_in=True)
+        frames, times = self._check_input(log_radiance, t_us, log_in=True, check_values=check_finite)
         return self._feed(frames, times, log_in=True)
 
     def _feed(self, frames: np.ndarray, times: np.ndarray, log_in: bool):
@@ -276,7 +280,7 @@ class DVSEmulator:
             done += n_out
         return (events, labels) if self.return_labels else events
 
-    def _check_input(self, radiance, t_us, log_in: bool = False):
+    def _check_input(self, radiance, t_us, log_in: bool = False, check_values: bool = True):
         frames = np.asarray(radiance)
         what = "log_radiance" if log_in else "radiance"
         if frames.dtype.kind not in "fiu":
@@ -317,6 +321,8 @@ class DVSEmulator:
             raise InvalidParameterError(f"input times {gap} us apart: at most MAX_TIME_GAP_US = "
                                         f"{MAX_TIME_GAP_US} us (one hour) between consecutive frames")
         frames = np.ascontiguousarray(frames)
+        if not check_values:
+            return frames, times
         valid = [True]
         lowest = np.log(self.dark_level) - 1e-5 if log_in else 0.0  # (float32 rounding of log(0 + dark))
 

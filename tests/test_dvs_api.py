@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import sim
+from sim.dvs_kernels import ST_LOG
 
 H, W = 18, 22
 
@@ -400,3 +401,17 @@ def test_log_input_errors_name_the_log():
     bad[2, 3] = np.log(dvs.dark_level) - 1e-6  # float32 rounding of log(0 + dark_level): radiance 0
     dvs.feed_log(bad, 0)
     assert dvs.time_us == 0
+
+
+def test_log_input_unchecked_gives_the_checked_events_and_skips_only_the_check():
+    frames, times = moving_scene(n=40)
+    params = sim.DVSParams.preset("noisy", full_illumination=float(frames.max()))
+    checked, unchecked = (sim.DVSEmulator(H, W, params, 5) for _ in range(2))
+    logs = np.log(frames.astype(np.float64) + checked.dark_level).astype(np.float32)
+    a, b = checked.feed_log(logs, times), unchecked.feed_log(logs, times, check_finite=False)
+    assert a.size > 500 and np.array_equal(a, b)
+    below = np.full((H, W), np.log(unchecked.dark_level) - 1.0, np.float32)  # taken as the floor, not an error
+    unchecked.feed_log(below, int(times[-1]) + 1000, check_finite=False)
+    with pytest.raises(sim.EvsimInputError, match="below log"):
+        checked.feed_log(below, int(times[-1]) + 1000)
+    np.testing.assert_allclose(unchecked._state[ST_LOG], np.log(unchecked.dark_level), atol=1e-6)  # the log response
