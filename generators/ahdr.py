@@ -58,7 +58,7 @@ _PACKAGES = ("evsim", "numpy", "numba", "scipy", "opencv-python-headless", "h5py
 REFERENCE_WHITE_PERCENTILE = 98.0  # of the radiance at t = 0: what the evaluation's [0, 1] protocol maps to 1
 MAX_RATE_HZ = 1e6  # reference and fixed sampling rates: at most one per microsecond (the clock's resolution)
 MAX_REFERENCE_FRAMES = 100_000  # reference frames per sequence (each a float32 H x W image)
-_CHUNK_PIXEL_SAMPLES = 1 << 22  # DVS input per feed() call: about 16 MB of float32 radiance
+_CHUNK_PIXEL_SAMPLES = 1 << 23  # DVS input per feed() call: about 32 MB of float32 (8 key frames at 720p)
 
 
 @dataclass(frozen=True)
@@ -466,9 +466,9 @@ def _holds_the_log_response(scene: RadianceSource, dvs: sim.DVSEmulator, dvs_inp
 def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sampler: Iterator, log_in: bool,
              config: AHDRConfig, ref_times: set[int], counts: dict, clock: _Clock, progress: bool) -> None:
     """The DVS pass: the scene's samples (its radiance, or with log_in its log response) fed to the DVS in chunks
-    (about 16 MB each), its events and the reference images written as they come (every reference time is a
-    sampler breakpoint: the image the pass rendered there is the reference, or with log_in the radiance rendered
-    there beside it)."""
+    (about 32 MB each; a run of key frames of one group as a view of it, _planes_in_a_row), its events and the
+    reference images written as they come (every reference time is a sampler breakpoint: the image the pass
+    rendered there is the reference, or with log_in the radiance rendered there beside it)."""
     duration = int(dvs_input.source.duration_us)
     origin = dvs_input.time_origin_us
 
