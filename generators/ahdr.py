@@ -557,8 +557,8 @@ def _planes_in_a_row(images: list[np.ndarray]) -> np.ndarray | None:
         if (img.base is not first.base or img.shape != first.shape or img.dtype != first.dtype
                 or not img.flags.c_contiguous or img.__array_interface__["data"][0] != start + i * plane):
             return None
-    return np.lib.stride_tricks.as_strided(first, (len(images), *first.shape), (plane, *first.strides),
-                                           writeable=False)
+    # (writeable as the planes are: a read-only array would be another type to numba, compiled again)
+    return np.lib.stride_tricks.as_strided(first, (len(images), *first.shape), (plane, *first.strides))
 
 
 def _run_camera(writer: NativeWriter, camera: sim.LDRCamera, src: _TimedSource, n_frames: int, origin: int,

@@ -259,7 +259,7 @@ class FlowPair:
     that the image moves by at most key_step_px between keys (largest motion / max_keys when that is more: fast
     motion, for which the flow itself is not that precise); between keys the log radiance is linear in time,
     which is also how the DVS emulator interpolates between its samples. The same rule holds per pixel: a pixel
-    whose own samples move by at most key_step_px over 2, 4 or 8 key intervals is warped at every 2nd, 4th or 8th
+    whose own samples move by less than key_step_px over 2, 4 or 8 key intervals is warped at every 2nd, 4th or 8th
     key only and linear in log radiance between those (its step, _still_parts), which leaves its events as they
     were within seed noise (tests/test_flow_keys.py) at a fraction of the warps where the motion is uneven. Keys are
     made when first needed in groups of KEY_GROUP (keys 8q + 1 .. 8q + 8, after key 8q: every pixel's anchors are
