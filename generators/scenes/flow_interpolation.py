@@ -293,12 +293,16 @@ class FlowPair:
 
     def key(self, j: int) -> np.ndarray:
         """Key frame j (0..n_keys): the synthesised log radiance at fraction j / n_keys. A missing key is made
-        with its group (KEY_GROUP keys) in one pass (_synthesise), after the key that starts it."""
+        with its group (KEY_GROUP keys) in one pass (_synthesise), after the missing groups before it (the last
+        key of the one before starts its anchors)."""
         if j not in self._keys:
-            group = (j - 1) // KEY_GROUP
-            self.key(group * KEY_GROUP)  # (made first: the group's anchors start at it)
-            for i, img in enumerate(self._synthesise(group), start=group * KEY_GROUP + 1):
-                self._keys[i] = img
+            last = (j - 1) // KEY_GROUP
+            first = last
+            while first * KEY_GROUP not in self._keys:  # the groups before it whose keys start its anchors
+                first -= 1
+            for group in range(first, last + 1):
+                for i, img in enumerate(self._synthesise(group), start=group * KEY_GROUP + 1):
+                    self._keys[i] = img
         return self._keys[j]
 
     def prepare(self) -> None:
