@@ -194,11 +194,12 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     added at t_counts[t_base[k] + dt] (the first pass of the counting sort, while the rows' events are in cache).
 
     A row runs through all frames before the next (its state stays in cache). Almost every busy pixel has no noise
-    arrival in the interval and either exactly one crossing or, blind at its start, wakes (or stays blind) without
-    one: those cases are computed for all busy columns of the row at once in branch-free loops (vectorised; the
-    same arithmetic as _pixel_events for them), the others (a hot pixel without a crossing too) run
-    _pixel_events. One function body indexing the (H, W) arrays directly: row views, and array arguments of
-    inlined or called functions, cost reference counting (atomic operations) each time.
+    arrival in the interval and either exactly one crossing, or two with a refractory period (fast motion), or,
+    blind at its start, wakes (or stays blind) without one: those cases are computed for all busy columns of the
+    row at once in branch-free loops (vectorised; the same arithmetic as _pixel_events for them), more crossings in
+    _multi_events, the others (a hot pixel without a crossing too) in _pixel_events. One function body indexing the
+    (H, W) arrays directly: row views, and array arguments of inlined or called functions, cost reference counting
+    (atomic operations) each time.
     """
     cur, logi, lf, ref, tref = state[ST_CURRENT], state[ST_LOG], state[ST_LF], state[ST_REF], state[ST_REF_T]
     e_shot, e_hot, last_t, ctr = state[ST_SHOT_BUDGET], state[ST_HOT_BUDGET], state[ST_LAST_EVENT], state[ST_DRAWS]
@@ -210,10 +211,10 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
     n = frames.shape[0]
     # scratch for all rows, allocated once per call (per-row allocations cost more than a row of a frame)
     w8 = (w + 7) // 8 * 8  # (whole 8-byte words of `slow`; its padding stays False)
-    sf, si, slow = np.empty((17, w)), np.empty((3, w8), dtype=np.int64), np.zeros(w8, dtype=np.bool_)
+    sf, si, slow = np.empty((17, w)), np.empty((5, w8), dtype=np.int64), np.zeros(w8, dtype=np.bool_)
     slow_words = slow.view(np.uint64)
     f0_t, lam_t, r2_j, tr2_j, es_j, eh_j, G = sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6:17]
-    todo, te_j, code_j = si[0], si[1], si[2]
+    todo, te_j, code_j, te2_j, code2_j = si[0], si[1], si[2], si[3], si[4]
     sv_f, sv_i, sv_u = np.empty((4, w)), np.empty(w, dtype=np.int64), np.empty(w, dtype=np.uint64)  # slow pixels
     # pixels with several crossings (_multi_events): the candidates, their new state and events
     mc_f, mc_i = np.empty((3, w)), np.empty((3, w), dtype=np.int64)
@@ -324,6 +325,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
             # The common cases for all busy columns at once (vectorised), each with no noise arrival: exactly one
             # crossing, or (for a pixel blind at t0) none, the pixel waking in the interval or staying blind.
             n_other = 0  # busy columns left to _multi_events or _pixel_events
+            n_two = 0  # of those, candidates for exactly two crossings (code2_j: their code for the first)
             for j in range(n_busy):
                 f0 = G[0, j]
                 f1 = G[1, j]
@@ -363,12 +365,44 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 # code: 0 not these cases; else 1 + 2 * polarity bit + 4 * leak label + 8 * blind throughout (the
                 # reference unchanged) + 16 * an event
                 reset = fires & ((refractory == 0) | (sb < hf))  # a reset after the event, in the interval
-                code_j[j] = (1 + 2 * (m > 0.0) + 4 * leak + 8 * (s0 >= hf) + 16 * fires) if ok else 0
+                code = 1 + 2 * (m > 0.0) + 4 * leak + 8 * (s0 >= hf) + 16 * fires
+                code_j[j] = code if ok else 0
                 n_other += not ok
+                two = (refractory > 0) & fires & (not one) & (es > 0.0) & (eh > 0.0)  # (m != 0: it fired)
+                code2_j[j] = code if two else 0
+                n_two += two
                 r2_j[j] = r2 if reset else r
                 tr2_j[j] = tr2 if reset else tr
                 es_j[j] = es
                 eh_j[j] = eh
+            if n_two > 0:  # exactly two crossings (a second after the reset at sb), as _multi_events finds them
+                for j in range(n_busy):
+                    f0, f1, dr, con, coff = G[0, j], G[1, j], G[4, j], G[5, j], G[6, j]
+                    g = (f1 - f0) / hf
+                    m = g + dr
+                    target = con if m > 0.0 else -coff
+                    r2, tr2 = r2_j[j], tr2_j[j]
+                    sb = float(te_j[j] + refractory - t0)
+                    d1 = f0 + g * sb - r2 + dr * ((t0 - tr2) + sb)
+                    sc2 = sb + (target - d1) * (1.0 / m if m != 0.0 else 0.0)
+                    sc2 = sc2 if sc2 > sb else sb
+                    sc2 = sc2 if sc2 < 2.0 * hf else 2.0 * hf
+                    d_hf2 = f1 - r2 + dr * ((t0 - tr2) + hf)
+                    at_end2 = (d_hf2 >= con) if m > 0.0 else (d_hf2 <= -coff)
+                    sc2 = hf if at_end2 & (sc2 > hf) else sc2
+                    te2 = t0 + np.int64(math.ceil(sc2))
+                    te2 = te2 if te2 > t0 else t0 + 1
+                    sb2 = float(te2 + refractory - t0)
+                    r3, tr3 = f0 + g * sb2, float(t0) + sb2
+                    d_end2 = f1 - r3 + dr * ((t0 - tr3) + hf)
+                    code = code2_j[j]
+                    two = (code != 0) & (sc2 <= hf) & ((sb2 >= hf) | ((d_end2 < con) & (d_end2 > -coff)))
+                    leak2 = (m > 0.0) & (dr * ((t0 - tr2) + sc2) >= 0.5 * con)
+                    te2_j[j] = te2
+                    code_j[j] = code + 64 + 128 * leak2 if two else code_j[j]
+                    n_other -= two
+                    r2_j[j] = (r3 if sb2 < hf else r2) if two else r2
+                    tr2_j[j] = (tr3 if sb2 < hf else tr2) if two else tr2
             if refractory > 0 and n_other > 0:  # several crossings without noise (code 32)
                 _multi_events(y, t0, hf, refractory, n_busy, todo, code_j, G, lam_t, e_shot, hot, mc_f, mc_i, mc_t,
                               mc_l)
@@ -397,13 +431,18 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                         e_shot[y, x] = mc_f[2, q]
                     elif code != 0:
                         if code & 16:
-                            if n_ev == lim:
-                                need = n_ev + n_busy
+                            k_new = 1 + ((code >> 6) & 1)  # (code & 64: a second event)
+                            if n_ev + k_new > lim:
+                                need = n_ev + k_new + n_busy
                                 break
-                            # (code & 2: ON; code & 4: LABEL_LEAK, its value 2)
+                            # (code & 2: ON; code & 4, code & 128: LABEL_LEAK, its value 2)
                             E[base + n_ev] = _event_word(te_j[j] - t0, x, code & 2, (code & 4) >> 1)
                             n_ev += 1
                             last_t[y, x] = te_j[j]
+                            if code & 64:
+                                E[base + n_ev] = _event_word(te2_j[j] - t0, x, code & 2, (code & 128) >> 6)
+                                n_ev += 1
+                                last_t[y, x] = te2_j[j]
                         e_shot[y, x] = es_j[j]
                         e_hot[y, x] = eh_j[j]
                         if not code & 8:

@@ -1,10 +1,11 @@
 """Issue 37's speed-ups change no output: the DVS's path for pixels with several crossings per interval
 (sim.dvs_kernels._multi_events) gives the events and state of its general pixel path, dense events are pinned (the
-counts of commit 06d684c, before that path; hashes re-pinned when the filter's J and decay factor went to float32,
-which moved event times by 1-2 us), and a sampler read ahead on a thread of its own (generators.sampling.read_ahead)
-gives the samples of a plain pass and passes on its errors, key frames made in groups are those made one at a time,
-radiance_of_log's exp is float32-exact to one unit in the last place, and its blend between key frames gives the exp
-of the blended log."""
+counts of commit 06d684c, before that path; the same bits since the vectorised path for two crossings took most of
+its pixels; hashes re-pinned when the filter's J and decay factor went to float32, which moved event times by 1-2
+us), and a sampler read ahead on a thread of its own (generators.sampling.read_ahead) gives the samples of a plain
+pass and passes on its errors, key frames asked for in any order are those made in order, consecutive key frames go
+to the DVS without a copy, radiance_of_log's exp is float32-exact to one unit in the last place, and its blend
+between key frames gives the exp of the blended log."""
 
 import hashlib
 import importlib.util
