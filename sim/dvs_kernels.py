@@ -85,6 +85,24 @@ _LOG_ROUND = 1.5 * 2.0**20  # (x + _LOG_ROUND) - _LOG_ROUND rounds x to a multip
 
 
 @njit(cache=True, inline="always")
+def _crossing(s, f0, f1, g, r, tr, dr, m, target, con, coff, t0, hf):
+    """The first crossing at or after s (us into the interval at t0) of a pixel without noise, Lf going linearly
+    from f0 at slope g, the reference r reset at tr (us) and drifting at dr; m = g + dr, target its threshold (con or
+    -coff). Returns its offset sc (hf when reached at the interval's end, whatever the rounding; above hf: none; at
+    most 2 hf) and its event time te (us, after t0). Branch-free, inlined in emulate_rows' vectorised loops; the
+    same arithmetic as _multi_events and _pixel_events."""
+    d = f0 + g * s - r + dr * ((t0 - tr) + s)
+    sc = s + (target - d) * (1.0 / m if m != 0.0 else 0.0)
+    sc = sc if sc > s else s
+    sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
+    d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
+    at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
+    sc = hf if at_end & (sc > hf) else sc
+    te = t0 + np.int64(math.ceil(sc))
+    return sc, (te if te > t0 else t0 + 1)
+
+
+@njit(cache=True, inline="always")
 def _event_word(dt, x, on, label):
     """The event word (EV_*) of an event dt us after its interval's start at column x; on: non-zero for ON; label:
     a LABEL_* value."""
@@ -343,16 +361,8 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                 r = f0 + g * s0 if blind0 else r  # the reset at the wake-up (s0 = 0 when awake at t0)
                 tr = float(t0) + s0 if blind0 else tr
                 target = con if m > 0.0 else -coff
-                d0 = f0 + g * s0 - r + dr * ((t0 - tr) + s0)
-                sc = s0 + (target - d0) * (1.0 / m if m != 0.0 else 0.0)
-                sc = sc if sc > s0 else s0
-                sc = sc if sc < 2.0 * hf else 2.0 * hf  # keeps the integer conversion defined; sc > hf fails the test
-                d_hf = f1 - r + dr * ((t0 - tr) + hf)  # as the busy test computes it: a crossing reached at the end
-                at_end = (d_hf >= con) if m > 0.0 else (d_hf <= -coff)  # is inside the interval, whatever sc's rounding
-                sc = hf if at_end & (sc > hf) else sc
+                sc, te = _crossing(s0, f0, f1, g, r, tr, dr, m, target, con, coff, t0, hf)
                 fires = (s0 < hf) & (m != 0.0) & (sc <= hf)  # (s0 >= hf: blind over the whole interval)
-                te = t0 + np.int64(math.ceil(sc))
-                te = te if te > t0 else t0 + 1
                 sb = float(te + refractory - t0)
                 blind_after = (refractory > 0) & (sb >= hf)
                 r2 = f0 + g * sb if refractory > 0 else r - dr * ((t0 - tr) + sc) + target
@@ -383,15 +393,7 @@ def emulate_rows(frames, times, t_prev, rows, cap, state, fixed, scal, out, ends
                     target = con if m > 0.0 else -coff
                     r2, tr2 = r2_j[j], tr2_j[j]
                     sb = float(te_j[j] + refractory - t0)
-                    d1 = f0 + g * sb - r2 + dr * ((t0 - tr2) + sb)
-                    sc2 = sb + (target - d1) * (1.0 / m if m != 0.0 else 0.0)
-                    sc2 = sc2 if sc2 > sb else sb
-                    sc2 = sc2 if sc2 < 2.0 * hf else 2.0 * hf
-                    d_hf2 = f1 - r2 + dr * ((t0 - tr2) + hf)
-                    at_end2 = (d_hf2 >= con) if m > 0.0 else (d_hf2 <= -coff)
-                    sc2 = hf if at_end2 & (sc2 > hf) else sc2
-                    te2 = t0 + np.int64(math.ceil(sc2))
-                    te2 = te2 if te2 > t0 else t0 + 1
+                    sc2, te2 = _crossing(sb, f0, f1, g, r2, tr2, dr, m, target, con, coff, t0, hf)
                     sb2 = float(te2 + refractory - t0)
                     r3, tr3 = f0 + g * sb2, float(t0) + sb2
                     d_end2 = f1 - r3 + dr * ((t0 - tr3) + hf)
