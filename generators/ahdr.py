@@ -499,7 +499,7 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
               bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]") as bar:
         # the first feed() compiles the DVS kernels on an empty numba cache (tens of seconds): say so
         bar.set_postfix_str("first chunk: loading or compiling the DVS kernels (slow on a first run)")
-        stack, times, n_fed = [], [], 0
+        stack, times, n_fed, run = [], [], 0, True
         references = "reference" in config.outputs
 
         def with_references():  # (on read_ahead's thread: the only one rendering the scene meanwhile)
@@ -518,11 +518,12 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
                 if reference is not None:
                     write("add_reference", reference, t + origin)
                     counts["references"] += 1
-                if (stack and (len(stack) > 1 or _is_plane(img)) and _planes_in_a_row(stack) is not None
-                        and _planes_in_a_row([stack[-1], img]) is None):
+                follows = bool(stack) and _follows(stack[-1], img)
+                if stack and run and not follows and (len(stack) > 1 or img.base is not None):
                     feed(stack, times)  # a run of key frames, fed without a copy (_planes_in_a_row), ends here
                     n_fed += len(stack)
                     stack, times = [], []
+                run = not stack or (run and follows)  # the stack's images lie one after the other in one array
                 stack.append(img)
                 times.append(t)
                 if len(stack) == chunk:
@@ -539,26 +540,21 @@ def _run_dvs(writer: NativeWriter, dvs: sim.DVSEmulator, dvs_input: DVSInput, sa
         bar.refresh()  # the final rates, however soon after the last update
 
 
-def _is_plane(image: np.ndarray) -> bool:
-    """Whether image is a view into a larger array (a key frame of a group)."""
-    return image.base is not None
+def _follows(prev: np.ndarray, image: np.ndarray) -> bool:
+    """Whether image is the plane right after prev in one array (consecutive key frames of a group)."""
+    return (prev.base is not None and image.base is prev.base and image.shape == prev.shape
+            and image.dtype == prev.dtype and prev.flags.c_contiguous and image.flags.c_contiguous
+            and image.__array_interface__["data"][0] == prev.__array_interface__["data"][0] + prev.nbytes)
 
 
 def _planes_in_a_row(images: list[np.ndarray]) -> np.ndarray | None:
     """images as one (n, H, W) array without a copy when they lie one after the other in one array (a group of key
-    frames of a video, scenes.flow_interpolation) or when there is one, else None."""
+    frames of a video, scenes.flow_interpolation: _follows) or when there is one, else None."""
     first = images[0]
-    if len(images) == 1:
-        return first[None]
-    if first.base is None or not first.flags.c_contiguous:
+    if not all(_follows(a, b) for a, b in zip(images, images[1:])):
         return None
-    start, plane = first.__array_interface__["data"][0], first.nbytes
-    for i, img in enumerate(images):
-        if (img.base is not first.base or img.shape != first.shape or img.dtype != first.dtype
-                or not img.flags.c_contiguous or img.__array_interface__["data"][0] != start + i * plane):
-            return None
     # (writeable as the planes are: a read-only array would be another type to numba, compiled again)
-    return np.lib.stride_tricks.as_strided(first, (len(images), *first.shape), (plane, *first.strides))
+    return np.lib.stride_tricks.as_strided(first, (len(images), *first.shape), (first.nbytes, *first.strides))
 
 
 def _run_camera(writer: NativeWriter, camera: sim.LDRCamera, src: _TimedSource, n_frames: int, origin: int,
