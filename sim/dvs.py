@@ -255,7 +255,9 @@ class DVSEmulator:
         labels : numpy.ndarray
             As for feed().
         """
-        frames, times = self._check_input(log_radiance, t_us, log_in=True, check_values=check_finite)
+        if not isinstance(check_finite, (bool, np.bool_)):
+            raise InvalidParameterError(f"check_finite must be True or False, got {check_finite!r}")
+        frames, times = self._check_input(log_radiance, t_us, log_in=True, check_values=bool(check_finite))
         return self._feed(frames, times, log_in=True)
 
     def _feed(self, frames: np.ndarray, times: np.ndarray, log_in: bool):

@@ -415,3 +415,5 @@ def test_log_input_unchecked_gives_the_checked_events_and_skips_only_the_check()
     with pytest.raises(sim.EvsimInputError, match="below log"):
         checked.feed_log(below, int(times[-1]) + 1000)
     np.testing.assert_allclose(unchecked._state[ST_LOG], np.log(unchecked.dark_level), atol=1e-6)  # the log response
+    with pytest.raises(sim.InvalidParameterError, match="check_finite must be True or False, got 'no'"):
+        unchecked.feed_log(logs[0], int(times[-1]) + 2000, check_finite="no")  # (a truthy string: it would check)
